@@ -1,0 +1,61 @@
+//! Force passes, one file per link kind. Each pass holds the instances of its kind grouped in
+//! runs of one type, so a kernel reads its type's parameters once per run and its inner loop
+//! has no dispatch on kinds or types.
+
+pub mod anchor;
+pub mod angle;
+pub mod conditional;
+pub mod damper;
+pub mod drag;
+pub mod grid;
+pub mod nonlinear_drag;
+pub mod provot;
+pub mod spring;
+
+use crate::Vec3;
+
+/// Below this length a link has no direction: `u = 0` (SPEC §2.2), never a NaN.
+pub const MIN_LENGTH: f64 = 1e-12;
+
+/// Instances `start..end` of a pass's index array share the type whose parameters start at
+/// `param` in the parameter vector.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Run {
+    pub param: usize,
+    pub start: usize,
+    pub end: usize,
+}
+
+/// Groups instances by type: returns runs over the returned index array, in catalogue order of
+/// the types and file order within a type.
+pub(crate) fn runs_by_type<T: Copy>(
+    items: &[(usize, T)],
+    type_offsets: &[usize],
+) -> (Vec<Run>, Vec<T>) {
+    let mut order: Vec<usize> = (0..items.len()).collect();
+    order.sort_by_key(|&k| items[k].0); // stable: file order within a type
+    let mut runs: Vec<Run> = Vec::new();
+    let mut out = Vec::with_capacity(items.len());
+    for k in order {
+        let (t, item) = items[k];
+        let param = type_offsets[t];
+        match runs.last_mut() {
+            Some(r) if r.param == param => r.end += 1,
+            _ => runs.push(Run {
+                param,
+                start: out.len(),
+                end: out.len() + 1,
+            }),
+        }
+        out.push(item);
+    }
+    (runs, out)
+}
+
+/// Unit vector and length of `d`, with `u = 0` for a degenerate link.
+#[inline(always)]
+pub fn unit_and_length(d: &Vec3) -> (Vec3, f64) {
+    let l = d.norm();
+    let inv = if l > MIN_LENGTH { 1.0 / l } else { 0.0 };
+    (d * inv, l)
+}

@@ -1,0 +1,48 @@
+//! Provot's elongation limit (cloth, thesis §4.2): after each position update, one pass over
+//! the limited springs in file order, each correction seen by the next. Where
+//! `L > (1 + τc) l0`, each free end moves half the excess toward the other; a fixed end stays
+//! and the free end takes the whole excess. `x(n)` is left alone, so the velocity is corrected
+//! too.
+
+use super::unit_and_length;
+use crate::Vec3;
+
+#[derive(Clone, Copy, Debug)]
+pub struct ProvotLink {
+    pub i: u32,
+    pub j: u32,
+    /// Offset of the spring type's parameters (rest length at `param + 1`).
+    pub param: usize,
+    /// Critical deformation rate τc.
+    pub tau: f64,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct ProvotPass {
+    pub links: Vec<ProvotLink>,
+}
+
+impl ProvotPass {
+    /// `free[i]` is false for fixed particles.
+    pub fn apply(&self, p: &[f64], x: &mut [Vec3], free: &[bool]) {
+        for l in &self.links {
+            let (i, j) = (l.i as usize, l.j as usize);
+            let limit = (1.0 + l.tau) * p[l.param + 1];
+            let (u, len) = unit_and_length(&(x[j] - x[i]));
+            let excess = len - limit;
+            if excess <= 0.0 {
+                continue;
+            }
+            match (free[i], free[j]) {
+                (true, true) => {
+                    let half = u * (0.5 * excess);
+                    x[i] += half;
+                    x[j] -= half;
+                }
+                (true, false) => x[i] += u * excess,
+                (false, true) => x[j] -= u * excess,
+                (false, false) => {}
+            }
+        }
+    }
+}

@@ -1,0 +1,45 @@
+//! # cordis-core
+//!
+//! Cordis-Anima mass-interaction networks: particles, a catalogue of link types, link
+//! instances, and the CORDIS explicit two-step integrator (SPEC §2). A [`Scene`] is the
+//! editable model; [`Plan`] is the scene compiled for speed (only the passes it uses, links
+//! grouped by type, parameters in a flat vector); [`Simulator`] runs it.
+//!
+//! ```
+//! use cordis_core::{LinkKind, LinkType, Particle, Scene};
+//! let mut scene = Scene::new(0.01);
+//! scene.add_particle(Particle::new(1.0, [0.0, 0.0, 0.0]).fixed());
+//! scene.add_particle(Particle::new(1.0, [1.5, 0.0, 0.0]));
+//! scene.add_type(LinkType::new("rib", LinkKind::Spring).with("stiffness", 20.0).with("rest_length", 1.0));
+//! scene.add_link("rib", &[0, 1]);
+//! let traj = scene.simulate(100).unwrap();
+//! assert_eq!((traj.frames(), traj.particles()), (100, 2));
+//! ```
+#![forbid(unsafe_code)]
+
+pub mod error;
+pub mod forces;
+mod link_kind;
+mod link_type;
+mod param;
+mod param_layout;
+mod particle;
+pub mod plan;
+mod scene;
+pub mod scene_json;
+mod simulator;
+mod trajectory;
+
+pub use error::{CordisError, Result};
+pub use link_kind::LinkKind;
+pub use link_type::{Link, LinkType};
+pub use param::{Bounds, Param};
+pub use param_layout::ParamLayout;
+pub use particle::Particle;
+pub use plan::Plan;
+pub use scene::Scene;
+pub use simulator::Simulator;
+pub use trajectory::Trajectory;
+
+/// 3-vector of f64 (positions in m, velocities in m/s, forces in N).
+pub type Vec3 = nalgebra::Vector3<f64>;

@@ -1,0 +1,114 @@
+//! The link kinds of SPEC §2.2 (the thesis' LIA: "liaisons").
+
+/// What a link type computes. Each kind has a fixed arity and a fixed list of scalar
+/// parameters ([`LinkKind::param_names`]), which is also their order in a parameter vector.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum LinkKind {
+    /// Binary position link: `F_i = (K (L - l0) + Z s) u`.
+    Spring,
+    /// Binary velocity link: `F_i = Z w` (isotropic).
+    Damper,
+    /// Unary position link: a spring to a fixed point.
+    Anchor,
+    /// Unary velocity link: `F_i = -Z v_i` (viscosity of the environment).
+    Drag,
+    /// Unary velocity link with two regimes: `z1` below `v_max`, `z2` above (thesis §6.1.1).
+    NonlinearDrag,
+    /// Ternary position link on the angle at the middle particle: energy `½K(cosθ - c0)²`.
+    Angle,
+    /// Spring between every pair of particles of one or two groups closer than `range`.
+    Conditional,
+}
+
+impl LinkKind {
+    pub const ALL: [LinkKind; 7] = [
+        LinkKind::Spring,
+        LinkKind::Damper,
+        LinkKind::Anchor,
+        LinkKind::Drag,
+        LinkKind::NonlinearDrag,
+        LinkKind::Angle,
+        LinkKind::Conditional,
+    ];
+
+    /// The name used in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            LinkKind::Spring => "spring",
+            LinkKind::Damper => "damper",
+            LinkKind::Anchor => "anchor",
+            LinkKind::Drag => "drag",
+            LinkKind::NonlinearDrag => "nonlinear_drag",
+            LinkKind::Angle => "angle",
+            LinkKind::Conditional => "conditional",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+
+    /// Number of particles a link instance names (0 for `conditional`: pairs are found).
+    pub fn arity(self) -> usize {
+        match self {
+            LinkKind::Spring | LinkKind::Damper => 2,
+            LinkKind::Anchor | LinkKind::Drag | LinkKind::NonlinearDrag => 1,
+            LinkKind::Angle => 3,
+            LinkKind::Conditional => 0,
+        }
+    }
+
+    /// Scalar parameters of the kind, in parameter-vector order, with their default when the
+    /// scene omits them (`None`: required). Units: stiffness N/m (angle: N·m, on a cosine),
+    /// lengths m, damping N·s/m, speeds m/s.
+    pub fn param_specs(self) -> &'static [(&'static str, Option<f64>)] {
+        match self {
+            LinkKind::Spring => &[
+                ("stiffness", None),
+                ("rest_length", None),
+                ("damping", Some(0.0)),
+            ],
+            LinkKind::Damper => &[("damping", None)],
+            LinkKind::Anchor => &[
+                ("stiffness", None),
+                ("rest_length", Some(0.0)),
+                ("damping", Some(0.0)),
+            ],
+            LinkKind::Drag => &[("damping", None)],
+            LinkKind::NonlinearDrag => &[("z1", None), ("z2", None), ("v_max", None)],
+            LinkKind::Angle => &[("stiffness", None), ("rest_cos", None)],
+            LinkKind::Conditional => &[
+                ("stiffness", None),
+                ("rest_length", None),
+                ("damping", Some(0.0)),
+                ("range", None),
+            ],
+        }
+    }
+
+    pub fn param_names(self) -> impl Iterator<Item = &'static str> {
+        self.param_specs().iter().map(|(n, _)| *n)
+    }
+
+    /// Index of a named parameter in [`LinkKind::param_specs`].
+    pub fn param_index(self, name: &str) -> Option<usize> {
+        self.param_specs().iter().position(|(n, _)| *n == name)
+    }
+
+    /// Keys a type of this kind may carry besides its scalar parameters.
+    pub fn extra_keys(self) -> &'static [&'static str] {
+        match self {
+            LinkKind::Spring => &["max_elongation"],
+            LinkKind::Anchor => &["point"],
+            LinkKind::Conditional => &["groups"],
+            _ => &[],
+        }
+    }
+}
+
+impl std::fmt::Display for LinkKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}

@@ -1,0 +1,273 @@
+//! A scene compiled for simulation: only the passes the scene uses, instances grouped by type,
+//! parameters read from a flat vector (see [`crate::ParamLayout`]). Compile once, then step
+//! with any parameter vector of the same layout: identification reuses one plan for every
+//! candidate.
+
+use crate::error::Result;
+use crate::forces::{
+    anchor::AnchorPass, angle::AnglePass, conditional::ConditionalPass, damper::DamperPass,
+    drag::DragPass, grid::Grid, nonlinear_drag::NonlinearDragPass, provot::ProvotLink,
+    provot::ProvotPass, runs_by_type, spring::SpringPass,
+};
+use crate::{LinkKind, ParamLayout, Scene, Vec3};
+
+#[derive(Clone, Debug)]
+pub struct Plan {
+    /// Number of particles.
+    pub n: usize,
+    /// Time step, s.
+    pub dt: f64,
+    pub layout: ParamLayout,
+    /// `free[i]` is false for fixed particles.
+    pub free: Vec<bool>,
+    /// Initial positions x(0) and x(-1) = x(0) - v0 dt (fixed particles: x(-1) = x(0)).
+    pub x0: Vec<Vec3>,
+    pub x_minus1: Vec<Vec3>,
+    pub springs: SpringPass,
+    pub dampers: DamperPass,
+    pub anchors: AnchorPass,
+    pub drags: DragPass,
+    pub nonlinear_drags: NonlinearDragPass,
+    pub angles: AnglePass,
+    pub conditionals: Vec<ConditionalPass>,
+    pub provot: ProvotPass,
+    /// Some pass reads velocities (a damper, a drag, or a damping that is not known to be 0).
+    pub needs_velocity: bool,
+    /// The scene has gravity; without it the integrator skips the term.
+    pub has_gravity: bool,
+}
+
+/// Per-simulation scratch that a step writes: velocities, forces, grids.
+#[derive(Clone, Debug, Default)]
+pub struct Scratch {
+    pub v: Vec<Vec3>,
+    pub f: Vec<Vec3>,
+    pub grids: Vec<Grid>,
+}
+
+impl Plan {
+    /// Compiles a validated scene.
+    pub fn compile(scene: &Scene) -> Result<Plan> {
+        scene.validate()?;
+        let layout = scene.param_layout();
+        let off = &layout.type_offsets;
+        let mut spring_items = Vec::new();
+        let mut damper_items = Vec::new();
+        let mut anchor_items = Vec::new();
+        let mut drag_items = Vec::new();
+        let mut nl_items = Vec::new();
+        let mut angle_items = Vec::new();
+        let mut provot = ProvotPass::default();
+        let mut needs_velocity = false;
+        let damping_matters = |t: usize| {
+            scene.types[t]
+                .param("damping")
+                .is_some_and(|z| !z.is_known_zero())
+        };
+        for l in &scene.links {
+            let t = l.type_index;
+            let ty = &scene.types[t];
+            let ps: Vec<u32> = l.particles.iter().map(|&i| i as u32).collect();
+            match ty.kind {
+                LinkKind::Spring => {
+                    spring_items.push((t, [ps[0], ps[1]]));
+                    needs_velocity |= damping_matters(t);
+                    if let Some(tau) = ty.max_elongation {
+                        provot.links.push(ProvotLink {
+                            i: ps[0],
+                            j: ps[1],
+                            param: off[t],
+                            tau,
+                        });
+                    }
+                }
+                LinkKind::Damper => {
+                    damper_items.push((t, [ps[0], ps[1]]));
+                    needs_velocity = true;
+                }
+                LinkKind::Anchor => {
+                    let point = l
+                        .point
+                        .or(ty.point)
+                        .unwrap_or(scene.particles[l.particles[0]].pos);
+                    anchor_items.push((t, (ps[0], Vec3::from(point))));
+                    needs_velocity |= damping_matters(t);
+                }
+                LinkKind::Drag => {
+                    drag_items.push((t, ps[0]));
+                    needs_velocity = true;
+                }
+                LinkKind::NonlinearDrag => {
+                    nl_items.push((t, ps[0]));
+                    needs_velocity = true;
+                }
+                LinkKind::Angle => angle_items.push((t, [ps[0], ps[1], ps[2]])),
+                LinkKind::Conditional => unreachable!("validated: conditional types have no links"),
+            }
+        }
+        let (runs, pairs) = runs_by_type(&spring_items, off);
+        let springs = SpringPass { runs, pairs };
+        let (runs, pairs) = runs_by_type(&damper_items, off);
+        let dampers = DamperPass { runs, pairs };
+        let (runs, items) = runs_by_type(&anchor_items, off);
+        let anchors = AnchorPass {
+            runs,
+            particles: items.iter().map(|a| a.0).collect(),
+            points: items.iter().map(|a| a.1).collect(),
+        };
+        let (runs, particles) = runs_by_type(&drag_items, off);
+        let drags = DragPass { runs, particles };
+        let (runs, particles) = runs_by_type(&nl_items, off);
+        let nonlinear_drags = NonlinearDragPass { runs, particles };
+        let (runs, triples) = runs_by_type(&angle_items, off);
+        let angles = AnglePass { runs, triples };
+
+        let members = |g: &str| -> Vec<u32> {
+            (0..scene.particles.len() as u32)
+                .filter(|&i| scene.particles[i as usize].group.as_deref() == Some(g))
+                .collect()
+        };
+        let mut conditionals = Vec::new();
+        for (t, ty) in scene.types.iter().enumerate() {
+            if ty.kind != LinkKind::Conditional {
+                continue;
+            }
+            needs_velocity |= damping_matters(t);
+            let a = members(&ty.groups[0]);
+            let b = match ty.groups.get(1) {
+                Some(g) if *g != ty.groups[0] => Some(members(g)),
+                _ => None,
+            };
+            conditionals.push(ConditionalPass {
+                param: off[t],
+                a,
+                b,
+            });
+        }
+
+        let free: Vec<bool> = scene.particles.iter().map(|p| !p.fixed).collect();
+        let x0: Vec<Vec3> = scene.particles.iter().map(|p| Vec3::from(p.pos)).collect();
+        let x_minus1 = scene
+            .particles
+            .iter()
+            .map(|p| {
+                let x = Vec3::from(p.pos);
+                if p.fixed {
+                    x
+                } else {
+                    x - Vec3::from(p.vel) * scene.dt
+                }
+            })
+            .collect();
+        Ok(Plan {
+            n: scene.particles.len(),
+            dt: scene.dt,
+            layout,
+            free,
+            x0,
+            x_minus1,
+            springs,
+            dampers,
+            anchors,
+            drags,
+            nonlinear_drags,
+            angles,
+            conditionals,
+            provot,
+            needs_velocity,
+            has_gravity: scene.gravity != [0.0; 3],
+        })
+    }
+
+    /// Scratch sized for this plan.
+    pub fn scratch(&self) -> Scratch {
+        Scratch {
+            v: vec![Vec3::zeros(); self.n],
+            f: vec![Vec3::zeros(); self.n],
+            grids: vec![Grid::default(); self.conditionals.len()],
+        }
+    }
+
+    /// Number of link instances (conditional pairs not counted: they change every step).
+    pub fn num_links(&self) -> usize {
+        self.springs.pairs.len()
+            + self.dampers.pairs.len()
+            + self.anchors.particles.len()
+            + self.drags.particles.len()
+            + self.nonlinear_drags.particles.len()
+            + self.angles.triples.len()
+    }
+
+    /// Velocities `v(n) = (x(n) - x(n-1)) / dt` into `scratch.v`, when some pass reads them.
+    pub fn velocities(&self, x: &[Vec3], x_prev: &[Vec3], v: &mut [Vec3]) {
+        if self.needs_velocity {
+            let dt = self.dt;
+            for ((v, x), xp) in v.iter_mut().zip(x).zip(x_prev) {
+                *v = (x - xp) / dt;
+            }
+        }
+    }
+
+    /// `f = F(x, v)`: the sum of every pass's link forces.
+    pub fn forces(&self, p: &[f64], x: &[Vec3], v: &[Vec3], f: &mut [Vec3], grids: &mut [Grid]) {
+        f.fill(Vec3::zeros());
+        self.springs.accumulate(p, x, v, f);
+        self.dampers.accumulate(p, v, f);
+        self.anchors.accumulate(p, x, v, f);
+        self.drags.accumulate(p, v, f);
+        self.nonlinear_drags.accumulate(p, v, f);
+        self.angles.accumulate(p, x, f);
+        for (c, grid) in self.conditionals.iter().zip(grids) {
+            c.accumulate(p, x, v, f, grid);
+        }
+    }
+
+    /// One step of the CORDIS scheme (SPEC §2.1): on entry `x` = x(n), `x_prev` = x(n-1); on
+    /// exit `x` = x(n+1), `x_prev` = x(n). Returns the first particle whose new position is not
+    /// finite, if any (the step is still completed).
+    pub fn step(
+        &self,
+        p: &[f64],
+        x: &mut Vec<Vec3>,
+        x_prev: &mut Vec<Vec3>,
+        s: &mut Scratch,
+    ) -> Option<usize> {
+        self.velocities(x, x_prev, &mut s.v);
+        self.forces(p, x, &s.v, &mut s.f, &mut s.grids);
+        let bad = self.integrate(p, x, x_prev, &s.f);
+        std::mem::swap(x, x_prev);
+        self.provot.apply(p, x, &self.free);
+        bad
+    }
+
+    /// Writes x(n+1) into `x_prev` (so a swap completes the step): `2x - x_prev + dt² (F/m + g)`
+    /// for free particles, `x` for fixed ones.
+    fn integrate(&self, p: &[f64], x: &[Vec3], x_prev: &mut [Vec3], f: &[Vec3]) -> Option<usize> {
+        let dt2 = self.dt * self.dt;
+        let m = &p[self.layout.mass_offset..self.layout.mass_offset + self.n];
+        let g = if self.has_gravity {
+            let o = self.layout.gravity_offset;
+            Vec3::new(p[o], p[o + 1], p[o + 2])
+        } else {
+            Vec3::zeros()
+        };
+        let mut finite = true;
+        for i in 0..self.n {
+            let next = if self.free[i] {
+                (x[i] * 2.0 - x_prev[i]) + (f[i] / m[i] + g) * dt2
+            } else {
+                x[i]
+            };
+            finite &= next.iter().all(|c| c.abs() <= RUNAWAY);
+            x_prev[i] = next;
+        }
+        if finite {
+            None
+        } else {
+            (0..self.n).find(|&i| !x_prev[i].iter().all(|c| c.abs() <= RUNAWAY))
+        }
+    }
+}
+
+/// A coordinate beyond this (m), or a non-finite one, means the simulation has diverged.
+pub const RUNAWAY: f64 = 1e100;

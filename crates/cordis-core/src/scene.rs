@@ -1,0 +1,280 @@
+//! The scene: particles, the link catalogue and link instances (thesis `.mas` + `.cat` + `.ini`).
+
+use crate::error::{CordisError, Result};
+use crate::{Link, LinkKind, LinkType, Param, Particle};
+
+/// A Cordis-Anima network and its time step. Build one in code with [`Scene::new`] and the
+/// `add_*` methods, or read one with [`Scene::from_json_str`]; run [`Scene::validate`] before
+/// simulating (the JSON reader does).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// Time step in s.
+    pub dt: f64,
+    /// Acceleration of every free particle, m/s².
+    pub gravity: [f64; 3],
+    pub particles: Vec<Particle>,
+    /// The catalogue, in file order.
+    pub types: Vec<LinkType>,
+    pub links: Vec<Link>,
+}
+
+impl Scene {
+    pub fn new(dt: f64) -> Self {
+        Scene {
+            dt,
+            gravity: [0.0; 3],
+            particles: Vec::new(),
+            types: Vec::new(),
+            links: Vec::new(),
+        }
+    }
+
+    pub fn add_particle(&mut self, p: Particle) -> usize {
+        self.particles.push(p);
+        self.particles.len() - 1
+    }
+
+    /// Adds a type to the catalogue, replacing one of the same name.
+    pub fn add_type(&mut self, t: LinkType) -> usize {
+        if let Some(i) = self.type_index(&t.name) {
+            self.types[i] = t;
+            i
+        } else {
+            self.types.push(t);
+            self.types.len() - 1
+        }
+    }
+
+    /// Adds a link of the named type. Panics on an unknown type name (code-built scenes only).
+    pub fn add_link(&mut self, type_name: &str, particles: &[usize]) -> usize {
+        let type_index = self
+            .type_index(type_name)
+            .unwrap_or_else(|| panic!("no link type named {type_name}"));
+        self.links.push(Link {
+            type_index,
+            particles: particles.to_vec(),
+            point: None,
+        });
+        self.links.len() - 1
+    }
+
+    pub fn type_index(&self, name: &str) -> Option<usize> {
+        self.types.iter().position(|t| t.name == name)
+    }
+
+    pub fn num_particles(&self) -> usize {
+        self.particles.len()
+    }
+
+    /// True when some parameter or mass is still to be identified.
+    pub fn has_unknowns(&self) -> bool {
+        self.particles.iter().any(|p| p.mass.is_unknown())
+            || self
+                .types
+                .iter()
+                .any(|t| t.params.iter().any(Param::is_unknown))
+    }
+
+    /// Checks every semantic rule of SPEC §5.1 and names the place of the first violation.
+    pub fn validate(&self) -> Result<()> {
+        if !(self.dt.is_finite() && self.dt > 0.0) {
+            return Err(CordisError::scene(
+                "dt",
+                format!("must be a positive number, got {}", self.dt),
+            ));
+        }
+        check_finite3("gravity", &self.gravity)?;
+        for (i, p) in self.particles.iter().enumerate() {
+            let at = format!("particles[{i}]");
+            check_param(&format!("{at}.mass"), &p.mass, Sign::Positive)?;
+            check_finite3(&format!("{at}.pos"), &p.pos)?;
+            check_finite3(&format!("{at}.vel"), &p.vel)?;
+        }
+        for (ti, t) in self.types.iter().enumerate() {
+            let at = format!("types.{}", t.name);
+            if t.name.is_empty() {
+                return Err(CordisError::scene(
+                    format!("types[{ti}]"),
+                    "a type needs a non-empty name",
+                ));
+            }
+            if self.types[..ti].iter().any(|o| o.name == t.name) {
+                return Err(CordisError::scene(at, "the name is used twice"));
+            }
+            let specs = t.kind.param_specs();
+            if t.params.len() != specs.len() {
+                return Err(CordisError::scene(
+                    at,
+                    format!(
+                        "a {} has {} parameters, got {}",
+                        t.kind,
+                        specs.len(),
+                        t.params.len()
+                    ),
+                ));
+            }
+            for ((name, _), p) in specs.iter().zip(&t.params) {
+                let sign = match *name {
+                    "rest_cos" => Sign::UnitInterval,
+                    "range" => Sign::Positive,
+                    _ => Sign::NonNegative,
+                };
+                check_param(&format!("{at}.{name}"), p, sign)?;
+            }
+            if let Some(tau) = t.max_elongation {
+                if t.kind != LinkKind::Spring {
+                    return Err(CordisError::scene(
+                        format!("{at}.max_elongation"),
+                        "only springs have it",
+                    ));
+                }
+                if !(tau.is_finite() && tau > 0.0) {
+                    return Err(CordisError::scene(
+                        format!("{at}.max_elongation"),
+                        format!("must be a positive number, got {tau}"),
+                    ));
+                }
+            }
+            if let Some(point) = &t.point {
+                if t.kind != LinkKind::Anchor {
+                    return Err(CordisError::scene(
+                        format!("{at}.point"),
+                        "only anchors have it",
+                    ));
+                }
+                check_finite3(&format!("{at}.point"), point)?;
+            }
+            if t.kind == LinkKind::Conditional {
+                if !(1..=2).contains(&t.groups.len()) {
+                    return Err(CordisError::scene(
+                        format!("{at}.groups"),
+                        format!("names one or two groups, got {}", t.groups.len()),
+                    ));
+                }
+            } else if !t.groups.is_empty() {
+                return Err(CordisError::scene(
+                    format!("{at}.groups"),
+                    "only conditional types have it",
+                ));
+            }
+        }
+        for (li, l) in self.links.iter().enumerate() {
+            let at = format!("links[{li}]");
+            let Some(t) = self.types.get(l.type_index) else {
+                return Err(CordisError::scene(
+                    format!("{at}.type"),
+                    format!("type index {} does not exist", l.type_index),
+                ));
+            };
+            if t.kind == LinkKind::Conditional {
+                return Err(CordisError::scene(
+                    format!("{at}.type"),
+                    format!(
+                        "`{}` is conditional: its pairs are found from its groups, not listed",
+                        t.name
+                    ),
+                ));
+            }
+            if l.particles.len() != t.kind.arity() {
+                return Err(CordisError::scene(
+                    format!("{at}.particles"),
+                    format!(
+                        "a {} link joins {} particle(s), got {}",
+                        t.kind,
+                        t.kind.arity(),
+                        l.particles.len()
+                    ),
+                ));
+            }
+            for (k, &p) in l.particles.iter().enumerate() {
+                if p >= self.particles.len() {
+                    return Err(CordisError::scene(
+                        format!("{at}.particles[{k}]"),
+                        format!("particle {p} does not exist"),
+                    ));
+                }
+                if l.particles[..k].contains(&p) {
+                    return Err(CordisError::scene(
+                        format!("{at}.particles[{k}]"),
+                        format!("particle {p} is linked to itself"),
+                    ));
+                }
+            }
+            if let Some(point) = &l.point {
+                if t.kind != LinkKind::Anchor {
+                    return Err(CordisError::scene(
+                        format!("{at}.point"),
+                        "only anchor links have it",
+                    ));
+                }
+                check_finite3(&format!("{at}.point"), point)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+#[derive(Clone, Copy)]
+enum Sign {
+    Positive,
+    NonNegative,
+    UnitInterval,
+}
+
+fn check_value(place: &str, v: f64, sign: Sign) -> Result<()> {
+    let ok = v.is_finite()
+        && match sign {
+            Sign::Positive => v > 0.0,
+            Sign::NonNegative => v >= 0.0,
+            Sign::UnitInterval => (-1.0..=1.0).contains(&v),
+        };
+    if ok {
+        return Ok(());
+    }
+    let want = match sign {
+        Sign::Positive => "a positive number",
+        Sign::NonNegative => "a non-negative number",
+        Sign::UnitInterval => "a number in [-1, 1]",
+    };
+    Err(CordisError::scene(
+        place,
+        format!("must be {want}, got {v}"),
+    ))
+}
+
+fn check_param(place: &str, p: &Param, sign: Sign) -> Result<()> {
+    match p {
+        Param::Known(v) => check_value(place, *v, sign),
+        Param::Unknown(b) => {
+            check_value(&format!("{place}.min"), b.min, sign)?;
+            check_value(&format!("{place}.max"), b.max, sign)?;
+            if b.min > b.max {
+                return Err(CordisError::scene(
+                    place,
+                    format!("min {} is above max {}", b.min, b.max),
+                ));
+            }
+            if let Some(init) = b.init {
+                if !(init >= b.min && init <= b.max) {
+                    return Err(CordisError::scene(
+                        format!("{place}.init"),
+                        format!("{init} is outside [{}, {}]", b.min, b.max),
+                    ));
+                }
+            }
+            Ok(())
+        }
+    }
+}
+
+fn check_finite3(place: &str, v: &[f64; 3]) -> Result<()> {
+    for (k, x) in v.iter().enumerate() {
+        if !x.is_finite() {
+            return Err(CordisError::scene(
+                format!("{place}[{k}]"),
+                format!("must be a finite number, got {x}"),
+            ));
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,430 @@
+//! The JSON scene format `cordis-scene/1` (SPEC §5.1), read and written.
+//!
+//! The reader walks a `serde_json::Value` by hand rather than deriving `Deserialize`, so that
+//! every error names its place as a path (`links[12].particles[1]`) and says what was expected.
+
+use std::path::Path;
+
+use serde_json::{Map, Value};
+
+use crate::error::{CordisError, Result};
+use crate::{Bounds, Link, LinkKind, LinkType, Param, Particle, Scene};
+
+pub const FORMAT: &str = "cordis-scene/1";
+
+impl Scene {
+    /// Reads and validates a scene from JSON text.
+    pub fn from_json_str(text: &str) -> Result<Scene> {
+        Self::from_json_text(text, "scene")
+    }
+
+    /// Reads and validates a scene file; error places start with the file name.
+    pub fn from_json_path(path: impl AsRef<Path>) -> Result<Scene> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|e| CordisError::io(path, e))?;
+        Self::from_json_text(&text, &path.display().to_string())
+    }
+
+    fn from_json_text(text: &str, origin: &str) -> Result<Scene> {
+        if text.trim().is_empty() {
+            return Err(CordisError::format(
+                origin,
+                "empty file: expected a JSON scene",
+            ));
+        }
+        let value: Value = serde_json::from_str(text).map_err(|e| {
+            CordisError::format(
+                format!("{origin}:{}:{}", e.line(), e.column()),
+                format!("invalid JSON: {e}"),
+            )
+        })?;
+        Self::from_json_value(&value)
+    }
+
+    /// Reads and validates a scene from a parsed JSON value.
+    pub fn from_json_value(value: &Value) -> Result<Scene> {
+        let scene = read_scene(value)?;
+        scene.validate()?;
+        Ok(scene)
+    }
+
+    /// The scene as JSON; unknown parameters are written back as `{"min", "max"[, "init"]}`.
+    pub fn to_json_value(&self) -> Value {
+        let mut root = Map::new();
+        root.insert("format".into(), FORMAT.into());
+        root.insert("dt".into(), self.dt.into());
+        if self.gravity != [0.0; 3] {
+            root.insert("gravity".into(), vec3(&self.gravity));
+        }
+        let particles = self
+            .particles
+            .iter()
+            .map(|p| {
+                let mut o = Map::new();
+                o.insert("mass".into(), param_json(&p.mass));
+                o.insert("pos".into(), vec3(&p.pos));
+                if p.vel != [0.0; 3] {
+                    o.insert("vel".into(), vec3(&p.vel));
+                }
+                if p.fixed {
+                    o.insert("fixed".into(), true.into());
+                }
+                if let Some(g) = &p.group {
+                    o.insert("group".into(), g.clone().into());
+                }
+                Value::Object(o)
+            })
+            .collect();
+        root.insert("particles".into(), Value::Array(particles));
+        let mut types = Map::new();
+        for t in &self.types {
+            let mut o = Map::new();
+            o.insert("kind".into(), t.kind.name().into());
+            for ((name, _), p) in t.kind.param_specs().iter().zip(&t.params) {
+                o.insert((*name).into(), param_json(p));
+            }
+            if let Some(tau) = t.max_elongation {
+                o.insert("max_elongation".into(), tau.into());
+            }
+            if let Some(point) = &t.point {
+                o.insert("point".into(), vec3(point));
+            }
+            if !t.groups.is_empty() {
+                o.insert("groups".into(), t.groups.clone().into());
+            }
+            types.insert(t.name.clone(), Value::Object(o));
+        }
+        root.insert("types".into(), Value::Object(types));
+        let links = self
+            .links
+            .iter()
+            .map(|l| {
+                let mut o = Map::new();
+                o.insert("type".into(), self.types[l.type_index].name.clone().into());
+                o.insert("particles".into(), l.particles.clone().into());
+                if let Some(point) = &l.point {
+                    o.insert("point".into(), vec3(point));
+                }
+                Value::Object(o)
+            })
+            .collect();
+        root.insert("links".into(), Value::Array(links));
+        Value::Object(root)
+    }
+
+    /// Pretty-printed JSON text of [`Scene::to_json_value`].
+    pub fn to_json_string(&self) -> String {
+        let mut s = serde_json::to_string_pretty(&self.to_json_value())
+            .expect("a JSON value always serialises");
+        s.push('\n');
+        s
+    }
+}
+
+fn vec3(v: &[f64; 3]) -> Value {
+    Value::Array(v.iter().map(|&x| x.into()).collect())
+}
+
+fn param_json(p: &Param) -> Value {
+    match p {
+        Param::Known(v) => (*v).into(),
+        Param::Unknown(b) => {
+            let mut o = Map::new();
+            o.insert("min".into(), b.min.into());
+            o.insert("max".into(), b.max.into());
+            if let Some(init) = b.init {
+                o.insert("init".into(), init.into());
+            }
+            Value::Object(o)
+        }
+    }
+}
+
+fn err(place: &str, message: impl Into<String>) -> CordisError {
+    CordisError::scene(place, message)
+}
+
+fn kind_of(v: &Value) -> &'static str {
+    match v {
+        Value::Null => "null",
+        Value::Bool(_) => "a boolean",
+        Value::Number(_) => "a number",
+        Value::String(_) => "a string",
+        Value::Array(_) => "an array",
+        Value::Object(_) => "an object",
+    }
+}
+
+fn as_object<'a>(v: &'a Value, place: &str, allowed: &[&str]) -> Result<&'a Map<String, Value>> {
+    let Value::Object(o) = v else {
+        return Err(err(
+            place,
+            format!("expected an object, got {}", kind_of(v)),
+        ));
+    };
+    if let Some(k) = o.keys().find(|k| !allowed.contains(&k.as_str())) {
+        return Err(err(
+            &join(place, k),
+            format!(
+                "unknown key `{k}` (expected one of: {})",
+                allowed.join(", ")
+            ),
+        ));
+    }
+    Ok(o)
+}
+
+fn join(place: &str, key: &str) -> String {
+    if place.is_empty() {
+        key.to_string()
+    } else {
+        format!("{place}.{key}")
+    }
+}
+
+fn number(v: &Value, place: &str) -> Result<f64> {
+    v.as_f64()
+        .ok_or_else(|| err(place, format!("expected a number, got {}", kind_of(v))))
+}
+
+fn index(v: &Value, place: &str) -> Result<usize> {
+    match v.as_u64() {
+        Some(i) => usize::try_from(i).map_err(|_| err(place, "index too large")),
+        None => Err(err(
+            place,
+            format!("expected a particle index (a non-negative integer), got {v}"),
+        )),
+    }
+}
+
+fn vector3(v: &Value, place: &str) -> Result<[f64; 3]> {
+    let Value::Array(a) = v else {
+        return Err(err(
+            place,
+            format!("expected [x, y, z], got {}", kind_of(v)),
+        ));
+    };
+    if a.len() != 3 {
+        return Err(err(
+            place,
+            format!("expected 3 numbers [x, y, z], got {}", a.len()),
+        ));
+    }
+    let mut out = [0.0; 3];
+    for (k, x) in a.iter().enumerate() {
+        out[k] = number(x, &format!("{place}[{k}]"))?;
+    }
+    Ok(out)
+}
+
+fn param(v: &Value, place: &str) -> Result<Param> {
+    if let Value::Object(_) = v {
+        let o = as_object(v, place, &["min", "max", "init"])?;
+        let get = |k: &str| -> Result<Option<f64>> {
+            o.get(k).map(|x| number(x, &join(place, k))).transpose()
+        };
+        let min = get("min")?.ok_or_else(|| err(place, "an unknown parameter needs `min`"))?;
+        let max = get("max")?.ok_or_else(|| err(place, "an unknown parameter needs `max`"))?;
+        Ok(Param::Unknown(Bounds {
+            min,
+            max,
+            init: get("init")?,
+        }))
+    } else {
+        Ok(Param::Known(number(v, place)?))
+    }
+}
+
+fn string(v: &Value, place: &str) -> Result<String> {
+    v.as_str()
+        .map(str::to_string)
+        .ok_or_else(|| err(place, format!("expected a string, got {}", kind_of(v))))
+}
+
+fn read_scene(v: &Value) -> Result<Scene> {
+    let root = as_object(
+        v,
+        "",
+        &["format", "dt", "gravity", "particles", "types", "links"],
+    )
+    .map_err(|e| match e {
+        CordisError::Scene { place, message } if place.is_empty() => {
+            err("scene", format!("{message}: a scene is a JSON object"))
+        }
+        e => e,
+    })?;
+    if let Some(f) = root.get("format") {
+        let f = string(f, "format")?;
+        if f != FORMAT {
+            return Err(err("format", format!("expected \"{FORMAT}\", got \"{f}\"")));
+        }
+    }
+    let dt = number(
+        root.get("dt")
+            .ok_or_else(|| err("dt", "missing: the time step in s is required"))?,
+        "dt",
+    )?;
+    let mut scene = Scene::new(dt);
+    if let Some(g) = root.get("gravity") {
+        scene.gravity = vector3(g, "gravity")?;
+    }
+    let particles = match root.get("particles") {
+        Some(Value::Array(a)) => a,
+        Some(other) => {
+            return Err(err(
+                "particles",
+                format!("expected an array, got {}", kind_of(other)),
+            ))
+        }
+        None => return Err(err("particles", "missing: a scene needs particles")),
+    };
+    for (i, pv) in particles.iter().enumerate() {
+        let at = format!("particles[{i}]");
+        let o = as_object(pv, &at, &["mass", "pos", "vel", "fixed", "group"])?;
+        let mass = param(
+            o.get("mass").ok_or_else(|| err(&at, "missing `mass`"))?,
+            &join(&at, "mass"),
+        )?;
+        let pos = vector3(
+            o.get("pos").ok_or_else(|| err(&at, "missing `pos`"))?,
+            &join(&at, "pos"),
+        )?;
+        let mut p = Particle::new(1.0, pos);
+        p.mass = mass;
+        if let Some(vel) = o.get("vel") {
+            p.vel = vector3(vel, &join(&at, "vel"))?;
+        }
+        if let Some(f) = o.get("fixed") {
+            p.fixed = f.as_bool().ok_or_else(|| {
+                err(
+                    &join(&at, "fixed"),
+                    format!("expected true or false, got {f}"),
+                )
+            })?;
+        }
+        if let Some(g) = o.get("group") {
+            p.group = Some(string(g, &join(&at, "group"))?);
+        }
+        scene.particles.push(p);
+    }
+    if let Some(types) = root.get("types") {
+        let Value::Object(types) = types else {
+            return Err(err(
+                "types",
+                format!("expected an object of named types, got {}", kind_of(types)),
+            ));
+        };
+        for (name, tv) in types {
+            scene.types.push(read_type(name, tv)?);
+        }
+    }
+    if let Some(links) = root.get("links") {
+        let Value::Array(links) = links else {
+            return Err(err(
+                "links",
+                format!("expected an array, got {}", kind_of(links)),
+            ));
+        };
+        for (i, lv) in links.iter().enumerate() {
+            let at = format!("links[{i}]");
+            let o = as_object(lv, &at, &["type", "particles", "point"])?;
+            let tname = string(
+                o.get("type").ok_or_else(|| err(&at, "missing `type`"))?,
+                &join(&at, "type"),
+            )?;
+            let type_index = scene.type_index(&tname).ok_or_else(|| {
+                err(
+                    &join(&at, "type"),
+                    format!("no type named `{tname}` in `types`"),
+                )
+            })?;
+            let pl = join(&at, "particles");
+            let particles = match o.get("particles") {
+                Some(Value::Array(a)) => a
+                    .iter()
+                    .enumerate()
+                    .map(|(k, x)| index(x, &format!("{pl}[{k}]")))
+                    .collect::<Result<Vec<_>>>()?,
+                Some(other) => {
+                    return Err(err(
+                        &pl,
+                        format!(
+                            "expected an array of particle indices, got {}",
+                            kind_of(other)
+                        ),
+                    ))
+                }
+                None => return Err(err(&at, "missing `particles`")),
+            };
+            let point = o
+                .get("point")
+                .map(|p| vector3(p, &join(&at, "point")))
+                .transpose()?;
+            scene.links.push(Link {
+                type_index,
+                particles,
+                point,
+            });
+        }
+    }
+    Ok(scene)
+}
+
+fn read_type(name: &str, v: &Value) -> Result<LinkType> {
+    let at = format!("types.{name}");
+    let Value::Object(o) = v else {
+        return Err(err(&at, format!("expected an object, got {}", kind_of(v))));
+    };
+    let kname = string(
+        o.get("kind").ok_or_else(|| err(&at, "missing `kind`"))?,
+        &join(&at, "kind"),
+    )?;
+    let kind = LinkKind::from_name(&kname).ok_or_else(|| {
+        let all: Vec<_> = LinkKind::ALL.iter().map(|k| k.name()).collect();
+        err(
+            &join(&at, "kind"),
+            format!(
+                "unknown kind `{kname}` (expected one of: {})",
+                all.join(", ")
+            ),
+        )
+    })?;
+    let mut allowed: Vec<&str> = vec!["kind"];
+    allowed.extend(kind.param_names());
+    allowed.extend(kind.extra_keys());
+    as_object(v, &at, &allowed)?;
+    let mut t = LinkType::new(name, kind);
+    for (k, (pname, default)) in kind.param_specs().iter().enumerate() {
+        t.params[k] = match (o.get(*pname), default) {
+            (Some(pv), _) => param(pv, &join(&at, pname))?,
+            (None, Some(d)) => Param::Known(*d),
+            (None, None) => {
+                return Err(err(&at, format!("a {kind} needs `{pname}`")));
+            }
+        };
+    }
+    if let Some(tau) = o.get("max_elongation") {
+        t.max_elongation = Some(number(tau, &join(&at, "max_elongation"))?);
+    }
+    if let Some(p) = o.get("point") {
+        t.point = Some(vector3(p, &join(&at, "point"))?);
+    }
+    if kind == LinkKind::Conditional {
+        let gp = join(&at, "groups");
+        t.groups = match o.get("groups") {
+            Some(Value::Array(a)) => a
+                .iter()
+                .enumerate()
+                .map(|(k, g)| string(g, &format!("{gp}[{k}]")))
+                .collect::<Result<Vec<_>>>()?,
+            Some(other) => {
+                return Err(err(
+                    &gp,
+                    format!("expected an array of group names, got {}", kind_of(other)),
+                ))
+            }
+            None => return Err(err(&at, "a conditional needs `groups`")),
+        };
+    }
+    Ok(t)
+}

@@ -1,0 +1,115 @@
+//! Running a scene forward in time (the thesis' M2T).
+
+use crate::error::{CordisError, Result};
+use crate::plan::{Plan, Scratch};
+use crate::{Scene, Trajectory, Vec3};
+
+/// A compiled scene with its state: x(n), x(n-1) and step scratch.
+#[derive(Clone, Debug)]
+pub struct Simulator {
+    plan: Plan,
+    params: Vec<f64>,
+    x: Vec<Vec3>,
+    x_prev: Vec<Vec3>,
+    scratch: Scratch,
+    /// Index n of the current frame x(n).
+    frame: usize,
+}
+
+impl Simulator {
+    pub fn new(scene: &Scene) -> Result<Self> {
+        let plan = Plan::compile(scene)?;
+        let params = scene.param_values();
+        Ok(Self::from_plan(plan, params))
+    }
+
+    /// A simulator on a compiled plan with an explicit parameter vector.
+    pub fn from_plan(plan: Plan, params: Vec<f64>) -> Self {
+        assert_eq!(
+            params.len(),
+            plan.layout.len,
+            "parameter vector of the wrong length"
+        );
+        Simulator {
+            x: plan.x0.clone(),
+            x_prev: plan.x_minus1.clone(),
+            scratch: plan.scratch(),
+            plan,
+            params,
+            frame: 0,
+        }
+    }
+
+    pub fn plan(&self) -> &Plan {
+        &self.plan
+    }
+
+    /// Current positions x(n).
+    pub fn positions(&self) -> &[Vec3] {
+        &self.x
+    }
+
+    /// Index n of the current frame.
+    pub fn frame(&self) -> usize {
+        self.frame
+    }
+
+    /// Advances one step; a non-finite or runaway position is an error naming the frame and
+    /// particle (the state is then left as it was).
+    pub fn step(&mut self) -> Result<()> {
+        let (x_save, xp_save) = (self.x.clone(), self.x_prev.clone());
+        if let Some(i) = self.step_unchecked() {
+            self.x = x_save;
+            self.x_prev = xp_save;
+            self.frame -= 1;
+            return Err(diverged(self.frame + 1, i));
+        }
+        Ok(())
+    }
+
+    /// Advances one step without saving the state; returns the first bad particle, if any.
+    fn step_unchecked(&mut self) -> Option<usize> {
+        self.frame += 1;
+        self.plan.step(
+            &self.params,
+            &mut self.x,
+            &mut self.x_prev,
+            &mut self.scratch,
+        )
+    }
+
+    /// Frames x(0)…x(T-1) from the current state (frame 0 of the result is the current x).
+    pub fn run(&mut self, frames: usize) -> Result<Trajectory> {
+        let n = self.plan.n;
+        let mut traj = Trajectory::zeros(frames, n).with_dt(self.plan.dt);
+        if frames == 0 {
+            return Ok(traj);
+        }
+        traj.set_frame(0, &self.x);
+        for t in 1..frames {
+            if let Some(i) = self.step_unchecked() {
+                return Err(diverged(self.frame, i));
+            }
+            traj.set_frame(t, &self.x);
+        }
+        Ok(traj)
+    }
+}
+
+fn diverged(frame: usize, particle: usize) -> CordisError {
+    CordisError::Diverged {
+        frame,
+        particle,
+        message: "position is not finite or beyond 1e100 m; reduce dt or stiffness \
+                  (see `cordis check`)"
+            .into(),
+    }
+}
+
+impl Scene {
+    /// Simulates `frames` frames from the initial state (frame 0 = initial positions), with
+    /// unknown parameters at their [`crate::Param::value`].
+    pub fn simulate(&self, frames: usize) -> Result<Trajectory> {
+        Simulator::new(self)?.run(frames)
+    }
+}
