@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Builds the Python package `cordis` (distribution cordis-anima) into a fresh venv and runs its
+# tests. MuJoCo is installed for the scheme-equivalence test when pip can get it; the test
+# skips itself otherwise.
+set -euo pipefail
+
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$root"
+python="${PYTHON:-python3}"
+venv="$(mktemp -d "${TMPDIR:-/tmp}/cordis-venv.XXXXXX")"
+trap 'rm -rf "$venv"' EXIT
+
+"$python" -m venv "$venv"
+"$venv/bin/python" -m pip install --quiet ./python pytest
+if ! "$venv/bin/python" -m pip install --quiet mujoco; then
+    echo "python-test: mujoco could not be installed; its comparison test will be skipped" >&2
+fi
+# Run from the repository root so that `import cordis` finds the installed package (the source
+# folder python/cordis/ has no compiled extension).
+"$venv/bin/python" -m pytest python/tests -q
