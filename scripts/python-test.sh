@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds the Python package `cordis` (distribution cordis-anima) into a fresh venv and runs its
-# tests. MuJoCo is installed for the scheme-equivalence test when pip can get it; the test
-# skips itself otherwise.
+# tests (mypy is for the stub check). MuJoCo is installed for the scheme-equivalence test when
+# pip can get it; that test skips itself otherwise.
 set -euo pipefail
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -11,7 +11,7 @@ venv="$(mktemp -d "${TMPDIR:-/tmp}/cordis-venv.XXXXXX")"
 trap 'rm -rf "$venv"' EXIT
 
 "$python" -m venv "$venv"
-"$venv/bin/python" -m pip install --quiet ./python pytest
+"$venv/bin/python" -m pip install --quiet ./python pytest mypy
 if ! "$venv/bin/python" -m pip install --quiet mujoco; then
     echo "python-test: mujoco could not be installed; its comparison test will be skipped" >&2
 fi

@@ -1,12 +1,22 @@
 """Type stubs of the compiled extension ``cordis._cordis`` (re-exported by ``cordis``)."""
 
 import os
-from typing import Any, Dict, List, Mapping, Optional, Tuple, Union
+from typing import Any, Dict, List, Mapping, Optional, Tuple, Union, final
 
 import numpy as np
 import numpy.typing as npt
 
 __version__: str
+__all__ = [
+    "CordisError",
+    "CordisIOError",
+    "DivergedError",
+    "FormatError",
+    "Scene",
+    "SceneError",
+    "TrajectoryError",
+    "__version__",
+]
 
 class CordisError(Exception):
     """Base class of every error raised by cordis."""
@@ -42,6 +52,7 @@ class CordisIOError(CordisError, OSError):
     place: str
     message: str
 
+@final
 class Scene:
     """A Cordis-Anima network (particles, link catalogue, links) with its time step.
 
@@ -89,7 +100,7 @@ class Scene:
     @property
     def has_unknowns(self) -> bool:
         """True when some parameter or mass is still to be identified."""
-    def __eq__(self, other: object) -> bool: ...
+    def __eq__(self, other: object, /) -> bool: ...
     __hash__: None  # type: ignore[assignment]
     def __copy__(self) -> "Scene": ...
     def __deepcopy__(self, memo: Optional[Dict[int, Any]]) -> "Scene": ...

@@ -78,7 +78,10 @@ fn walk(obj: &Bound<'_, PyAny>, place: &str, depth: usize) -> Result<Value, Conv
         if let Ok(u) = obj.extract::<u64>() {
             return Ok(Value::from(u));
         }
-        return number(obj.extract::<f64>()?, place);
+        return match obj.extract::<f64>() {
+            Ok(v) => number(v, place),
+            Err(_) => Err(fail(place, "integer too large for a number".into())),
+        };
     }
     if let Ok(f) = obj.cast::<PyFloat>() {
         return number(f.value(), place);

@@ -58,7 +58,16 @@ impl Scene {
                 }
                 PathBuf::from(s.as_ref())
             }
-            Err(_) => path_or_text.extract::<PathBuf>()?,
+            Err(_) => path_or_text.extract::<PathBuf>().map_err(|_| {
+                PyTypeError::new_err(format!(
+                    "path_or_text: expected JSON text, a path str or an os.PathLike, got {}",
+                    path_or_text
+                        .get_type()
+                        .name()
+                        .map(|n| n.to_string())
+                        .unwrap_or_default()
+                ))
+            })?,
         };
         py.detach(move || CoreScene::from_json_path(&source))
             .map(Scene::from_core)

@@ -215,6 +215,7 @@ def _bad(mutate):
         (lambda d: d["types"]["rib"].update(stiffness=object()), "types.rib.stiffness",
          "expected a JSON value"),
         (lambda d: d["types"].update({3: {"kind": "drag"}}), "types", "keys must be strings"),
+        (lambda d: d["particles"][1].update(mass=10**400), "particles[1].mass", "too large"),
     ],
 )
 def test_malformed_scenes_name_their_place(mutate, place, words):
@@ -257,8 +258,9 @@ def test_missing_file_is_an_os_error(tmp_path):
 
 
 def test_wrong_argument_types():
-    with pytest.raises(TypeError):
-        cordis.Scene.from_json(42)
+    for bad in (42, b"{}", None):
+        with pytest.raises(TypeError, match="path_or_text"):
+            cordis.Scene.from_json(bad)
     with pytest.raises(cordis.SceneError, match="expected an object"):
         cordis.Scene.from_dict([1, 2, 3])
 
