@@ -507,6 +507,11 @@ pub fn parse_cat(name: &str, text: &str) -> Result<Vec<LinkType>> {
     Ok(types)
 }
 
+/// Reads a catalogue file, `NAME.cat` or an identified `NAME.sav` (see [`parse_cat`]).
+pub fn read_catalogue(path: &Path) -> Result<Vec<LinkType>> {
+    parse_cat(&path.display().to_string(), &read_text(path)?)
+}
+
 /// Parses `NAME.ini`: `n` records `x y z vx vy vz` (m, m/s), read as tokens.
 pub fn parse_ini(name: &str, text: &str, n: usize) -> Result<Vec<([f64; 3], [f64; 3])>> {
     let mut c = Cursor::new(name, text, mk);

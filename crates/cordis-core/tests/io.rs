@@ -415,6 +415,13 @@ fn unknown_extension_lists_the_three_formats() {
         TrajectoryFormat::from_path(Path::new("a.NpY")).unwrap(),
         TrajectoryFormat::Npy
     );
+    let dir = tempfile::tempdir().unwrap();
+    assert_err(
+        io::write_trajectory(&dir.path().join("e.csv"), &Trajectory::zeros(0, 3)),
+        "e.csv",
+        "empty trajectory",
+    );
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
 
 #[test]
@@ -512,6 +519,10 @@ fn thesis_cat_to_json_to_cat_round_trips() {
 fn thesis_sav_reads_as_a_catalogue() {
     let text = std::fs::read_to_string(fixtures().join("exemple.sav")).unwrap();
     let types = thesis::parse_cat("exemple.sav", &text).unwrap();
+    assert_eq!(
+        thesis::read_catalogue(&fixtures().join("exemple.sav")).unwrap(),
+        types
+    );
     assert_eq!(types.len(), 3);
     assert_eq!(types[1].value("rest_length"), Some(10.688819));
     assert_eq!(types[1].value("stiffness"), Some(6.272265));

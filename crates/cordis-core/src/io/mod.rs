@@ -62,8 +62,19 @@ pub fn parse_trajectory(name: &str, format: TrajectoryFormat, bytes: &[u8]) -> R
     }
 }
 
-/// Writes a trajectory atomically in the format its extension names.
+/// Writes a trajectory atomically in the format its extension names. An empty trajectory (no
+/// frame or no particle) is refused: the readers would not take it back.
 pub fn write_trajectory(path: &Path, traj: &Trajectory) -> Result<()> {
+    if traj.frames() == 0 || traj.particles() == 0 {
+        return Err(CordisError::trajectory(
+            path.display().to_string(),
+            format!(
+                "{} frames × {} particles: an empty trajectory cannot be written",
+                traj.frames(),
+                traj.particles()
+            ),
+        ));
+    }
     let bytes = match TrajectoryFormat::from_path(path)? {
         TrajectoryFormat::Csv => csv::write_csv(traj).into_bytes(),
         TrajectoryFormat::Npy => npy::write_npy(traj),
