@@ -1019,3 +1019,23 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn thesis_files_in_latin1_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = fixtures();
+    for f in ["exemple.cat", "exemple.ini"] {
+        std::fs::copy(src.join(f), dir.path().join(f)).unwrap();
+    }
+    // `installées` with its accent in Latin-1 (0xE9), as a French editor of 2002 would save it.
+    let text = std::fs::read_to_string(src.join("exemple.mas")).unwrap();
+    let bytes: Vec<u8> = text
+        .replace("installees", "install\u{e9}es")
+        .chars()
+        .map(|c| c as u8)
+        .collect();
+    assert!(std::str::from_utf8(&bytes).is_err());
+    std::fs::write(dir.path().join("exemple.mas"), bytes).unwrap();
+    let m = thesis::import(&dir.path().join("exemple"), 0.01).unwrap();
+    assert_eq!(m.scene.links.len(), 3);
+}
