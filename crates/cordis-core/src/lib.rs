@@ -19,6 +19,7 @@
 
 pub mod error;
 pub mod forces;
+pub mod io;
 mod link_kind;
 mod link_type;
 mod param;
@@ -28,6 +29,7 @@ pub mod plan;
 mod scene;
 pub mod scene_json;
 mod simulator;
+pub mod thesis;
 mod trajectory;
 
 pub use error::{CordisError, Result};

@@ -1,0 +1,190 @@
+//! CSV trajectories: header `frame,particle,x,y,z`, one row per particle per frame, in any
+//! order. Frames `0..T` and particles `0..N` must each appear exactly once per pair.
+
+use std::fmt::Write;
+
+use crate::error::{CordisError, Result};
+use crate::Trajectory;
+
+const HEADER: [&str; 5] = ["frame", "particle", "x", "y", "z"];
+
+struct Row {
+    frame: u64,
+    particle: u64,
+    line: usize,
+    pos: [f64; 3],
+}
+
+/// Parses CSV text; `name` (usually the file name) starts every error's place, as `name:LINE`.
+/// Blank lines are skipped; fields may carry surrounding whitespace.
+pub fn parse_csv(name: &str, text: &str) -> Result<Trajectory> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(k, l)| (k + 1, l))
+        .filter(|(_, l)| !l.trim().is_empty());
+    let Some((hline, header)) = lines.next() else {
+        return Err(CordisError::trajectory(
+            name,
+            "empty file: expected the header `frame,particle,x,y,z`",
+        ));
+    };
+    let fields: Vec<&str> = header.split(',').map(str::trim).collect();
+    if fields != HEADER {
+        return Err(CordisError::trajectory(
+            format!("{name}:{hline}"),
+            format!(
+                "wrong header `{}`: expected `frame,particle,x,y,z`",
+                header.trim()
+            ),
+        ));
+    }
+    let mut rows = Vec::new();
+    for (line, text) in lines {
+        let place = || format!("{name}:{line}");
+        let fields: Vec<&str> = text.split(',').map(str::trim).collect();
+        if fields.len() != 5 {
+            return Err(CordisError::trajectory(
+                place(),
+                format!(
+                    "{} row: {} fields, expected 5 (frame,particle,x,y,z)",
+                    if fields.len() < 5 { "short" } else { "long" },
+                    fields.len()
+                ),
+            ));
+        }
+        let frame =
+            parse_index(fields[0], "frame").map_err(|m| CordisError::trajectory(place(), m))?;
+        let particle =
+            parse_index(fields[1], "particle").map_err(|m| CordisError::trajectory(place(), m))?;
+        let mut pos = [0.0; 3];
+        for k in 0..3 {
+            pos[k] = parse_coord(fields[2 + k], HEADER[2 + k])
+                .map_err(|m| CordisError::trajectory(place(), m))?;
+        }
+        rows.push(Row {
+            frame,
+            particle,
+            line,
+            pos,
+        });
+    }
+    if rows.is_empty() {
+        return Err(CordisError::trajectory(
+            name,
+            "no rows after the header: a trajectory needs at least one frame",
+        ));
+    }
+    rows.sort_by_key(|r| (r.frame, r.particle, r.line));
+    // Indices are checked against the sorted sequence (0,0), (0,1)… rather than used to size a
+    // table, so that a huge index costs nothing before it is reported as a gap.
+    let n = rows.iter().map(|r| r.particle).max().unwrap_or(0) + 1;
+    let frames = rows.last().map_or(0, |r| r.frame) + 1;
+    let mut expect = (0u64, 0u64);
+    for (k, r) in rows.iter().enumerate() {
+        if k > 0 && (rows[k - 1].frame, rows[k - 1].particle) == (r.frame, r.particle) {
+            return Err(CordisError::trajectory(
+                format!("{name}:{}", r.line),
+                format!(
+                    "duplicate row for frame {}, particle {} (first given on line {})",
+                    r.frame,
+                    r.particle,
+                    rows[k - 1].line
+                ),
+            ));
+        }
+        if (r.frame, r.particle) != expect {
+            return Err(missing(name, expect));
+        }
+        expect = if expect.1 + 1 == n {
+            (expect.0 + 1, 0)
+        } else {
+            (expect.0, expect.1 + 1)
+        };
+    }
+    if expect != (frames, 0) {
+        return Err(missing(name, expect));
+    }
+    let data = rows.iter().flat_map(|r| r.pos).collect();
+    // Both counts fit in usize: their product is the number of rows held in memory.
+    Trajectory::from_flat(frames as usize, n as usize, data)
+}
+
+fn missing(name: &str, (frame, particle): (u64, u64)) -> CordisError {
+    CordisError::trajectory(
+        name,
+        format!("no row for frame {frame}, particle {particle}: every frame needs every particle"),
+    )
+}
+
+/// A frame or particle index: a non-negative integer (`3` or `3.0`).
+fn parse_index(field: &str, what: &str) -> std::result::Result<u64, String> {
+    if let Ok(v) = field.parse::<u64>() {
+        return Ok(v);
+    }
+    match field.parse::<f64>() {
+        Err(_) => Err(format!("{what} index `{field}` is not a number")),
+        Ok(v) if !v.is_finite() => Err(format!("{what} index `{field}` is not finite")),
+        Ok(v) if v < 0.0 => Err(format!("{what} index {field} is negative")),
+        Ok(v) if v.fract() != 0.0 => Err(format!("{what} index {field} is not a whole number")),
+        // Beyond 2^53 an f64 no longer holds every integer: such an index is surely a mistake.
+        Ok(v) if v > 9.007_199_254_740_992e15 => Err(format!("{what} index {field} is too large")),
+        Ok(v) => Ok(v as u64),
+    }
+}
+
+fn parse_coord(field: &str, what: &str) -> std::result::Result<f64, String> {
+    match field.parse::<f64>() {
+        Err(_) => Err(format!("{what} `{field}` is not a number")),
+        Ok(v) if !v.is_finite() => Err(format!("{what} is {field}: coordinates must be finite")),
+        Ok(v) => Ok(v),
+    }
+}
+
+/// CSV text of a trajectory, frames in order, particles in order within a frame. Values are
+/// printed in Rust's shortest round-trip form, so reading the text back is bit-exact.
+pub fn write_csv(traj: &Trajectory) -> String {
+    let n = traj.particles();
+    let mut out = String::with_capacity(32 + traj.as_flat().len() * 24);
+    out.push_str("frame,particle,x,y,z\n");
+    for (k, c) in traj.as_flat().chunks_exact(3).enumerate() {
+        // Writing to a String cannot fail.
+        let _ = writeln!(out, "{},{},{:?},{:?},{:?}", k / n, k % n, c[0], c[1], c[2]);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rows_in_any_order_are_sorted() {
+        let text = "frame,particle,x,y,z\n1,0,3,0,0\n0,1,2,0,0\n 0 , 0 , 1 , 0 , 0 \n1,1,4,0,0\n";
+        let t = parse_csv("a.csv", text).unwrap();
+        assert_eq!((t.frames(), t.particles()), (2, 2));
+        let xs: Vec<f64> = (0..2)
+            .flat_map(|f| (0..2).map(move |i| (f, i)))
+            .map(|(f, i)| t.pos(f, i).x)
+            .collect();
+        assert_eq!(xs, [1.0, 2.0, 3.0, 4.0]);
+    }
+
+    #[test]
+    fn whole_float_indices_are_accepted() {
+        let t = parse_csv("a.csv", "frame,particle,x,y,z\n0.0,0,1,2,3\n").unwrap();
+        assert_eq!(t.pos(0, 0).z, 3.0);
+    }
+
+    #[test]
+    fn a_huge_index_is_a_gap_not_an_allocation() {
+        let e = parse_csv(
+            "a.csv",
+            "frame,particle,x,y,z\n0,0,1,2,3\n0,99999999999,1,2,3\n",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("no row for frame 0, particle 1"), "{e}");
+    }
+}

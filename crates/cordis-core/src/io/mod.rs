@@ -1,0 +1,135 @@
+//! Trajectory files (SPEC §5.2): CSV, NumPy `.npy` and the thesis' `.tra`, chosen by
+//! extension, plus atomic writes that the other writers (scene JSON, thesis files) reuse.
+//!
+//! Each format has a pure parser over text or bytes (`parse_*`, for tests, fuzzing and
+//! in-memory data) and a pure writer; the functions here add the file system. Formats are
+//! described in `docs/file-formats.md`.
+
+pub mod csv;
+pub mod npy;
+pub(crate) mod tokens;
+pub mod tra;
+
+use std::borrow::Cow;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use crate::error::{CordisError, Result};
+use crate::Trajectory;
+
+/// The trajectory formats, by file extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TrajectoryFormat {
+    Csv,
+    Npy,
+    Tra,
+}
+
+impl TrajectoryFormat {
+    /// The format a file name announces (extension, case-insensitive).
+    pub fn from_path(path: &Path) -> Result<Self> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        match ext.as_deref() {
+            Some("csv") => Ok(Self::Csv),
+            Some("npy") => Ok(Self::Npy),
+            Some("tra") => Ok(Self::Tra),
+            _ => Err(CordisError::format(
+                path.display().to_string(),
+                "unknown trajectory format: the name must end in .csv, .npy or .tra",
+            )),
+        }
+    }
+}
+
+/// Reads a trajectory file; the format comes from the extension. `dt` is left unset: none of
+/// the formats stores it.
+pub fn read_trajectory(path: &Path) -> Result<Trajectory> {
+    let format = TrajectoryFormat::from_path(path)?;
+    let bytes = std::fs::read(path).map_err(|e| CordisError::io(path, e))?;
+    parse_trajectory(&path.display().to_string(), format, &bytes)
+}
+
+/// Parses trajectory bytes in `format`; `name` starts every error's place.
+pub fn parse_trajectory(name: &str, format: TrajectoryFormat, bytes: &[u8]) -> Result<Trajectory> {
+    match format {
+        TrajectoryFormat::Csv => csv::parse_csv(name, &decode_text(bytes)),
+        TrajectoryFormat::Npy => npy::parse_npy(name, bytes),
+        TrajectoryFormat::Tra => tra::parse_tra(name, &decode_text(bytes)),
+    }
+}
+
+/// Writes a trajectory atomically in the format its extension names. An empty trajectory (no
+/// frame or no particle) is refused: the readers would not take it back.
+pub fn write_trajectory(path: &Path, traj: &Trajectory) -> Result<()> {
+    if traj.frames() == 0 || traj.particles() == 0 {
+        return Err(CordisError::trajectory(
+            path.display().to_string(),
+            format!(
+                "{} frames × {} particles: an empty trajectory cannot be written",
+                traj.frames(),
+                traj.particles()
+            ),
+        ));
+    }
+    let bytes = match TrajectoryFormat::from_path(path)? {
+        TrajectoryFormat::Csv => csv::write_csv(traj).into_bytes(),
+        TrajectoryFormat::Npy => npy::write_npy(traj),
+        TrajectoryFormat::Tra => tra::write_tra(traj).into_bytes(),
+    };
+    write_atomic(path, &bytes)
+}
+
+/// Writes `bytes` to `path` so that a reader sees either the old file or the whole new one,
+/// never a half-written file: a temporary file in the same directory (so the rename stays on
+/// one file system), flushed to disk, then renamed over `path`.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let file_name = path
+        .file_name()
+        .ok_or_else(|| CordisError::format(path.display().to_string(), "not a file name"))?;
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(file_name);
+    tmp_name.push(format!(".{}.{n}.tmp", std::process::id()));
+    let tmp = dir.join(tmp_name);
+    let result = (|| {
+        let mut f = std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        drop(f);
+        std::fs::rename(&tmp, path)
+    })();
+    result.map_err(|e| {
+        // The temporary may not exist (open failed); nothing to report if removal fails.
+        let _ = std::fs::remove_file(&tmp);
+        CordisError::io(path, e)
+    })
+}
+
+/// Text of a file: UTF-8 (a leading byte-order mark dropped), or else Latin-1, which the
+/// thesis' files (French, written around 2000) may well be in. Every byte sequence decodes,
+/// so a parser only ever sees text.
+pub(crate) fn decode_text(bytes: &[u8]) -> Cow<'_, str> {
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    match std::str::from_utf8(bytes) {
+        Ok(s) => Cow::Borrowed(s),
+        Err(_) => Cow::Owned(bytes.iter().map(|&b| b as char).collect()),
+    }
+}
+
+/// Reads a text file (see [`decode_text`]).
+pub(crate) fn read_text(path: &Path) -> Result<String> {
+    let bytes = std::fs::read(path).map_err(|e| CordisError::io(path, e))?;
+    Ok(decode_text(&bytes).into_owned())
+}

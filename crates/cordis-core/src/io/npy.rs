@@ -1,0 +1,300 @@
+//! NumPy `.npy` trajectories: float64 arrays of shape `(T, N, 3)`.
+//!
+//! Hand-written rather than taken from `npyz`: we need one dtype and one rank, and we want
+//! every malformed file to give a placed one-line error, with the shape checked against the
+//! data length *before* anything is allocated (a crafted header must not ask for terabytes).
+//! `npyz` handles every dtype through a Python-literal parser (`py_literal`, `num-bigint`),
+//! reports `io::Error`s without places, and would still leave the rank/shape checks to us.
+//!
+//! Read: format versions 1.0, 2.0 and 3.0; dtype `<f8` or `>f8`; C order, or Fortran order
+//! (transposed to C order on reading). Written: version 1.0, `<f8`, C order, header padded
+//! so the data starts on a 64-byte boundary, as NumPy does.
+
+use crate::error::{CordisError, Result};
+use crate::Trajectory;
+
+const MAGIC: &[u8] = b"\x93NUMPY";
+
+/// Parses `.npy` bytes; `name` is the place of header errors.
+pub fn parse_npy(name: &str, bytes: &[u8]) -> Result<Trajectory> {
+    let err = |m: String| CordisError::format(name, m);
+    if bytes.len() < 10 || !bytes.starts_with(MAGIC) {
+        return Err(err(
+            "not a .npy file: it does not start with the magic `\\x93NUMPY`".into(),
+        ));
+    }
+    let (major, minor) = (bytes[6], bytes[7]);
+    let (header_len, start): (usize, usize) = match major {
+        1 => (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10),
+        2 | 3 => {
+            let Some(b) = bytes.get(8..12) else {
+                return Err(err("file ends inside the header length".into()));
+            };
+            (u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize, 12)
+        }
+        _ => {
+            return Err(err(format!(
+                "format version {major}.{minor} is not supported (1.0, 2.0 or 3.0)"
+            )))
+        }
+    };
+    let Some(raw) = bytes.get(start..start.saturating_add(header_len)) else {
+        return Err(err(format!(
+            "file ends inside the header ({header_len} bytes announced)"
+        )));
+    };
+    // Versions 1 and 2 declare the header Latin-1; version 3 UTF-8. Only ASCII matters here.
+    let header: String = if major == 3 {
+        std::str::from_utf8(raw)
+            .map_err(|_| err("the header is not UTF-8".into()))?
+            .to_owned()
+    } else {
+        raw.iter().map(|&b| b as char).collect()
+    };
+    let dict = parse_header(&header).map_err(|m| err(format!("header: {m}")))?;
+    let big_endian = match dict.descr.as_str() {
+        "<f8" => false,
+        ">f8" => true,
+        d => {
+            return Err(err(format!(
+                "dtype `{d}` is not float64: expected '<f8' (or '>f8')"
+            )))
+        }
+    };
+    let [t, n, three] = dict.shape[..] else {
+        return Err(err(format!(
+            "shape {:?} is not (frames, particles, 3)",
+            dict.shape
+        )));
+    };
+    if three != 3 {
+        return Err(err(format!(
+            "shape ({t}, {n}, {three}) is not (frames, particles, 3)"
+        )));
+    }
+    if t == 0 || n == 0 {
+        return Err(err(format!(
+            "shape ({t}, {n}, 3) is empty: a trajectory needs at least one frame and one particle"
+        )));
+    }
+    let data = &bytes[start + header_len..];
+    let count = t.checked_mul(n).and_then(|tn| tn.checked_mul(3));
+    if count.and_then(|c| c.checked_mul(8)) != Some(data.len()) {
+        return Err(err(format!(
+            "shape ({t}, {n}, 3) needs {} bytes of float64 data, the file holds {}",
+            count.map_or("more than 2^64".into(), |c| (c as u128 * 8).to_string()),
+            data.len()
+        )));
+    }
+    let values: Vec<f64> = data
+        .chunks_exact(8)
+        .map(|b| {
+            let b: [u8; 8] = [b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]];
+            if big_endian {
+                f64::from_be_bytes(b)
+            } else {
+                f64::from_le_bytes(b)
+            }
+        })
+        .collect();
+    let values = if dict.fortran_order {
+        // Fortran order: element (f, i, k) sits at f + T (i + N k).
+        let mut c = vec![0.0; values.len()];
+        for f in 0..t {
+            for i in 0..n {
+                for k in 0..3 {
+                    c[(f * n + i) * 3 + k] = values[f + t * (i + n * k)];
+                }
+            }
+        }
+        c
+    } else {
+        values
+    };
+    Trajectory::from_flat(t, n, values).map_err(|e| match e {
+        CordisError::Trajectory { place, message } => {
+            CordisError::trajectory(format!("{name}: {place}"), message)
+        }
+        e => e,
+    })
+}
+
+/// `.npy` bytes (version 1.0, `<f8`, C order) of a trajectory.
+pub fn write_npy(traj: &Trajectory) -> Vec<u8> {
+    let mut header = format!(
+        "{{'descr': '<f8', 'fortran_order': False, 'shape': ({}, {}, 3), }}",
+        traj.frames(),
+        traj.particles()
+    );
+    // Magic (6) + version (2) + length (2) + header + '\n' is a multiple of 64.
+    let pad = (64 - (10 + header.len() + 1) % 64) % 64;
+    header.extend(std::iter::repeat_n(' ', pad));
+    header.push('\n');
+    let mut out = Vec::with_capacity(10 + header.len() + traj.as_flat().len() * 8);
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&[1, 0]);
+    // A 3-D shape's header is far below 65535 bytes.
+    out.extend_from_slice(&(header.len() as u16).to_le_bytes());
+    out.extend_from_slice(header.as_bytes());
+    for v in traj.as_flat() {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    out
+}
+
+#[derive(Debug)]
+struct Header {
+    descr: String,
+    fortran_order: bool,
+    shape: Vec<usize>,
+}
+
+/// Parses the header's Python dict literal: `{'descr': '<f8', 'fortran_order': False,
+/// 'shape': (2, 3, 3), }`. Only the three keys NumPy writes are allowed.
+fn parse_header(text: &str) -> std::result::Result<Header, String> {
+    let mut p = Lexer {
+        s: text.trim_end_matches(['\n', ' ', '\0']).as_bytes(),
+        i: 0,
+    };
+    p.expect(b'{')?;
+    let (mut descr, mut fortran, mut shape) = (None, None, None);
+    loop {
+        if p.eat(b'}') {
+            break;
+        }
+        let key = p.string()?;
+        p.expect(b':')?;
+        match key.as_str() {
+            "descr" if descr.is_none() => descr = Some(p.string()?),
+            "fortran_order" if fortran.is_none() => fortran = Some(p.boolean()?),
+            "shape" if shape.is_none() => shape = Some(p.tuple()?),
+            "descr" | "fortran_order" | "shape" => return Err(format!("key '{key}' is repeated")),
+            _ => return Err(format!("unexpected key '{key}'")),
+        }
+        if !p.eat(b',') {
+            p.expect(b'}')?;
+            break;
+        }
+    }
+    p.skip_ws();
+    if p.i != p.s.len() {
+        return Err("text after the closing `}`".into());
+    }
+    Ok(Header {
+        descr: descr.ok_or("no 'descr' key")?,
+        fortran_order: fortran.ok_or("no 'fortran_order' key")?,
+        shape: shape.ok_or("no 'shape' key")?,
+    })
+}
+
+struct Lexer<'a> {
+    s: &'a [u8],
+    i: usize,
+}
+
+impl Lexer<'_> {
+    fn skip_ws(&mut self) {
+        while self.s.get(self.i).is_some_and(|c| c.is_ascii_whitespace()) {
+            self.i += 1;
+        }
+    }
+
+    fn eat(&mut self, c: u8) -> bool {
+        self.skip_ws();
+        if self.s.get(self.i) == Some(&c) {
+            self.i += 1;
+            true
+        } else {
+            false
+        }
+    }
+
+    fn expect(&mut self, c: u8) -> std::result::Result<(), String> {
+        if self.eat(c) {
+            Ok(())
+        } else {
+            Err(format!("expected `{}` at byte {}", c as char, self.i))
+        }
+    }
+
+    fn string(&mut self) -> std::result::Result<String, String> {
+        self.skip_ws();
+        let quote = match self.s.get(self.i) {
+            Some(&q @ (b'\'' | b'"')) => q,
+            _ => return Err(format!("expected a quoted string at byte {}", self.i)),
+        };
+        let start = self.i + 1;
+        let len = self.s[start..]
+            .iter()
+            .position(|&c| c == quote)
+            .ok_or("unterminated string")?;
+        self.i = start + len + 1;
+        Ok(String::from_utf8_lossy(&self.s[start..start + len]).into_owned())
+    }
+
+    fn boolean(&mut self) -> std::result::Result<bool, String> {
+        self.skip_ws();
+        for (word, v) in [("True", true), ("False", false)] {
+            if self.s[self.i..].starts_with(word.as_bytes()) {
+                self.i += word.len();
+                return Ok(v);
+            }
+        }
+        Err(format!("expected True or False at byte {}", self.i))
+    }
+
+    fn tuple(&mut self) -> std::result::Result<Vec<usize>, String> {
+        self.expect(b'(')?;
+        let mut dims = Vec::new();
+        loop {
+            if self.eat(b')') {
+                return Ok(dims);
+            }
+            self.skip_ws();
+            let start = self.i;
+            while self.s.get(self.i).is_some_and(u8::is_ascii_digit) {
+                self.i += 1;
+            }
+            let digits = std::str::from_utf8(&self.s[start..self.i]).unwrap_or("");
+            // Python 2 wrote long integers as `3L`.
+            if self.s.get(self.i) == Some(&b'L') {
+                self.i += 1;
+            }
+            dims.push(
+                digits
+                    .parse::<usize>()
+                    .map_err(|_| format!("expected a dimension at byte {start}"))?,
+            );
+            if !self.eat(b',') {
+                self.expect(b')')?;
+                return Ok(dims);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn header_is_padded_to_64_bytes() {
+        let t = Trajectory::zeros(2, 5);
+        let b = write_npy(&t);
+        let hl = u16::from_le_bytes([b[8], b[9]]) as usize;
+        assert_eq!((10 + hl) % 64, 0);
+        assert_eq!(b[10 + hl - 1], b'\n');
+        assert_eq!(b.len(), 10 + hl + 2 * 5 * 3 * 8);
+    }
+
+    #[test]
+    fn header_literal_variants() {
+        let h =
+            parse_header("{\"shape\": (4L, 2L, 3L), 'fortran_order':True,'descr':'>f8'}").unwrap();
+        assert_eq!(h.shape, [4, 2, 3]);
+        assert!(h.fortran_order);
+        assert_eq!(h.descr, ">f8");
+        assert!(parse_header("{'descr': '<f8', 'fortran_order': False}").is_err());
+        assert!(parse_header("{'descr': '<f8', 'descr': '<f8'}").is_err());
+    }
+}
