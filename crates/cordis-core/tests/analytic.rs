@@ -334,3 +334,22 @@ fn fixed_particles_never_move() {
     }
     assert!((traj.pos(frames - 1, 1) - traj.pos(0, 1)).norm() > 0.1);
 }
+
+#[test]
+fn gravity_comes_from_the_parameter_vector() {
+    // A plan compiled from a scene without gravity must still follow a parameter vector that
+    // sets one (the plan is compiled once and stepped with any vector of its layout).
+    use cordis_core::{Plan, Simulator};
+    let dt = 1.0 / 64.0;
+    let mut s = Scene::new(dt);
+    s.add_particle(Particle::new(1.0, [0.0; 3]));
+    let plan = Plan::compile(&s).unwrap();
+    let mut p = s.param_values();
+    let o = plan.layout.gravity_offset;
+    p[o + 2] = -8.0;
+    let traj = Simulator::from_plan(plan, p).run(10).unwrap();
+    for n in 0..10 {
+        let nf = n as f64;
+        assert_eq!(traj.pos(n, 0).z, -8.0 * dt * dt * nf * (nf + 1.0) / 2.0);
+    }
+}
