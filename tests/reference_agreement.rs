@@ -296,6 +296,15 @@ fn conditional_two_groups_ignores_a_third_and_ungrouped_particles() {
 }
 
 #[test]
+fn conditional_naming_one_group_twice_is_one_group() {
+    let mut s = cloud(&["gas"], 17);
+    s.types[0].groups = vec!["gas".into(), "gas".into()];
+    let twice = agree(&s);
+    let once = reference::simulate(&cloud(&["gas"], 17), FRAMES);
+    assert_eq!(max_diff(&twice, &once), 0.0);
+}
+
+#[test]
 fn gravity() {
     let mut s = Scene::new(0.01);
     s.gravity = [0.5, -1.0, -9.81];
