@@ -32,8 +32,11 @@ pub struct Plan {
     pub conditionals: Vec<ConditionalPass>,
     pub provot: ProvotPass,
     /// Some pass reads velocities (a damper, a drag, or a damping that is not known to be 0).
+    /// When false, [`Plan::velocities`] skips its work, so a parameter vector must keep every
+    /// damping that the scene knew to be 0 at 0 (identification only varies unknowns).
     pub needs_velocity: bool,
-    /// The scene has gravity; without it the integrator skips the term.
+    /// The scene was compiled with a non-zero gravity (informative: the integrator always
+    /// reads gravity from the parameter vector).
     pub has_gravity: bool,
 }
 
@@ -245,12 +248,10 @@ impl Plan {
     fn integrate(&self, p: &[f64], x: &[Vec3], x_prev: &mut [Vec3], f: &[Vec3]) -> Option<usize> {
         let dt2 = self.dt * self.dt;
         let m = &p[self.layout.mass_offset..self.layout.mass_offset + self.n];
-        let g = if self.has_gravity {
-            let o = self.layout.gravity_offset;
-            Vec3::new(p[o], p[o + 1], p[o + 2])
-        } else {
-            Vec3::zeros()
-        };
+        // Gravity is read from `p` even when the scene had none: the plan must follow any
+        // parameter vector of its layout, and adding a zero vector costs what skipping did.
+        let o = self.layout.gravity_offset;
+        let g = Vec3::new(p[o], p[o + 1], p[o + 2]);
         let mut finite = true;
         for i in 0..self.n {
             let next = if self.free[i] {

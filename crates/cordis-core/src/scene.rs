@@ -106,7 +106,7 @@ impl Scene {
                 return Err(CordisError::scene(
                     at,
                     format!(
-                        "a {} has {} parameters, got {}",
+                        "`{}` types have {} parameters, got {}",
                         t.kind,
                         specs.len(),
                         t.params.len()
@@ -179,7 +179,7 @@ impl Scene {
                 return Err(CordisError::scene(
                     format!("{at}.particles"),
                     format!(
-                        "a {} link joins {} particle(s), got {}",
+                        "`{}` links join {} particle(s), got {}",
                         t.kind,
                         t.kind.arity(),
                         l.particles.len()

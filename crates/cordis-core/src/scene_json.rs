@@ -33,9 +33,20 @@ impl Scene {
             ));
         }
         let value: Value = serde_json::from_str(text).map_err(|e| {
+            // The place already says line and column: drop serde_json's own copy of them.
+            let full = e.to_string();
+            let suffix = format!(" at line {} column {}", e.line(), e.column());
+            let what = full.strip_suffix(&suffix).unwrap_or(&full);
+            // `1e999` (the nearest a JSON file gets to an infinity) fails here, not in
+            // validation: say why.
+            let hint = if what.starts_with("number out of range") {
+                " (numbers must be finite: |x| < 1.8e308)"
+            } else {
+                ""
+            };
             CordisError::format(
                 format!("{origin}:{}:{}", e.line(), e.column()),
-                format!("invalid JSON: {e}"),
+                format!("invalid JSON: {what}{hint}"),
             )
         })?;
         Self::from_json_value(&value)
@@ -399,7 +410,7 @@ fn read_type(name: &str, v: &Value) -> Result<LinkType> {
             (Some(pv), _) => param(pv, &join(&at, pname))?,
             (None, Some(d)) => Param::Known(*d),
             (None, None) => {
-                return Err(err(&at, format!("a {kind} needs `{pname}`")));
+                return Err(err(&at, format!("`{kind}` types need `{pname}`")));
             }
         };
     }

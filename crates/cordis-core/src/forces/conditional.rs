@@ -34,7 +34,18 @@ impl ConditionalPass {
         if !(range > 0.0 && range.is_finite()) {
             return;
         }
+        // Compare squared lengths, except where range² leaves the normal floats (range below
+        // ~1e-154 m or above ~1e154 m): there it underflows to 0 or overflows, and
+        // `|d|² < range²` would no longer mean `|d| < range` (SPEC §2.2).
         let r2 = range * range;
+        let squared = r2.is_normal();
+        let near = |d: &Vec3| {
+            if squared {
+                d.norm_squared() < r2
+            } else {
+                d.norm() < range
+            }
+        };
         match &self.b {
             None => {
                 if !grid.build(x, &self.a, range) {
@@ -43,7 +54,7 @@ impl ConditionalPass {
                 grid.for_each_candidate_pair(|i, j| {
                     let (i, j) = (i as usize, j as usize);
                     let d = x[j] - x[i];
-                    if d.norm_squared() < r2 {
+                    if near(&d) {
                         visit(i, j, d);
                     }
                 });
@@ -57,7 +68,7 @@ impl ConditionalPass {
                     grid.for_each_near(&x[i], |j| {
                         let j = j as usize;
                         let d = x[j] - x[i];
-                        if d.norm_squared() < r2 {
+                        if near(&d) {
                             visit(i, j, d);
                         }
                     });

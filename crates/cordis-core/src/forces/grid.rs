@@ -20,8 +20,10 @@ pub struct Grid {
 }
 
 impl Grid {
-    /// Sorts `members` (particle indices) into cells of width ≥ `range`. Returns false when a
-    /// member's position is not finite (the step is diverging; no pairs are reported).
+    /// Sorts `members` (particle indices) into cells of width ≥ `range`. Returns false when the
+    /// members' bounding box is not finite (an infinite coordinate: the step is diverging; no
+    /// pairs are reported). A NaN coordinate is ignored by the box and lands in a border cell,
+    /// where no distance test can pass.
     pub fn build(&mut self, x: &[Vec3], members: &[u32], range: f64) -> bool {
         self.sorted.clear();
         self.cell_start.clear();
@@ -42,14 +44,16 @@ impl Grid {
         }
         let extent = hi - lo;
         let max_cells = 4 * members.len() + 64;
-        let mut cell = range;
+        // Count cells in f64: with a range far below the extent (1e-300 m over 1 m) the count
+        // exceeds usize, and converting first would saturate and wrap. Starting at
+        // extent / max_cells keeps the doubling loop short.
+        let mut cell = range.max(extent.max() / max_cells as f64);
         let dims = loop {
-            let d = extent.map(|e| (e / cell).floor() as usize + 1);
-            let total = d.iter().try_fold(1usize, |acc, &n| acc.checked_mul(n));
-            match total {
-                Some(t) if t <= max_cells => break [d.x, d.y, d.z],
-                _ => cell *= 2.0,
+            let d = extent.map(|e| (e / cell).floor() + 1.0);
+            if d.x * d.y * d.z <= max_cells as f64 {
+                break [d.x as usize, d.y as usize, d.z as usize];
             }
+            cell *= 2.0;
         };
         self.origin = lo;
         self.inv_cell = 1.0 / cell;
