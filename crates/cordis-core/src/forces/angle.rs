@@ -37,7 +37,7 @@ pub fn angle_forces(xi: &Vec3, xj: &Vec3, xk: &Vec3, k: f64, c0: f64) -> Option<
     let a = xi - xj;
     let b = xk - xj;
     let (la, lb) = (a.norm(), b.norm());
-    if la <= MIN_LENGTH || lb <= MIN_LENGTH {
+    if la < MIN_LENGTH || lb < MIN_LENGTH {
         return None;
     }
     let inv_ab = 1.0 / (la * lb);
@@ -53,5 +53,5 @@ pub fn cos_angle(xi: &Vec3, xj: &Vec3, xk: &Vec3) -> Option<f64> {
     let a = xi - xj;
     let b = xk - xj;
     let (la, lb) = (a.norm(), b.norm());
-    (la > MIN_LENGTH && lb > MIN_LENGTH).then(|| a.dot(&b) / (la * lb))
+    (la >= MIN_LENGTH && lb >= MIN_LENGTH).then(|| a.dot(&b) / (la * lb))
 }

@@ -56,6 +56,6 @@ pub(crate) fn runs_by_type<T: Copy>(
 #[inline(always)]
 pub fn unit_and_length(d: &Vec3) -> (Vec3, f64) {
     let l = d.norm();
-    let inv = if l > MIN_LENGTH { 1.0 / l } else { 0.0 };
+    let inv = if l >= MIN_LENGTH { 1.0 / l } else { 0.0 };
     (d * inv, l)
 }
