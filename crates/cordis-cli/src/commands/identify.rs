@@ -1,0 +1,289 @@
+use std::fs::File;
+use std::io::{BufWriter, IsTerminal, Write};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use anyhow::{bail, Context, Result};
+use cordis_core::Scene;
+use cordis_es::cost::CostKind;
+use cordis_es::executor::{self, HistoryRow, Observer, RunConfig, StopRules};
+use cordis_es::identify::{add_noise, make_strategy, StrategyName};
+use cordis_es::problem::Problem;
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Scene whose unknown parameters are written as {"min": …, "max": …}.
+    scene: PathBuf,
+    /// Observed trajectory (.csv, .npy or .tra), every particle in scene order.
+    #[arg(long, short = 't')]
+    trajectory: PathBuf,
+    /// Identification strategy: auto | thesis.
+    #[arg(long, default_value = "auto")]
+    strategy: StrategyName,
+    /// Stop after this many generations.
+    #[arg(long, short = 'g')]
+    generations: Option<u64>,
+    /// Population size.
+    #[arg(long, short = 'p')]
+    population: Option<usize>,
+    /// Seed of every random draw: the same seed gives the same result on any thread count.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Add Gaussian noise of this standard deviation (m) to the observed positions first.
+    #[arg(long, default_value_t = 0.0)]
+    noise: f64,
+    /// Cost: short | horizon:H | long | progressive | harmonic.
+    #[arg(long, default_value = "short")]
+    cost: String,
+    /// Stop after this many seconds.
+    #[arg(long)]
+    time_limit: Option<f64>,
+    /// Stop once the best cost is at or below this.
+    #[arg(long)]
+    target_cost: Option<f64>,
+    /// Stop after this many cost evaluations.
+    #[arg(long)]
+    max_evals: Option<u64>,
+    /// Thesis file Param.gene (key=value): population, pcross, pmut, reducer, generation, noise.
+    #[arg(long)]
+    param_gene: Option<PathBuf>,
+    /// Write a checkpoint here (every 50 generations and at the end).
+    #[arg(long)]
+    checkpoint: Option<PathBuf>,
+    /// Resume from this checkpoint (same scene, trajectory, strategy and seed).
+    #[arg(long)]
+    resume: Option<PathBuf>,
+    /// Convergence log, one row per generation (.csv or .jsonl).
+    #[arg(long)]
+    log: Option<PathBuf>,
+    /// Where to write the identified scene (JSON).
+    #[arg(long, short = 'o')]
+    out: Option<PathBuf>,
+    /// The true scene, to report the mean parameter error.
+    #[arg(long)]
+    truth: Option<PathBuf>,
+    /// Time step of the trajectory when its file does not give one (default: the scene's dt).
+    #[arg(long)]
+    dt: Option<f64>,
+    /// No progress bar and no table; only the JSON summary line.
+    #[arg(long, short = 'q')]
+    quiet: bool,
+}
+
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+pub fn run(a: Args) -> Result<()> {
+    let scene = Scene::from_json_path(&a.scene)?;
+    if !scene.has_unknowns() {
+        bail!(
+            "{}: no parameter to identify: write unknowns as {{\"min\": …, \"max\": …}}",
+            a.scene.display()
+        );
+    }
+    let mut traj = cordis_core::io::read_trajectory(&a.trajectory)?;
+    if let (Some(dt), Some(tdt)) = (a.dt.or(traj.dt), Some(scene.dt)) {
+        if (dt - tdt).abs() > 1e-12 * tdt {
+            bail!(
+                "{}: trajectory dt {dt} differs from the scene's dt {tdt}",
+                a.trajectory.display()
+            );
+        }
+    }
+    let kind: CostKind = a.cost.parse().map_err(|e| anyhow::anyhow!("--cost: {e}"))?;
+    let gene = match &a.param_gene {
+        Some(p) => {
+            let text = std::fs::read_to_string(p).with_context(|| p.display().to_string())?;
+            Some(cordis_core::thesis::parse_gene(&p.display().to_string(), &text)?)
+        }
+        None => None,
+    };
+    let noise = if a.noise > 0.0 {
+        a.noise
+    } else {
+        gene.as_ref().and_then(|g| g.noise).unwrap_or(0.0)
+    };
+    if noise > 0.0 {
+        traj = add_noise(&traj, noise, a.seed);
+    }
+    let mut problem = Problem::new(&scene, &traj, kind)?;
+    if let Some(t) = &a.truth {
+        problem = problem.with_truth(&Scene::from_json_path(t)?)?;
+    }
+    let population = a
+        .population
+        .or(gene.as_ref().and_then(|g| g.population).map(|p| p as usize))
+        .unwrap_or(100);
+    let generations = a
+        .generations
+        .or(gene.as_ref().and_then(|g| g.generation))
+        .or(if a.time_limit.is_none() && a.max_evals.is_none() && a.target_cost.is_none() {
+            Some(1000)
+        } else {
+            None
+        });
+    let (mut strategy, ran) = make_strategy(a.strategy, &problem, population, gene.as_ref());
+    let config = RunConfig {
+        seed: a.seed,
+        stop: StopRules {
+            generations,
+            max_evals: a.max_evals,
+            time_limit: a.time_limit.map(Duration::from_secs_f64),
+            target_cost: a.target_cost,
+        },
+        checkpoint: a.checkpoint.clone(),
+        checkpoint_every: 50,
+        resume: a.resume.clone(),
+    };
+    let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::Relaxed));
+    let mut log = match &a.log {
+        Some(p) => Some(LogWriter::create(p)?),
+        None => None,
+    };
+    let mut progress = Progress::new(generations, a.quiet);
+    let mut observers: Vec<&mut dyn Observer> = vec![&mut progress];
+    if let Some(l) = log.as_mut() {
+        observers.push(l);
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.threads.unwrap_or(0))
+        .build()
+        .context("--threads")?;
+    let result = pool
+        .install(|| {
+            executor::run(
+                &problem,
+                strategy.as_mut(),
+                &config,
+                &mut observers,
+                Some(&INTERRUPTED),
+            )
+        })
+        .map_err(|e| anyhow::anyhow!(e))?;
+    drop(observers);
+    progress.finish();
+    if let Some(mut l) = log {
+        l.flush()?;
+    }
+    let identified = problem.space.scene_with(&scene, &result.genome);
+    if let Some(out) = &a.out {
+        super::write_scene(&identified, Some(out))?;
+    }
+    if !a.quiet {
+        eprintln!(
+            "{ran}: {} generations, {} evaluations in {:.2} s; cost {:.6e}, rmse {:.6e}{}",
+            result.generations,
+            result.evals,
+            result.seconds,
+            result.cost,
+            result.rmse,
+            result
+                .param_error_pct
+                .map(|e| format!(", mean parameter error {e:.3e} %"))
+                .unwrap_or_default()
+        );
+        for (u, v) in problem
+            .space
+            .unknowns
+            .iter()
+            .zip(problem.space.values(&result.genome))
+        {
+            let truth = problem
+                .truth
+                .as_ref()
+                .map(|t| format!("  (truth {:.6e})", t[u.slot]))
+                .unwrap_or_default();
+            eprintln!("  {:<40} {:>14.6e}{truth}", u.name, v);
+        }
+    }
+    let mut summary = serde_json::json!({
+        "strategy": ran,
+        "cost": result.cost,
+        "rmse": result.rmse,
+        "evals": result.evals,
+        "generations": result.generations,
+        "seconds": result.seconds,
+        "stopped_by": result.stopped_by,
+    });
+    if let Some(e) = result.param_error_pct {
+        summary["param_error_pct"] = e.into();
+    }
+    println!("{summary}");
+    Ok(())
+}
+
+/// Convergence log, CSV or JSON lines by extension, flushed every row.
+struct LogWriter {
+    out: BufWriter<File>,
+    jsonl: bool,
+}
+
+impl LogWriter {
+    fn create(path: &std::path::Path) -> Result<Self> {
+        let file = File::create(path).with_context(|| format!("{}", path.display()))?;
+        let jsonl = path.extension().is_some_and(|e| e == "jsonl" || e == "json");
+        let mut out = BufWriter::new(file);
+        if !jsonl {
+            writeln!(out, "{}", HistoryRow::CSV_HEADER)?;
+        }
+        Ok(LogWriter { out, jsonl })
+    }
+
+    fn flush(&mut self) -> Result<()> {
+        self.out.flush()?;
+        Ok(())
+    }
+}
+
+impl Observer for LogWriter {
+    fn observe(&mut self, row: &HistoryRow) -> bool {
+        let line = if self.jsonl {
+            serde_json::to_string(row).unwrap_or_default()
+        } else {
+            row.csv()
+        };
+        let _ = writeln!(self.out, "{line}");
+        true
+    }
+}
+
+/// A progress bar with ETA on a terminal; nothing otherwise.
+struct Progress {
+    bar: Option<indicatif::ProgressBar>,
+}
+
+impl Progress {
+    fn new(generations: Option<u64>, quiet: bool) -> Self {
+        if quiet || !std::io::stderr().is_terminal() {
+            return Progress { bar: None };
+        }
+        let bar = indicatif::ProgressBar::new(generations.unwrap_or(0));
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{elapsed_precise} [{bar:30}] gen {pos}/{len} (eta {eta}) {msg}",
+            )
+            .expect("valid template")
+            .progress_chars("=> "),
+        );
+        Progress { bar: Some(bar) }
+    }
+
+    fn finish(&mut self) {
+        if let Some(b) = self.bar.take() {
+            b.finish_and_clear();
+        }
+    }
+}
+
+impl Observer for Progress {
+    fn observe(&mut self, row: &HistoryRow) -> bool {
+        if let Some(b) = &self.bar {
+            b.set_position(row.generation);
+            b.set_message(format!("cost {:.3e}", row.best_cost));
+        }
+        true
+    }
+}

@@ -1,0 +1,17 @@
+pub mod import;
+pub mod simulate;
+
+use std::path::Path;
+
+use anyhow::Result;
+use cordis_core::Scene;
+
+/// Writes a scene as JSON (atomically) or to stdout when no path is given.
+pub fn write_scene(scene: &Scene, out: Option<&Path>) -> Result<()> {
+    let text = scene.to_json_string();
+    match out {
+        Some(path) => cordis_core::io::write_atomic(path, text.as_bytes())?,
+        None => print!("{text}"),
+    }
+    Ok(())
+}

@@ -1,0 +1,82 @@
+//! The `cordis` command line (SPEC §5.4). A library so that the Python package can expose the
+//! same command as a console script; `main.rs` only calls [`run`].
+//!
+//! Errors print one line on stderr (`error: <place>: <what>`) and exit with a non-zero code:
+//! 1 for a failed run (diverged, I/O), 2 for bad input or usage.
+
+mod commands;
+
+use std::ffi::OsString;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "cordis",
+    version,
+    about = "Simulate Cordis-Anima mass-interaction networks and identify their parameters",
+    after_help = "Example:\n  cordis example rigid --out rigid.json\n  cordis simulate rigid.json --frames 100 --out rigid.csv"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Simulate a scene from its initial state (the thesis' M2T).
+    #[command(after_help = "Example:\n  cordis simulate rigid.json --frames 100 --out rigid.csv")]
+    Simulate(commands::simulate::Args),
+    /// Convert the thesis' files (NAME.mas, NAME.cat, NAME.ini, …) into a JSON scene.
+    #[command(after_help = "Example:\n  cordis import data/tri --dt 0.01 --out tri.json")]
+    Import(commands::import::Args),
+}
+
+/// Runs the command line; returns the process exit code.
+pub fn run<I, T>(args: I) -> i32
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
+    let cli = match Cli::try_parse_from(args) {
+        Ok(cli) => cli,
+        Err(e) => {
+            // --help and --version are not errors.
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let _ = e.print();
+            return code;
+        }
+    };
+    let result = match cli.command {
+        Command::Simulate(a) => commands::simulate::run(a),
+        Command::Import(a) => commands::import::run(a),
+    };
+    match result {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("error: {}", one_line(&e));
+            exit_code(&e)
+        }
+    }
+}
+
+/// The error and its causes on one line.
+fn one_line(e: &anyhow::Error) -> String {
+    let mut s = e.to_string();
+    for cause in e.chain().skip(1) {
+        let c = cause.to_string();
+        if !s.contains(&c) {
+            s.push_str(": ");
+            s.push_str(&c);
+        }
+    }
+    s.replace('\n', " ")
+}
+
+fn exit_code(e: &anyhow::Error) -> i32 {
+    use cordis_core::CordisError;
+    match e.downcast_ref::<CordisError>() {
+        Some(CordisError::Diverged { .. }) | Some(CordisError::Io { .. }) => 1,
+        _ => 2,
+    }
+}
