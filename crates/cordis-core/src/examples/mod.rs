@@ -1,7 +1,7 @@
 //! The shipped example scenes (SPEC §6): the thesis' reference experiments rebuilt as code.
 //!
 //! Each builder returns a validated, deterministic [`Scene`] (no RNG: the few pseudo-random
-//! numbers come from a seeded [`SplitMix64`]); [`by_name`] gives the default size of each, as
+//! numbers come from a seeded SplitMix64); [`by_name`] gives the default size of each, as
 //! used by the CLI and the benchmarks, and [`default_frames`] how many frames it is meant to
 //! be simulated for. Generated coordinates are rounded to 1e-9 so that a scene written to JSON
 //! and read back is bit-for-bit the same scene.
