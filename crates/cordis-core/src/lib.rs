@@ -18,6 +18,7 @@
 #![forbid(unsafe_code)]
 
 pub mod error;
+pub mod examples;
 pub mod forces;
 pub mod io;
 mod link_kind;
