@@ -27,6 +27,7 @@
 
 mod batch;
 pub mod hidden;
+mod kernels;
 mod kind;
 mod linear;
 mod objective;

@@ -2,6 +2,7 @@
 //! evaluated on parameter vectors (SPEC §3).
 
 use super::hidden::HiddenState;
+use super::kernels::SpringBuf;
 use super::kind::CostKind;
 use super::linear::LinearShortCost;
 use super::observed::Observed;
@@ -62,6 +63,8 @@ pub struct CostScratch {
     pub(crate) theta: Vec<f64>,
     /// State of the hidden passes.
     pub(crate) hidden: Vec<f64>,
+    /// Arrays of the spring kernel (boxed: 3 KiB that need not move with the scratch).
+    pub(crate) springs: Box<SpringBuf>,
     /// `Σ e` over every term of the last evaluation (the harmonic kind's total is not it).
     pub(crate) plain: f64,
 }
@@ -118,6 +121,7 @@ impl Objective {
             inv: vec![0.0; n],
             theta: vec![0.0; self.linear.as_ref().map_or(0, |l| l.dim())],
             hidden: vec![0.0; self.hidden.iter().map(|h| h.state_len()).sum()],
+            springs: Box::default(),
             plain: 0.0,
         }
     }

@@ -4,9 +4,9 @@
 //! typed passes directly on the precomputed observed positions and velocities, and replaces
 //! the conditional grid by the pairs precomputed from the observation.
 
+use super::kernels::{springs, SpringBuf};
 use super::objective::{CostScratch, Objective};
 use cordis_core::forces::grid::Grid;
-use cordis_core::forces::spring::spring_force;
 use cordis_core::Vec3;
 
 impl Objective {
@@ -18,12 +18,21 @@ impl Objective {
         t: usize,
         f: &mut [Vec3],
         grids: &mut [Grid],
+        buf: &mut SpringBuf,
         hidden: &mut [f64],
     ) {
         let plan = &self.plan;
         let (x, v) = (self.obs.frame(t), self.obs.velocity(t));
         f.fill(Vec3::zeros());
-        plan.springs.accumulate(p, x, v, f);
+        for r in &plan.springs.runs {
+            let (k, l0, z) = (p[r.param], p[r.param + 1], p[r.param + 2]);
+            let pairs = &plan.springs.pairs[r.start..r.end];
+            if z == 0.0 {
+                springs::<false>(pairs, [k, l0, 0.0], x, v, f, buf);
+            } else {
+                springs::<true>(pairs, [k, l0, z], x, v, f, buf);
+            }
+        }
         plan.dampers.accumulate(p, v, f);
         plan.anchors.accumulate(p, x, v, f);
         plan.drags.accumulate(p, v, f);
@@ -35,9 +44,9 @@ impl Objective {
                     let (k, l0, z) = (p[c.param], p[c.param + 1], p[c.param + 2]);
                     let pairs = pairs.at(t);
                     if z == 0.0 {
-                        pair_springs::<false>(pairs, k, l0, 0.0, x, v, f);
+                        springs::<false>(pairs, [k, l0, 0.0], x, v, f, buf);
                     } else {
-                        pair_springs::<true>(pairs, k, l0, z, x, v, f);
+                        springs::<true>(pairs, [k, l0, z], x, v, f, buf);
                     }
                 }
                 _ => c.accumulate(p, x, v, f, grid),
@@ -68,7 +77,14 @@ impl Objective {
         let provot = !self.plan.provot.links.is_empty();
         self.reset_hidden(p, &mut s.hidden);
         for t in 2..self.obs.frames {
-            self.observed_forces(p, t - 1, &mut s.core.f, &mut s.core.grids, &mut s.hidden);
+            self.observed_forces(
+                p,
+                t - 1,
+                &mut s.core.f,
+                &mut s.core.grids,
+                &mut s.springs,
+                &mut s.hidden,
+            );
             let (x1, x2, x0) = (
                 self.obs.frame(t - 1),
                 self.obs.frame(t - 2),
@@ -108,24 +124,5 @@ pub(crate) fn squared_error(a: &Vec3, b: &Vec3) -> f64 {
         e
     } else {
         f64::INFINITY
-    }
-}
-
-/// Spring forces of listed pairs (conditional links at observed positions).
-#[inline]
-fn pair_springs<const DAMPED: bool>(
-    pairs: &[[u32; 2]],
-    k: f64,
-    l0: f64,
-    z: f64,
-    x: &[Vec3],
-    v: &[Vec3],
-    f: &mut [Vec3],
-) {
-    for &[i, j] in pairs {
-        let (i, j) = (i as usize, j as usize);
-        let fi = spring_force::<DAMPED>(&x[i], &x[j], &v[i], &v[j], k, l0, z);
-        f[i] += fi;
-        f[j] -= fi;
     }
 }
