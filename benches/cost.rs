@@ -1,6 +1,7 @@
 //! The cost function, the identification bottleneck (SPEC §3, Annex 2): the generic short cost
 //! on a 32×32 cloth over 100 frames (≈5,800 springs), single and batched on 2 threads, and the
-//! precomputed linear path. Throughput is in link evaluations (links × predicted frames).
+//! precomputed linear path. Throughput is in link evaluations (links × predicted frames). The
+//! generic path runs with and without its precomputed spring geometry.
 //!
 //! `cargo bench --bench cost` (add `-- --quick` for a short run).
 
@@ -76,7 +77,12 @@ fn bench_cost(c: &mut Criterion) {
     });
 
     obj.set_linear(false);
-    g.bench_function("generic short, 1 thread", |b| {
+    obj.set_geometry_budget(0);
+    g.bench_function("generic short, geometry computed, 1 thread", |b| {
+        b.iter(|| obj.evaluate(&p, &mut s, &mut per).unwrap())
+    });
+    obj.set_geometry_budget(cordis_es::cost::GEOMETRY_BUDGET_BYTES);
+    g.bench_function("generic short, geometry precomputed, 1 thread", |b| {
         b.iter(|| obj.evaluate(&p, &mut s, &mut per).unwrap())
     });
 

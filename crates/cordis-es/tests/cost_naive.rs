@@ -138,8 +138,27 @@ fn short_cost_of_the_generating_parameters_is_exactly_zero() {
         let traj = s.simulate(15).unwrap();
         let mut obj = Objective::new(&s, &traj, CostKind::Short).unwrap();
         obj.set_linear(false);
-        let rep = obj.report(&s.param_values()).unwrap();
-        assert_eq!(rep.total, 0.0);
-        assert!(rep.per_particle.iter().all(|&c| c == 0.0));
+        // With and without the precomputed geometry of springs and conditional pairs.
+        for budget in [cordis_es::cost::GEOMETRY_BUDGET_BYTES, 0] {
+            obj.set_geometry_budget(budget);
+            let rep = obj.report(&s.param_values()).unwrap();
+            assert_eq!(rep.total, 0.0);
+            assert!(rep.per_particle.iter().all(|&c| c == 0.0));
+        }
+    }
+}
+
+#[test]
+fn precomputed_geometry_changes_nothing_but_speed() {
+    for s in [cloth(5, 4, true), fluid(false), zoo(false)] {
+        let data = common::noisy(&s, &s.simulate(20).unwrap(), 1e-4, 2);
+        let mut obj = Objective::new(&s, &data, CostKind::Short).unwrap();
+        obj.set_linear(false);
+        let p = perturbed(&s, 0.3, 8);
+        let with = obj.report(&p).unwrap();
+        obj.set_geometry_budget(0);
+        let without = obj.report(&p).unwrap();
+        assert!(with.total > 0.0);
+        assert_eq!(with, without);
     }
 }

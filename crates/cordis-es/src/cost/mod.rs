@@ -27,7 +27,7 @@
 
 mod batch;
 pub mod hidden;
-mod kernels;
+pub(crate) mod kernels;
 mod kind;
 mod linear;
 mod objective;
@@ -37,6 +37,7 @@ mod short;
 mod sqrt_form;
 
 pub use hidden::HiddenState;
+pub use kernels::GEOMETRY_BUDGET_BYTES;
 pub use kind::{CostKind, DEFAULT_GENERATIONS_TO_FULL, DEFAULT_HARMONIC_EPS};
 pub use linear::{LinearShortCost, ThetaEntry};
 pub use objective::{CostReport, CostScratch, Objective};

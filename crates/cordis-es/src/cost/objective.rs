@@ -2,13 +2,15 @@
 //! evaluated on parameter vectors (SPEC §3).
 
 use super::hidden::HiddenState;
-use super::kernels::SpringBuf;
+use super::kernels::{SpringBuf, GEOMETRY_BUDGET_BYTES};
 use super::kind::CostKind;
 use super::linear::LinearShortCost;
 use super::observed::Observed;
+use super::short::Geometry;
 use crate::error::CostError;
 use cordis_core::plan::Scratch;
 use cordis_core::{Plan, Scene, Trajectory, Vec3};
+use std::sync::OnceLock;
 
 /// A cost function ready to evaluate: built once per (scene, trajectory, kind), then evaluated
 /// on any number of parameter vectors laid out as [`cordis_core::ParamLayout`] (every type's
@@ -39,6 +41,10 @@ pub struct Objective {
     /// parameters and the kind's window is 1 step.
     pub(crate) linear: Option<LinearShortCost>,
     pub(crate) use_linear: bool,
+    /// Geometry of the listed pairs at the observed frames, built by the first generic short
+    /// evaluation (a linear scene or a rollout kind may never need it).
+    pub(crate) geometry: OnceLock<Geometry>,
+    pub(crate) geometry_budget: usize,
     /// The caller's generation counter (progressive horizon).
     pub(crate) generation: usize,
     /// Stateful passes advanced along the observed frames (none yet: see [`HiddenState`]).
@@ -98,14 +104,16 @@ impl Objective {
             None
         };
         Ok(Objective {
-            plan,
             kind,
             obs,
             free,
             linear,
             use_linear: true,
+            geometry: OnceLock::new(),
+            geometry_budget: GEOMETRY_BUDGET_BYTES,
             generation: 0,
             hidden: Vec::new(),
+            plan,
         })
     }
 
@@ -198,6 +206,16 @@ impl Objective {
         self.linear
             .as_ref()
             .filter(|l| self.use_linear && self.window() == Some(1) && l.applies_to(p))
+    }
+
+    /// Caps the memory (bytes, default [`GEOMETRY_BUDGET_BYTES`]) of the generic short cost's
+    /// precomputed geometry: unit vector, length and elongation rate of every listed spring
+    /// and known-range conditional pair at every frame, 40 bytes each, which spares every
+    /// evaluation its square roots and divisions (about 2× faster on a cloth). Passes that do
+    /// not fit compute their geometry at each evaluation; results are identical either way.
+    pub fn set_geometry_budget(&mut self, bytes: usize) {
+        self.geometry_budget = bytes;
+        self.geometry = OnceLock::new();
     }
 
     /// Whether an evaluation of `p` takes the precomputed linear path.

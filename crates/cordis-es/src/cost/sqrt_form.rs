@@ -35,7 +35,11 @@ pub(crate) fn add_row(a: &mut [f64], dim: usize, row: &mut [f64]) {
         }
         let o = row_offset(k, d);
         let rkk = a[o];
-        let rho = rkk.hypot(w);
+        // sqrt(a² + b²) is exact enough and 5× cheaper than hypot away from over/underflow.
+        let mut rho = (rkk * rkk + w * w).sqrt();
+        if !(rho > 1e-150 && rho < 1e150) {
+            rho = rkk.hypot(w);
+        }
         let (c, s) = (rkk / rho, w / rho);
         a[o] = rho;
         for l in k + 1..d {
