@@ -68,7 +68,7 @@ fn gram_form_matches_away_from_the_optimum() {
         let (g, h, c) = lin.gram();
         let d = lin.dim();
         let p = perturbed(&s, 0.5, 1);
-        let th = lin.theta(&p);
+        let th = lin.theta(&p).unwrap();
         let mut q = c;
         for i in 0..d {
             q += 2.0 * h[i] * th[i];
@@ -76,7 +76,7 @@ fn gram_form_matches_away_from_the_optimum() {
                 q += th[i] * g[i * d + j] * th[j];
             }
         }
-        let direct = lin.total(&th);
+        let direct = lin.total(&th).unwrap();
         assert!(rel(q, direct) < 1e-8, "{name}: gram {q} vs factor {direct}");
         // The factor is the Cholesky factor of G: RᵀR = G.
         let (r, rq, _) = lin.factor();
@@ -100,8 +100,8 @@ fn square_root_form_has_no_cancellation_at_the_truth() {
         let obj = Objective::new(&s, &traj, CostKind::Short).unwrap();
         let lin = obj.linear().unwrap();
         let p = s.param_values();
-        let th = lin.theta(&p);
-        let total = lin.total(&th);
+        let th = lin.theta(&p).unwrap();
+        let total = lin.total(&th).unwrap();
         let (g, h, c) = lin.gram();
         let d = lin.dim();
         let mut gram = c;
@@ -116,7 +116,7 @@ fn square_root_form_has_no_cancellation_at_the_truth() {
         // (1e-13 m)² per term: rounding of positions of order 1 m.
         assert!(total <= 1e-26 * terms, "{name}: {total}");
         let mut per = vec![0.0; s.particles.len()];
-        let sum = lin.local(&th, &mut per);
+        let sum = lin.local(&th, &mut per).unwrap();
         assert!(sum <= 1e-26 * terms && per.iter().all(|&v| v >= 0.0));
     }
 }
@@ -184,4 +184,17 @@ fn a_different_mass_or_range_falls_back_to_the_generic_path() {
     for p in [p, q] {
         assert_eq!(obj.report(&p).unwrap(), generic.report(&p).unwrap());
     }
+}
+
+#[test]
+fn linear_form_checks_lengths() {
+    let s = zoo(false);
+    let lin = LinearShortCost::new(&s, &s.simulate(10).unwrap())
+        .unwrap()
+        .unwrap();
+    assert!(lin.theta(&[1.0]).is_err());
+    assert!(lin.total(&vec![1.0; lin.dim() + 1]).is_err());
+    let th = lin.theta(&s.param_values()).unwrap();
+    assert!(lin.local(&th, &mut [0.0; 2]).is_err());
+    assert!(!lin.applies_to(&[1.0]));
 }

@@ -24,14 +24,28 @@ pub enum CostKind {
     Horizon(usize),
     /// One rollout from frames 0 and 1 over the whole trajectory.
     Long,
-    /// `Horizon(h)` with `h` growing linearly with the generation counter, from `start` at
-    /// generation 0 to the full length `T - 2` at generation `generations_to_full` (thesis
-    /// §3.2.1, second remedy).
+    /// `Horizon(h)` with `h` growing linearly with the generation counter
+    /// ([`crate::cost::Objective::set_generation`]), from `start` (default 1) at generation 0
+    /// to the full length `T - 2` at generation `generations_to_full` (default 1000), then
+    /// staying there. This is the thesis' second remedy (§3.2.1: "compute the cost over a few
+    /// time steps at first, then progressively increase their number"), read as windows from
+    /// every real start so that the whole trajectory is used from the first generation; at
+    /// `h = 1` it is the short cost (and uses its precomputed linear form), at full length a
+    /// window costs O(T) steps, so a generation costs O(T²) steps.
     Progressive {
         start: usize,
         generations_to_full: usize,
     },
-    /// Thesis eq 3.2 on the long rollout: `C = 1 / Σ_t Σ_i 1 / (e_i(t) + ε)`, ε in m².
+    /// Thesis eq 3.2 on the long rollout: `C = 1 / Σ_t Σ_i 1 / (e_i(t) + ε)`, ε in m²
+    /// (default [`DEFAULT_HARMONIC_EPS`]).
+    ///
+    /// The printed equation is garbled; its text says it favours the smallest errors,
+    /// "apparentée à une moyenne harmonique", and offers it as the first remedy to the
+    /// long-term cost, so it is applied to the rollout from frames 0 and 1. ε (absent from the
+    /// thesis, present in the SPEC) keeps an exact prediction from making the cost 0. The local
+    /// cost is the same form over one particle, `c_i = 1 / Σ_t 1/(e_i(t) + ε)`, so that
+    /// `C = 1 / Σ_i 1/c_i` (not `Σ_i c_i`). Like the thesis says, one good frame can hide many
+    /// bad ones: it is here for comparison, not as a default.
     Harmonic { eps: f64 },
 }
 

@@ -57,6 +57,8 @@ pub struct LinearShortCost {
     /// Values of `p` the forms were built with (free particles' masses, conditional ranges).
     pins: Vec<(usize, f64)>,
     param_len: usize,
+    /// Number of particles N.
+    n: usize,
     /// Local form l belongs to particle `particles[l]` and covers the θ entries
     /// `cols[cols_start[l]..cols_start[l + 1]]` (ascending).
     particles: Vec<usize>,
@@ -291,6 +293,7 @@ impl LinearShortCost {
             sources,
             pins,
             param_len: layout.len,
+            n: plan.n,
             particles,
             cols_start,
             cols,
@@ -316,8 +319,8 @@ impl LinearShortCost {
         p.len() == self.param_len && self.pins.iter().all(|&(k, v)| p[k] == v)
     }
 
-    /// θ of a parameter vector (`p` must have the layout's length; see [`Self::applies_to`]).
-    pub fn theta_into(&self, p: &[f64], theta: &mut [f64]) {
+    /// θ of a parameter vector into `theta` (lengths unchecked: crate-internal).
+    pub(crate) fn theta_into(&self, p: &[f64], theta: &mut [f64]) {
         for (th, &(a, b)) in theta.iter_mut().zip(&self.sources) {
             *th = match b {
                 Some(b) => p[a] * p[b],
@@ -326,20 +329,52 @@ impl LinearShortCost {
         }
     }
 
-    pub fn theta(&self, p: &[f64]) -> Vec<f64> {
+    /// θ of a parameter vector laid out as the scene's [`cordis_core::ParamLayout`].
+    pub fn theta(&self, p: &[f64]) -> Result<Vec<f64>, CostError> {
+        if p.len() != self.param_len {
+            return Err(CostError::length(
+                "parameter vector",
+                self.param_len,
+                p.len(),
+            ));
+        }
         let mut th = vec![0.0; self.dim()];
         self.theta_into(p, &mut th);
-        th
+        Ok(th)
     }
 
-    /// Global short cost at θ, O(dim²); `+inf` instead of NaN or overflow.
-    pub fn total(&self, theta: &[f64]) -> f64 {
+    fn check_theta(&self, theta: &[f64]) -> Result<(), CostError> {
+        if theta.len() != self.dim() {
+            return Err(CostError::length("θ", self.dim(), theta.len()));
+        }
+        Ok(())
+    }
+
+    /// Global short cost at θ (m²), O(dim²); `+inf` instead of NaN or overflow.
+    pub fn total(&self, theta: &[f64]) -> Result<f64, CostError> {
+        self.check_theta(theta)?;
+        Ok(self.total_unchecked(theta))
+    }
+
+    pub(crate) fn total_unchecked(&self, theta: &[f64]) -> f64 {
         finite_or_inf(sqrt_form::value(&self.global, self.dim(), |k| theta[k]))
     }
 
     /// Local costs at θ into `per_particle` (length N; fixed particles untouched), returns
-    /// their sum. O(Σ_i p_i²).
-    pub fn local(&self, theta: &[f64], per_particle: &mut [f64]) -> f64 {
+    /// their sum (m²). O(Σ_i p_i²), p_i the number of θ entries that touch particle i.
+    pub fn local(&self, theta: &[f64], per_particle: &mut [f64]) -> Result<f64, CostError> {
+        self.check_theta(theta)?;
+        if per_particle.len() != self.n {
+            return Err(CostError::length(
+                "local cost buffer",
+                self.n,
+                per_particle.len(),
+            ));
+        }
+        Ok(self.local_unchecked(theta, per_particle))
+    }
+
+    pub(crate) fn local_unchecked(&self, theta: &[f64], per_particle: &mut [f64]) -> f64 {
         let mut total = 0.0;
         for (l, &i) in self.particles.iter().enumerate() {
             let c = &self.cols[self.cols_start[l]..self.cols_start[l + 1]];

@@ -269,7 +269,7 @@ impl Objective {
     pub(crate) fn total_unchecked(&self, p: &[f64], s: &mut CostScratch) -> f64 {
         if let Some(lin) = self.linear_for(p) {
             lin.theta_into(p, &mut s.theta);
-            let c = lin.total(&s.theta);
+            let c = lin.total_unchecked(&s.theta);
             s.plain = c;
             return c;
         }
@@ -283,7 +283,7 @@ impl Objective {
         per.fill(0.0);
         if let Some(lin) = self.linear_for(p) {
             lin.theta_into(p, &mut s.theta);
-            let c = lin.local(&s.theta, per);
+            let c = lin.local_unchecked(&s.theta, per);
             s.plain = c;
             return c;
         }
