@@ -20,9 +20,11 @@
 //! and links.
 //!
 //! The sums are kept in square-root form ([`super::sqrt_form`]): a Gram form evaluated near
-//! its minimum cancels catastrophically (measured: on an exact cloth trajectory the Gram form
-//! gives costs of order 1e-16·c at the truth instead of ~0, which ranks candidates near the
-//! optimum by rounding noise), the factor does not. One factor per free particle over the θ
+//! its minimum cancels catastrophically, the factor does not. Measured on an exact 5×4 cloth
+//! trajectory at the generating parameters (true cost 0): Gram form 1.5e-17 m² (c = 3.7e-4,
+//! so rounding of c), factor 3e-31 m²; away from the optimum or on noisy data both agree with
+//! the generic path to ~1e-13 relative. An evolution strategy near convergence ranks candidates
+//! by costs of that size, so the Gram form would rank them by rounding noise. One factor per free particle over the θ
 //! entries that touch it gives the local costs (memory O(N · p_local²)), one global factor gives
 //! the total; [`LinearShortCost::gram`] returns G, h, c for solvers that want them.
 

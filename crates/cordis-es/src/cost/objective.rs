@@ -30,6 +30,11 @@ use std::sync::OnceLock;
 ///   `rmse = sqrt(C / terms)` is the root-mean-square prediction error of a particle, in m.
 /// - Never NaN: a prediction that is not finite (or beyond [`cordis_core::plan::RUNAWAY`] in
 ///   a rollout) makes that particle's local cost and the global cost `+inf`.
+/// - Speed: a one-step window on a linear-in-parameter scene is evaluated from its
+///   precomputed quadratic form ([`LinearShortCost`]: O(θ²) for the total, equal to the
+///   generic path to rounding); otherwise the geometry of springs and known-range conditional
+///   pairs at every frame is precomputed on first use ([`Objective::set_geometry_budget`]),
+///   with bit-identical results.
 #[derive(Debug)]
 pub struct Objective {
     pub(crate) plan: Plan,
