@@ -1,0 +1,177 @@
+//! The generic short-term cost (Louchet's, thesis §3.2.1): every frame predicted by one
+//! simulator step from the two observed frames before it. This is the identification
+//! bottleneck: per evaluation it runs every link pass once per frame, so it calls the plan's
+//! typed passes directly on the precomputed observed positions and velocities, and replaces
+//! the conditional grid by the pairs precomputed from the observation.
+
+use super::kernels::{springs, PairGeometry, SpringBuf};
+use super::objective::{CostScratch, Objective};
+use cordis_core::Vec3;
+use std::ops::Range;
+
+/// Precomputed geometry of the listed pairs, per pass: `None` where it would not fit
+/// the objective's budget (that pass then computes its geometry at every evaluation).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Geometry {
+    pub springs: Option<PairGeometry>,
+    /// One per conditional pass (`None` also when its range is not known).
+    pub conditionals: Vec<Option<PairGeometry>>,
+}
+
+impl Objective {
+    /// The precomputed geometry, built on first call (thread-safe; later calls are free).
+    pub(crate) fn geometry(&self) -> &Geometry {
+        self.geometry.get_or_init(|| {
+            let obs = &self.obs;
+            let frames = obs.frames;
+            let mut budget = self.geometry_budget;
+            let mut fits = |bytes: usize| {
+                let ok = bytes <= budget;
+                if ok {
+                    budget -= bytes;
+                }
+                ok
+            };
+            let x_at = |t: usize| obs.frame(t);
+            let v_at = |t: usize| obs.velocity(t);
+            let pairs = &self.plan.springs.pairs;
+            let springs = (!pairs.is_empty()
+                && fits(PairGeometry::bytes((1..frames - 1).map(|_| pairs.len()))))
+            .then(|| PairGeometry::new(frames, |_| pairs.as_slice(), x_at, v_at));
+            let conditionals = obs
+                .pairs
+                .iter()
+                .map(|known| {
+                    let known = known.as_ref()?;
+                    fits(PairGeometry::bytes(
+                        (1..frames - 1).map(|t| known.at(t).len()),
+                    ))
+                    .then(|| PairGeometry::new(frames, |t| known.at(t), x_at, v_at))
+                })
+                .collect();
+            Geometry {
+                springs,
+                conditionals,
+            }
+        })
+    }
+
+    /// `s.core.f = F(x(t), v(t))` at observed frame `t`: the plan's passes in `Plan::forces`
+    /// order, so the sum is bit-for-bit a simulator step's.
+    pub(crate) fn observed_forces(&self, p: &[f64], t: usize, s: &mut CostScratch, geo: &Geometry) {
+        let plan = &self.plan;
+        let (x, v) = (self.obs.frame(t), self.obs.velocity(t));
+        let f = &mut s.core.f;
+        let buf = &mut s.springs;
+        f.fill(Vec3::zeros());
+        for r in &plan.springs.runs {
+            let kz = [p[r.param], p[r.param + 1], p[r.param + 2]];
+            let pairs = &plan.springs.pairs;
+            let g = geo.springs.as_ref();
+            listed_springs(g, (t, x, v), pairs, r.start..r.end, kz, f, buf);
+        }
+        plan.dampers.accumulate(p, v, f);
+        plan.anchors.accumulate(p, x, v, f);
+        plan.drags.accumulate(p, v, f);
+        plan.nonlinear_drags.accumulate(p, v, f);
+        plan.angles.accumulate(p, x, f);
+        let passes = plan.conditionals.iter().zip(&mut s.core.grids);
+        for (((c, grid), known), g) in passes.zip(&self.obs.pairs).zip(&geo.conditionals) {
+            match known {
+                Some(known) if c.range(p) == known.range => {
+                    let kz = [p[c.param], p[c.param + 1], p[c.param + 2]];
+                    let pairs = known.at(t);
+                    listed_springs(g.as_ref(), (t, x, v), pairs, 0..pairs.len(), kz, f, buf);
+                }
+                _ => c.accumulate(p, x, v, f, grid),
+            }
+        }
+        let mut at = 0;
+        for h in &self.hidden {
+            let len = h.state_len();
+            h.add_forces(p, x, v, f, &mut s.hidden[at..at + len]);
+            at += len;
+        }
+    }
+
+    pub(crate) fn reset_hidden(&self, p: &[f64], state: &mut [f64]) {
+        let mut at = 0;
+        for h in &self.hidden {
+            let len = h.state_len();
+            h.reset(p, &mut state[at..at + len]);
+            at += len;
+        }
+    }
+
+    /// Generic short cost: local costs into `per` (zeroed by the caller), returns their sum.
+    pub(crate) fn short_generic(&self, p: &[f64], s: &mut CostScratch, per: &mut [f64]) -> f64 {
+        let n = self.plan.n;
+        let dt2 = self.plan.dt * self.plan.dt;
+        let (m, g) = self.masses_gravity(p);
+        let provot = !self.plan.provot.links.is_empty();
+        let geo = self.geometry();
+        self.reset_hidden(p, &mut s.hidden);
+        for t in 2..self.obs.frames {
+            self.observed_forces(p, t - 1, s, geo);
+            let (x1, x2, x0) = (
+                self.obs.frame(t - 1),
+                self.obs.frame(t - 2),
+                self.obs.frame(t),
+            );
+            let f = &s.core.f;
+            if provot {
+                // Provot needs every predicted position (fixed ones exact) before scoring.
+                for i in 0..n {
+                    s.xhat[i] = if self.plan.free[i] {
+                        (x1[i] * 2.0 - x2[i]) + (f[i] / m[i] + g) * dt2
+                    } else {
+                        x0[i]
+                    };
+                }
+                self.plan.provot.apply(p, &mut s.xhat, &self.plan.free);
+                for &i in &self.free {
+                    per[i] += squared_error(&s.xhat[i], &x0[i]);
+                }
+            } else {
+                for &i in &self.free {
+                    let xh = (x1[i] * 2.0 - x2[i]) + (f[i] / m[i] + g) * dt2;
+                    per[i] += squared_error(&xh, &x0[i]);
+                }
+            }
+        }
+        s.plain = self.free.iter().map(|&i| per[i]).sum();
+        s.plain
+    }
+}
+
+/// `|a - b|²`, or `+inf` when it is not a finite number (a NaN prediction never escapes).
+#[inline(always)]
+pub(crate) fn squared_error(a: &Vec3, b: &Vec3) -> f64 {
+    let e = (a - b).norm_squared();
+    if e < f64::INFINITY {
+        e
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// Spring forces of `pairs[range]` at observed frame `t` (positions x, velocities v), from
+/// the precomputed geometry when there is one; `kz` = [K, l0, Z].
+fn listed_springs(
+    geo: Option<&PairGeometry>,
+    (t, x, v): (usize, &[Vec3], &[Vec3]),
+    pairs: &[[u32; 2]],
+    range: Range<usize>,
+    kz: [f64; 3],
+    f: &mut [Vec3],
+    buf: &mut SpringBuf,
+) {
+    // Z = 0 skips the velocity terms, as the core's kernel does (same bits).
+    let damped = kz[2] != 0.0;
+    match (geo, damped) {
+        (Some(g), false) => g.springs::<false>(t, range, pairs, [kz[0], kz[1], 0.0], f),
+        (Some(g), true) => g.springs::<true>(t, range, pairs, kz, f),
+        (None, false) => springs::<false>(&pairs[range], [kz[0], kz[1], 0.0], x, v, f, buf),
+        (None, true) => springs::<true>(&pairs[range], kz, x, v, f, buf),
+    }
+}

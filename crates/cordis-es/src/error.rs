@@ -1,0 +1,56 @@
+//! The error type of `cordis-es`.
+//!
+//! Like [`cordis_core::CordisError`], every variant names its place (a cost-kind string, a
+//! parameter vector, a trajectory field) so that a message read on a terminal says where to
+//! look. Core errors (bad scene, bad trajectory file) pass through unchanged.
+
+use cordis_core::CordisError;
+
+/// Errors raised by `cordis-es`.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CostError {
+    /// An error of the core (scene, trajectory, file), passed through.
+    #[error(transparent)]
+    Core(#[from] CordisError),
+
+    /// A cost-kind string that does not parse (`horizon:x`, `harmonic:-1`, `shrt`…).
+    #[error("{place}: {message}")]
+    Kind { place: String, message: String },
+
+    /// A parameter vector (or a population, or an output buffer) of the wrong length.
+    #[error("{place}: has {got} values, expected {expected}")]
+    Length {
+        place: String,
+        expected: usize,
+        got: usize,
+    },
+
+    /// The trajectory does not fit the scene (particle count, too few frames, another `dt`).
+    #[error("{place}: {message}")]
+    Mismatch { place: String, message: String },
+}
+
+impl CostError {
+    pub fn kind(place: impl Into<String>, message: impl Into<String>) -> Self {
+        Self::Kind {
+            place: place.into(),
+            message: message.into(),
+        }
+    }
+
+    pub fn length(place: impl Into<String>, expected: usize, got: usize) -> Self {
+        Self::Length {
+            place: place.into(),
+            expected,
+            got,
+        }
+    }
+
+    pub fn mismatch(place: impl Into<String>, message: impl Into<String>) -> Self {
+        Self::Mismatch {
+            place: place.into(),
+            message: message.into(),
+        }
+    }
+}
