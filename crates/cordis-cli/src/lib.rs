@@ -27,6 +27,14 @@ enum Command {
     /// Simulate a scene from its initial state (the thesis' M2T).
     #[command(after_help = "Example:\n  cordis simulate rigid.json --frames 100 --out rigid.csv")]
     Simulate(commands::simulate::Args),
+    /// Identify a scene's unknown parameters from an observed trajectory (the thesis' T2M).
+    #[command(
+        after_help = "Example:\n  cordis example rigid --out rigid.json\n  cordis simulate rigid.json --frames 100 --out rigid.csv\n  cordis example rigid --unknowns --out rigid-unknown.json\n  cordis identify rigid-unknown.json --trajectory rigid.csv --truth rigid.json --out identified.json"
+    )]
+    Identify(Box<commands::identify::Args>),
+    /// Write a shipped example scene as JSON.
+    #[command(after_help = "Example:\n  cordis example cloth --out cloth.json")]
+    Example(commands::example::Args),
     /// Convert the thesis' files (NAME.mas, NAME.cat, NAME.ini, …) into a JSON scene.
     #[command(after_help = "Example:\n  cordis import data/tri --dt 0.01 --out tri.json")]
     Import(commands::import::Args),
@@ -49,6 +57,8 @@ where
     };
     let result = match cli.command {
         Command::Simulate(a) => commands::simulate::run(a),
+        Command::Identify(a) => commands::identify::run(*a),
+        Command::Example(a) => commands::example::run(a),
         Command::Import(a) => commands::import::run(a),
     };
     match result {

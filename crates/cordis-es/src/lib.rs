@@ -5,7 +5,15 @@
 #![forbid(unsafe_code)]
 
 pub mod cost;
+pub mod descent;
 pub mod error;
+pub mod executor;
+pub mod identify;
+pub mod problem;
+pub mod rng;
+pub mod space;
+pub mod strategies;
+pub mod strategy;
 
 pub use cordis_core as core;
 pub use error::CostError;

@@ -7,6 +7,16 @@ use cordis_core::examples;
 pub struct Args {
     /// Example name: rigid | cloth | fluid | horse.
     name: String,
+    /// Write the scene with its positive parameters unknown, in boxes `--width` times wide
+    /// around the true values (the truth is the scene written without this flag).
+    #[arg(long)]
+    unknowns: bool,
+    /// Width (max/min) of the unknown boxes.
+    #[arg(long, default_value_t = 25.0)]
+    width: f64,
+    /// Seed placing the truth inside each box.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
     /// Output file (default: stdout).
     #[arg(long, short = 'o')]
     out: Option<PathBuf>,
@@ -20,6 +30,11 @@ pub fn run(a: Args) -> Result<()> {
             examples::NAMES.join(", ")
         )
     })?;
+    let scene = if a.unknowns {
+        cordis_es::identify::with_unknown_boxes(&scene, a.width, a.seed)
+    } else {
+        scene
+    };
     super::write_scene(&scene, a.out.as_deref())?;
     if let Some(out) = &a.out {
         eprintln!(

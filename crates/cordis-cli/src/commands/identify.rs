@@ -97,7 +97,10 @@ pub fn run(a: Args) -> Result<()> {
     let gene = match &a.param_gene {
         Some(p) => {
             let text = std::fs::read_to_string(p).with_context(|| p.display().to_string())?;
-            Some(cordis_core::thesis::parse_gene(&p.display().to_string(), &text)?)
+            Some(cordis_core::thesis::parse_gene(
+                &p.display().to_string(),
+                &text,
+            )?)
         }
         None => None,
     };
@@ -120,11 +123,13 @@ pub fn run(a: Args) -> Result<()> {
     let generations = a
         .generations
         .or(gene.as_ref().and_then(|g| g.generation))
-        .or(if a.time_limit.is_none() && a.max_evals.is_none() && a.target_cost.is_none() {
-            Some(1000)
-        } else {
-            None
-        });
+        .or(
+            if a.time_limit.is_none() && a.max_evals.is_none() && a.target_cost.is_none() {
+                Some(1000)
+            } else {
+                None
+            },
+        );
     let (mut strategy, ran) = make_strategy(a.strategy, &problem, population, gene.as_ref());
     let config = RunConfig {
         seed: a.seed,
@@ -224,7 +229,9 @@ struct LogWriter {
 impl LogWriter {
     fn create(path: &std::path::Path) -> Result<Self> {
         let file = File::create(path).with_context(|| format!("{}", path.display()))?;
-        let jsonl = path.extension().is_some_and(|e| e == "jsonl" || e == "json");
+        let jsonl = path
+            .extension()
+            .is_some_and(|e| e == "jsonl" || e == "json");
         let mut out = BufWriter::new(file);
         if !jsonl {
             writeln!(out, "{}", HistoryRow::CSV_HEADER)?;

@@ -1,3 +1,5 @@
+pub mod example;
+pub mod identify;
 pub mod import;
 pub mod simulate;
 

@@ -1,0 +1,294 @@
+//! The run loop every strategy shares: stopping rules, observers (log, progress), checkpoints.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use serde::{Deserialize, Serialize};
+
+use crate::problem::Problem;
+use crate::strategy::{lossless, Strategy};
+
+/// When to stop; the first rule met ends the run. `None` everywhere runs until stopped.
+#[derive(Clone, Debug, Default)]
+pub struct StopRules {
+    pub generations: Option<u64>,
+    pub max_evals: Option<u64>,
+    pub time_limit: Option<Duration>,
+    pub target_cost: Option<f64>,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct RunConfig {
+    pub seed: u64,
+    pub stop: StopRules,
+    /// Write the state here every `checkpoint_every` generations and at the end (atomically).
+    pub checkpoint: Option<PathBuf>,
+    pub checkpoint_every: u64,
+    /// Continue from this checkpoint.
+    pub resume: Option<PathBuf>,
+}
+
+/// One line of the convergence log.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct HistoryRow {
+    pub generation: u64,
+    pub evals: u64,
+    #[serde(with = "lossless")]
+    pub seconds: f64,
+    #[serde(with = "lossless")]
+    pub best_cost: f64,
+    #[serde(with = "lossless")]
+    pub best_rmse: f64,
+    #[serde(with = "lossless")]
+    pub mean_cost: f64,
+    #[serde(with = "lossless")]
+    pub mean_mutability: f64,
+    #[serde(with = "lossless::option", default)]
+    pub param_error_pct: Option<f64>,
+}
+
+impl HistoryRow {
+    pub const CSV_HEADER: &'static str =
+        "generation,evals,seconds,best_cost,best_rmse,mean_cost,mean_mutability,param_error_pct";
+
+    pub fn csv(&self) -> String {
+        format!(
+            "{},{},{:.6},{:e},{:e},{:e},{:e},{}",
+            self.generation,
+            self.evals,
+            self.seconds,
+            self.best_cost,
+            self.best_rmse,
+            self.mean_cost,
+            self.mean_mutability,
+            self.param_error_pct
+                .map(|e| format!("{e:e}"))
+                .unwrap_or_default()
+        )
+    }
+}
+
+/// Sees every generation; returns false to stop the run (a Python callback, Ctrl-C…).
+pub trait Observer: Send {
+    fn observe(&mut self, row: &HistoryRow) -> bool;
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    Generations,
+    MaxEvals,
+    TimeLimit,
+    TargetCost,
+    Interrupted,
+    Observer,
+}
+
+#[derive(Clone, Debug)]
+pub struct RunResult {
+    pub strategy: &'static str,
+    /// Best genome, internal coordinates.
+    pub genome: Vec<f64>,
+    /// The best model's full parameter vector.
+    pub params: Vec<f64>,
+    pub cost: f64,
+    pub rmse: f64,
+    pub evals: u64,
+    pub generations: u64,
+    pub seconds: f64,
+    pub history: Vec<HistoryRow>,
+    pub stopped_by: StopReason,
+    pub param_error_pct: Option<f64>,
+}
+
+#[derive(Serialize, Deserialize)]
+struct Checkpoint {
+    format: String,
+    strategy: String,
+    seed: u64,
+    dim: usize,
+    generation: u64,
+    evals: u64,
+    #[serde(with = "lossless")]
+    seconds: f64,
+    history: Vec<HistoryRow>,
+    state: serde_json::Value,
+}
+
+const CHECKPOINT_FORMAT: &str = "cordis-checkpoint/1";
+
+/// Runs `strategy` on `problem` until a stop rule, an observer or `interrupt` says stop.
+pub fn run(
+    problem: &Problem,
+    strategy: &mut dyn Strategy,
+    config: &RunConfig,
+    observers: &mut [&mut dyn Observer],
+    interrupt: Option<&AtomicBool>,
+) -> Result<RunResult, String> {
+    let start = Instant::now();
+    let mut history = Vec::new();
+    let mut generation = 0;
+    let mut seconds_before = 0.0;
+    if let Some(path) = &config.resume {
+        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let cp: Checkpoint = serde_json::from_str(&text)
+            .map_err(|e| format!("{}: not a checkpoint: {e}", path.display()))?;
+        if cp.format != CHECKPOINT_FORMAT
+            || cp.strategy != strategy.name()
+            || cp.dim != problem.dim()
+        {
+            return Err(format!(
+                "{}: checkpoint of strategy `{}` with {} unknowns cannot resume `{}` with {}",
+                path.display(),
+                cp.strategy,
+                cp.dim,
+                strategy.name(),
+                problem.dim()
+            ));
+        }
+        if cp.seed != config.seed {
+            return Err(format!(
+                "{}: checkpoint was made with seed {}, not {}",
+                path.display(),
+                cp.seed,
+                config.seed
+            ));
+        }
+        strategy
+            .load_state(problem, &cp.state)
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        problem.set_evals(cp.evals);
+        generation = cp.generation;
+        seconds_before = cp.seconds;
+        history = cp.history;
+    } else {
+        strategy.init(problem, config.seed);
+        let row = make_row(
+            problem,
+            &*strategy,
+            0,
+            seconds_before + start.elapsed().as_secs_f64(),
+        );
+        for o in observers.iter_mut() {
+            o.observe(&row);
+        }
+        history.push(row);
+    }
+    let elapsed = |start: &Instant| seconds_before + start.elapsed().as_secs_f64();
+    let stop = &config.stop;
+    let stopped_by = loop {
+        let (_, best) = strategy.best();
+        if let Some(g) = stop.generations {
+            if generation >= g {
+                break StopReason::Generations;
+            }
+        }
+        if stop.max_evals.is_some_and(|m| problem.evals() >= m) {
+            break StopReason::MaxEvals;
+        }
+        if stop
+            .time_limit
+            .is_some_and(|t| elapsed(&start) >= t.as_secs_f64())
+        {
+            break StopReason::TimeLimit;
+        }
+        if stop.target_cost.is_some_and(|t| best <= t) {
+            break StopReason::TargetCost;
+        }
+        if interrupt.is_some_and(|f| f.load(Ordering::Relaxed)) {
+            break StopReason::Interrupted;
+        }
+        generation += 1;
+        strategy.next_generation(problem, config.seed, generation);
+        let row = make_row(problem, &*strategy, generation, elapsed(&start));
+        let mut go_on = true;
+        for o in observers.iter_mut() {
+            go_on &= o.observe(&row);
+        }
+        history.push(row);
+        if let Some(path) = &config.checkpoint {
+            if config.checkpoint_every > 0 && generation % config.checkpoint_every == 0 {
+                write_checkpoint(
+                    path,
+                    problem,
+                    &*strategy,
+                    config.seed,
+                    generation,
+                    elapsed(&start),
+                    &history,
+                )?;
+            }
+        }
+        if !go_on {
+            break StopReason::Observer;
+        }
+    };
+    let seconds = elapsed(&start);
+    if let Some(path) = &config.checkpoint {
+        write_checkpoint(
+            path,
+            problem,
+            &*strategy,
+            config.seed,
+            generation,
+            seconds,
+            &history,
+        )?;
+    }
+    let (genome, cost) = strategy.best();
+    let mut params = problem.space.base.clone();
+    problem.space.fill_params(genome, &mut params);
+    Ok(RunResult {
+        strategy: strategy.name(),
+        genome: genome.to_vec(),
+        params,
+        cost,
+        rmse: problem.rmse(cost),
+        evals: problem.evals(),
+        generations: generation,
+        seconds,
+        param_error_pct: problem.error_pct(genome),
+        history,
+        stopped_by,
+    })
+}
+
+fn make_row(problem: &Problem, s: &dyn Strategy, generation: u64, seconds: f64) -> HistoryRow {
+    let st = s.stats();
+    let (genome, _) = s.best();
+    HistoryRow {
+        generation,
+        evals: problem.evals(),
+        seconds,
+        best_cost: st.best_cost,
+        best_rmse: problem.rmse(st.best_cost),
+        mean_cost: st.mean_cost,
+        mean_mutability: st.mean_mutability,
+        param_error_pct: problem.error_pct(genome),
+    }
+}
+
+fn write_checkpoint(
+    path: &std::path::Path,
+    problem: &Problem,
+    s: &dyn Strategy,
+    seed: u64,
+    generation: u64,
+    seconds: f64,
+    history: &[HistoryRow],
+) -> Result<(), String> {
+    let cp = Checkpoint {
+        format: CHECKPOINT_FORMAT.into(),
+        strategy: s.name().into(),
+        seed,
+        dim: problem.dim(),
+        generation,
+        evals: problem.evals(),
+        seconds,
+        history: history.to_vec(),
+        state: s.save_state(),
+    };
+    let text = serde_json::to_string(&cp).map_err(|e| e.to_string())?;
+    cordis_core::io::write_atomic(path, text.as_bytes()).map_err(|e| e.to_string())
+}

@@ -1,0 +1,101 @@
+//! Choosing and configuring a strategy by name, and the data preparation `identify` shares
+//! between the CLI and Python.
+
+use std::str::FromStr;
+
+use cordis_core::thesis::GeneParams;
+use cordis_core::Trajectory;
+
+use crate::problem::Problem;
+use crate::rng;
+use crate::strategies::thesis::{Thesis, ThesisConfig};
+use crate::strategy::Strategy;
+
+/// `--strategy` values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StrategyName {
+    /// The best strategy for the problem (for now: `thesis`; exact solvers come next).
+    Auto,
+    Thesis,
+}
+
+impl FromStr for StrategyName {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(StrategyName::Auto),
+            "thesis" => Ok(StrategyName::Thesis),
+            _ => Err(format!(
+                "unknown strategy `{s}` (expected one of: auto, thesis)"
+            )),
+        }
+    }
+}
+
+/// Builds the named strategy; returns it with the name of what will actually run.
+pub fn make_strategy(
+    name: StrategyName,
+    _problem: &Problem,
+    population: usize,
+    gene: Option<&GeneParams>,
+) -> (Box<dyn Strategy>, &'static str) {
+    match name {
+        StrategyName::Auto | StrategyName::Thesis => {
+            let mut c = ThesisConfig {
+                population,
+                ..ThesisConfig::default()
+            };
+            if let Some(g) = gene {
+                c.pcross = g.pcross.unwrap_or(c.pcross);
+                c.pmut = g.pmut.unwrap_or(c.pmut);
+                c.reducer = g.reducer.unwrap_or(c.reducer);
+            }
+            (Box::new(Thesis::new(c)), "thesis")
+        }
+    }
+}
+
+/// The trajectory with Gaussian noise of standard deviation `sigma` (m) added to every
+/// coordinate (thesis §4.1), drawn from the run's seed.
+pub fn add_noise(traj: &Trajectory, sigma: f64, seed: u64) -> Trajectory {
+    let mut r = rng::stream(seed, u64::MAX, 0);
+    let data: Vec<f64> = traj
+        .as_flat()
+        .iter()
+        .map(|x| x + sigma * rng::normal(&mut r))
+        .collect();
+    let mut out = Trajectory::from_flat(traj.frames(), traj.particles(), data)
+        .expect("finite data plus finite noise");
+    out.dt = traj.dt;
+    out
+}
+
+/// A copy of `scene` whose positive link-type parameters are unknown, each in a box `width`
+/// times wide (max/min = width) that holds the scene's value at a pseudo-random place drawn
+/// from `seed` (not at the centre: a strategy must not find the truth by starting in the
+/// middle). Zero-valued parameters (an absent damping) stay known. The input is the truth.
+pub fn with_unknown_boxes(scene: &cordis_core::Scene, width: f64, seed: u64) -> cordis_core::Scene {
+    use cordis_core::{Bounds, Param};
+    let mut out = scene.clone();
+    let mut r = rng::stream(seed, u64::MAX - 1, 0);
+    let lw = width.max(1.0).ln();
+    for t in &mut out.types {
+        for (k, p) in t.params.iter_mut().enumerate() {
+            let Param::Known(v) = *p else { continue };
+            let rest_cos = t.kind.param_specs()[k].0 == "rest_cos";
+            if v <= 0.0 || rest_cos {
+                continue;
+            }
+            let u = 0.1 + 0.8 * rng::uniform(&mut r);
+            let min = v * (-u * lw).exp();
+            let max = v * ((1.0 - u) * lw).exp();
+            *p = Param::Unknown(Bounds {
+                min,
+                max,
+                init: None,
+            });
+        }
+    }
+    out
+}

@@ -1,0 +1,174 @@
+//! An identification problem: a scene with unknowns, an observed trajectory, a cost — and what
+//! the strategies' heuristics need to know about them.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use cordis_core::forces::angle::cos_angle;
+use cordis_core::{LinkKind, Scene, Trajectory};
+
+use crate::cost::{CostKind, CostScratch, Objective};
+use crate::error::CostError;
+use crate::space::{ParameterSpace, Role};
+
+pub struct Problem {
+    pub scene: Scene,
+    pub space: ParameterSpace,
+    pub objective: Objective,
+    /// The true parameter vector, when known (`--truth`): parameter error is then reported.
+    pub truth: Option<Vec<f64>>,
+    /// Per unknown: the mean observed value a heuristic starts from (rest length: the mean
+    /// length of the type's instances over all frames; rest cosine: the mean cosine).
+    pub observed: Vec<Option<f64>>,
+    /// Per unknown: the particles whose local cost it changes directly (its type's instance
+    /// ends, or the particle itself for a mass).
+    pub touches: Vec<Vec<u32>>,
+    pub num_particles: usize,
+    evals: AtomicU64,
+}
+
+/// Scratch of one evaluating thread.
+pub struct EvalScratch {
+    pub params: Vec<f64>,
+    pub cost: CostScratch,
+}
+
+impl Problem {
+    pub fn new(scene: &Scene, traj: &Trajectory, kind: CostKind) -> Result<Self, CostError> {
+        let objective = Objective::new(scene, traj, kind)?;
+        let space = ParameterSpace::from_scene(scene);
+        let mut observed = Vec::with_capacity(space.dim());
+        let mut touches = Vec::with_capacity(space.dim());
+        for u in &space.unknowns {
+            observed.push(match (u.role, u.type_index) {
+                (Role::RestLength, Some(t)) => mean_length(scene, traj, t),
+                (Role::RestCos, Some(t)) => mean_cos(scene, traj, t),
+                _ => None,
+            });
+            touches.push(match u.type_index {
+                Some(t) => type_particles(scene, t),
+                None => vec![(u.slot - scene.param_layout().mass_offset) as u32],
+            });
+        }
+        Ok(Problem {
+            scene: scene.clone(),
+            space,
+            objective,
+            truth: None,
+            observed,
+            touches,
+            num_particles: scene.num_particles(),
+            evals: AtomicU64::new(0),
+        })
+    }
+
+    /// Sets the truth from a scene with the same layout (known values).
+    pub fn with_truth(mut self, truth: &Scene) -> Result<Self, CostError> {
+        let p = truth.param_values();
+        if p.len() != self.space.base.len() {
+            return Err(CostError::Mismatch {
+                place: "truth".into(),
+                message: "the truth scene does not have the same types and particles".into(),
+            });
+        }
+        self.truth = Some(p);
+        Ok(self)
+    }
+
+    pub fn dim(&self) -> usize {
+        self.space.dim()
+    }
+
+    pub fn scratch(&self) -> EvalScratch {
+        EvalScratch {
+            params: self.space.base.clone(),
+            cost: self.objective.scratch(),
+        }
+    }
+
+    /// Global cost of a genome (internal coordinates); per-particle local costs into `local`.
+    pub fn evaluate(&self, genome: &[f64], s: &mut EvalScratch, local: &mut [f64]) -> f64 {
+        self.evals.fetch_add(1, Ordering::Relaxed);
+        self.space.fill_params(genome, &mut s.params);
+        match self.objective.evaluate(&s.params, &mut s.cost, local) {
+            Ok(c) if !c.is_nan() => c,
+            _ => f64::INFINITY,
+        }
+    }
+
+    /// Root mean square prediction error (m) of a global cost: sqrt(C / terms).
+    pub fn rmse(&self, cost: f64) -> f64 {
+        (cost / self.objective.terms().max(1) as f64).sqrt()
+    }
+
+    /// Number of cost evaluations so far.
+    pub fn evals(&self) -> u64 {
+        self.evals.load(Ordering::Relaxed)
+    }
+
+    pub fn set_evals(&self, n: u64) {
+        self.evals.store(n, Ordering::Relaxed);
+    }
+
+    /// Mean parameter error (%) of a genome, when the truth is known.
+    pub fn error_pct(&self, genome: &[f64]) -> Option<f64> {
+        self.truth.as_ref().map(|t| self.space.error_pct(genome, t))
+    }
+}
+
+fn type_particles(scene: &Scene, t: usize) -> Vec<u32> {
+    let ty = &scene.types[t];
+    let mut out: Vec<u32> = if ty.kind == LinkKind::Conditional {
+        scene
+            .particles
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.group.as_ref().is_some_and(|g| ty.groups.contains(g)))
+            .map(|(i, _)| i as u32)
+            .collect()
+    } else {
+        scene
+            .links
+            .iter()
+            .filter(|l| l.type_index == t)
+            .flat_map(|l| l.particles.iter().map(|&i| i as u32))
+            .collect()
+    };
+    out.sort_unstable();
+    out.dedup();
+    out
+}
+
+fn mean_length(scene: &Scene, traj: &Trajectory, t: usize) -> Option<f64> {
+    let mut sum = 0.0;
+    let mut n = 0usize;
+    for l in scene.links.iter().filter(|l| l.type_index == t) {
+        for f in 0..traj.frames() {
+            let xi = traj.pos(f, l.particles[0]);
+            let xj = match l.particles.get(1) {
+                Some(&j) => traj.pos(f, j),
+                None => match l.point.or(scene.types[t].point) {
+                    Some(p) => p.into(),
+                    None => scene.particles[l.particles[0]].pos.into(),
+                },
+            };
+            sum += (xj - xi).norm();
+            n += 1;
+        }
+    }
+    (n > 0).then(|| sum / n as f64)
+}
+
+fn mean_cos(scene: &Scene, traj: &Trajectory, t: usize) -> Option<f64> {
+    let mut sum = 0.0;
+    let mut n = 0usize;
+    for l in scene.links.iter().filter(|l| l.type_index == t) {
+        for f in 0..traj.frames() {
+            let [i, j, k] = [l.particles[0], l.particles[1], l.particles[2]];
+            if let Some(c) = cos_angle(&traj.pos(f, i), &traj.pos(f, j), &traj.pos(f, k)) {
+                sum += c;
+                n += 1;
+            }
+        }
+    }
+    (n > 0).then(|| sum / n as f64)
+}

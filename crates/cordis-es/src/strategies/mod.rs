@@ -1,0 +1,3 @@
+//! The identification strategies, one file each, all behind [`crate::strategy::Strategy`].
+
+pub mod thesis;

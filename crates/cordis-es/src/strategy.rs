@@ -1,0 +1,101 @@
+//! The one interface every identification strategy implements (argmin-style): the run loop in
+//! [`crate::executor`] drives it, counts evaluations, logs, checkpoints and stops it.
+
+use crate::problem::Problem;
+
+/// Summary of the current generation, for logs and progress.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GenerationStats {
+    pub best_cost: f64,
+    /// Mean cost of the population (finite members only).
+    pub mean_cost: f64,
+    /// Mean mutability (step size in internal coordinates) of the population.
+    pub mean_mutability: f64,
+}
+
+pub trait Strategy: Send {
+    /// The name used by `--strategy`.
+    fn name(&self) -> &'static str;
+
+    /// Creates and evaluates the initial population (generation 0).
+    fn init(&mut self, problem: &Problem, seed: u64);
+
+    /// Produces and evaluates generation `generation` (1, 2, …). All randomness must come from
+    /// [`crate::rng::stream`]`(seed, generation, …)` so that a run depends on its seed only.
+    fn next_generation(&mut self, problem: &Problem, seed: u64, generation: u64);
+
+    /// The best genome (internal coordinates) found so far and its global cost.
+    fn best(&self) -> (&[f64], f64);
+
+    fn stats(&self) -> GenerationStats;
+
+    /// The whole state, for a checkpoint.
+    fn save_state(&self) -> serde_json::Value;
+
+    /// Restores a state written by [`Strategy::save_state`].
+    fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String>;
+}
+
+/// Exact f64 vectors in JSON (as IEEE bit patterns, so ±inf survive and nothing is rounded).
+pub mod bits {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &[f64], s: S) -> Result<S::Ok, S::Error> {
+        v.iter()
+            .map(|x| x.to_bits())
+            .collect::<Vec<u64>>()
+            .serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+        Ok(Vec::<u64>::deserialize(d)?
+            .into_iter()
+            .map(f64::from_bits)
+            .collect())
+    }
+}
+
+/// One f64 in JSON as a number when finite, else as the string `"inf"`, `"-inf"` or `"nan"`
+/// (JSON has no such numbers). Exact with serde_json's `float_roundtrip`.
+pub mod lossless {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
+        if v.is_finite() {
+            s.serialize_f64(*v)
+        } else {
+            s.serialize_str(&v.to_string())
+        }
+    }
+
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Repr {
+        Num(f64),
+        Text(String),
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        match Repr::deserialize(d)? {
+            Repr::Num(x) => Ok(x),
+            Repr::Text(t) => t.parse().map_err(serde::de::Error::custom),
+        }
+    }
+
+    pub mod option {
+        use serde::{Deserialize, Deserializer, Serializer};
+
+        pub fn serialize<S: Serializer>(v: &Option<f64>, s: S) -> Result<S::Ok, S::Error> {
+            match v {
+                Some(x) => super::serialize(x, s),
+                None => s.serialize_none(),
+            }
+        }
+
+        pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+            #[derive(Deserialize)]
+            struct W(#[serde(with = "super")] f64);
+            Ok(Option::<W>::deserialize(d)?.map(|w| w.0))
+        }
+    }
+}
