@@ -32,6 +32,11 @@ enum Command {
         after_help = "Example:\n  cordis example rigid --out rigid.json\n  cordis simulate rigid.json --frames 100 --out rigid.csv\n  cordis example rigid --unknowns --out rigid-unknown.json\n  cordis identify rigid-unknown.json --trajectory rigid.csv --truth rigid.json --out identified.json"
     )]
     Identify(Box<commands::identify::Args>),
+    /// Cost of a scene against an observed trajectory: total, rmse, per-particle local costs.
+    #[command(
+        after_help = "Example:\n  cordis cost rigid.json --trajectory rigid.csv --cost short"
+    )]
+    Cost(commands::cost::Args),
     /// Write a shipped example scene as JSON.
     #[command(after_help = "Example:\n  cordis example cloth --out cloth.json")]
     Example(commands::example::Args),
@@ -58,6 +63,7 @@ where
     let result = match cli.command {
         Command::Simulate(a) => commands::simulate::run(a),
         Command::Identify(a) => commands::identify::run(*a),
+        Command::Cost(a) => commands::cost::run(a),
         Command::Example(a) => commands::example::run(a),
         Command::Import(a) => commands::import::run(a),
     };

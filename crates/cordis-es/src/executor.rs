@@ -120,7 +120,7 @@ const CHECKPOINT_FORMAT: &str = "cordis-checkpoint/1";
 
 /// Runs `strategy` on `problem` until a stop rule, an observer or `interrupt` says stop.
 pub fn run(
-    problem: &Problem,
+    problem: &mut Problem,
     strategy: &mut dyn Strategy,
     config: &RunConfig,
     observers: &mut [&mut dyn Observer],
@@ -160,9 +160,11 @@ pub fn run(
             .map_err(|e| format!("{}: {e}", path.display()))?;
         problem.set_evals(cp.evals);
         generation = cp.generation;
+        problem.objective.set_generation(generation as usize);
         seconds_before = cp.seconds;
         history = cp.history;
     } else {
+        problem.objective.set_generation(0);
         strategy.init(problem, config.seed);
         let row = make_row(
             problem,
@@ -200,6 +202,12 @@ pub fn run(
             break StopReason::Interrupted;
         }
         generation += 1;
+        // A progressive horizon grows with the generations: stored costs are then stale.
+        let window = problem.objective.window();
+        problem.objective.set_generation(generation as usize);
+        if problem.objective.window() != window {
+            strategy.reevaluate(problem);
+        }
         strategy.next_generation(problem, config.seed, generation);
         let row = make_row(problem, &*strategy, generation, elapsed(&start));
         let mut go_on = true;

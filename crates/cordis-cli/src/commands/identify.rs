@@ -160,7 +160,7 @@ pub fn run(a: Args) -> Result<()> {
     let result = pool
         .install(|| {
             executor::run(
-                &problem,
+                &mut problem,
                 strategy.as_mut(),
                 &config,
                 &mut observers,

@@ -1,3 +1,4 @@
+pub mod cost;
 pub mod example;
 pub mod identify;
 pub mod import;

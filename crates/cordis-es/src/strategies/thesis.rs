@@ -439,6 +439,11 @@ impl Strategy for Thesis {
         }
     }
 
+    fn reevaluate(&mut self, problem: &Problem) {
+        Self::evaluate(problem, &mut self.state.population);
+        self.sort();
+    }
+
     fn best(&self) -> (&[f64], f64) {
         let b = &self.state.population[0];
         (&b.genes, b.cost)

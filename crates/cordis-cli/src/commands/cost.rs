@@ -1,0 +1,75 @@
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{bail, Result};
+use cordis_core::Scene;
+use cordis_es::cost::{CostKind, Objective};
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Scene file (JSON); unknown parameters are taken at their `init` or box middle.
+    scene: PathBuf,
+    /// Observed trajectory (.csv, .npy or .tra).
+    #[arg(long, short = 't')]
+    trajectory: PathBuf,
+    /// Cost: short | horizon:H | long | progressive[:G[:START]] | harmonic[:EPS].
+    #[arg(long, default_value = "short")]
+    cost: String,
+    /// Print only the JSON line.
+    #[arg(long, short = 'q')]
+    quiet: bool,
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let scene = Scene::from_json_path(&a.scene)?;
+    let traj = cordis_core::io::read_trajectory(&a.trajectory)?;
+    if let Some(dt) = traj.dt {
+        if (dt - scene.dt).abs() > 1e-12 * scene.dt {
+            bail!(
+                "{}: trajectory dt {dt} differs from the scene's dt {}",
+                a.trajectory.display(),
+                scene.dt
+            );
+        }
+    }
+    let kind: CostKind = a.cost.parse().map_err(|e| anyhow::anyhow!("--cost: {e}"))?;
+    let start = Instant::now();
+    let objective = Objective::new(&scene, &traj, kind)?;
+    let report = objective.report(&scene.param_values())?;
+    let seconds = start.elapsed().as_secs_f64();
+    if !a.quiet {
+        eprintln!(
+            "{} cost over {} frames: total {:.6e}, rmse {:.6e} m ({} terms)",
+            kind,
+            traj.frames(),
+            report.total,
+            report.rmse,
+            report.terms
+        );
+        eprintln!("{:>8}  {:>14}", "particle", "local cost");
+        for (i, c) in report.per_particle.iter().enumerate() {
+            eprintln!("{i:>8}  {c:>14.6e}");
+        }
+    }
+    println!(
+        "{}",
+        serde_json::json!({
+            "kind": kind.to_string(),
+            "total": finite_or_string(report.total),
+            "rmse": finite_or_string(report.rmse),
+            "terms": report.terms,
+            "per_particle": report.per_particle.iter().map(|c| finite_or_string(*c)).collect::<Vec<_>>(),
+            "seconds": seconds,
+        })
+    );
+    Ok(())
+}
+
+/// JSON has no infinity: a diverged cost is written as the string "inf".
+fn finite_or_string(v: f64) -> serde_json::Value {
+    if v.is_finite() {
+        v.into()
+    } else {
+        v.to_string().into()
+    }
+}
