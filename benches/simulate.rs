@@ -27,32 +27,30 @@ fn bench_scene(c: &mut Criterion, name: &str, scene: Scene, steps: usize) {
     let mut g = c.benchmark_group("simulate");
     g.throughput(Throughput::Elements((per_step * steps as f64) as u64));
     g.sample_size(20);
-    g.bench_function(format!("{name}_{steps}steps"), |b| {
-        let mut scratch = plan.scratch();
-        b.iter(|| {
-            let mut x = plan.x0.clone();
-            let mut xp = plan.x_minus1.clone();
-            for _ in 0..steps {
-                plan.step(&p, &mut x, &mut xp, &mut scratch);
-            }
-            x
-        })
-    });
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        g.bench_function(format!("{name}_{steps}steps_{threads}thread"), |b| {
+            let mut scratch = plan.scratch();
+            b.iter(|| {
+                pool.install(|| {
+                    let mut x = plan.x0.clone();
+                    let mut xp = plan.x_minus1.clone();
+                    for _ in 0..steps {
+                        plan.step(&p, &mut x, &mut xp, &mut scratch);
+                    }
+                    x
+                })
+            })
+        });
+    }
     g.finish();
 }
 
 fn benches(c: &mut Criterion) {
     bench_scene(c, "cloth32", examples::cloth(32, 32), 100);
-    let mut no_provot = examples::cloth(32, 32);
-    for t in &mut no_provot.types {
-        t.max_elongation = None;
-    }
-    bench_scene(c, "cloth32_noprovot", no_provot.clone(), 100);
-    let mut plain = no_provot;
-    for t in &mut plain.types {
-        t.params[2] = cordis_core::Param::Known(0.0);
-    }
-    bench_scene(c, "cloth32_plain", plain, 100);
     bench_scene(c, "fluid", examples::by_name("fluid").unwrap(), 20);
 }
 

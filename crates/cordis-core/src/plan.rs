@@ -4,6 +4,7 @@
 //! candidate.
 
 use crate::error::Result;
+use crate::forces::conditional::Part;
 use crate::forces::{
     anchor::AnchorPass, angle::AnglePass, conditional::ConditionalPass, damper::DamperPass,
     drag::DragPass, grid::Grid, nonlinear_drag::NonlinearDragPass, provot::ProvotLink,
@@ -38,7 +39,24 @@ pub struct Plan {
     /// The scene was compiled with a non-zero gravity (informative: the integrator always
     /// reads gravity from the parameter vector).
     pub has_gravity: bool,
+    /// Large scenes split their force passes in two fixed halves, summed in a fixed order
+    /// (see [`Split`]); small ones take the sequential path.
+    pub split: Option<Split>,
 }
+
+/// The two halves of a large scene's force work. Half 0 holds the first half of the springs,
+/// every other listed pass and the first half of each conditional pass's cells; half 1 the
+/// rest. Each half writes its own force buffer and `f = f0 + f1`: the arithmetic is the same
+/// whether rayon runs the halves on one thread or two, so a simulation's result does not depend
+/// on the thread count.
+#[derive(Clone, Debug)]
+pub struct Split {
+    pub springs: [SpringPass; 2],
+}
+
+/// Scenes with at least this many link evaluations per step (listed links, or conditional
+/// members) split their work: below it a rayon join costs more than it saves.
+pub const SPLIT_MIN_WORK: usize = 2048;
 
 /// Per-simulation scratch that a step writes: velocities, forces, grids.
 #[derive(Clone, Debug, Default)]
@@ -46,6 +64,10 @@ pub struct Scratch {
     pub v: Vec<Vec3>,
     pub f: Vec<Vec3>,
     pub grids: Vec<Grid>,
+    /// Forces of the second half of a split step.
+    pub f2: Vec<Vec3>,
+    /// Per conditional pass: its grid is ready (split steps build grids before the halves).
+    pub ready: Vec<bool>,
 }
 
 impl Plan {
@@ -179,7 +201,40 @@ impl Plan {
             provot,
             needs_velocity,
             has_gravity: scene.gravity != [0.0; 3],
-        })
+            split: None,
+        }
+        .with_split())
+    }
+
+    /// Sets up the two-way split when the scene is large enough to gain from it.
+    fn with_split(mut self) -> Self {
+        let work = self.num_links()
+            + self
+                .conditionals
+                .iter()
+                .map(|c| c.a.len() + c.b.as_ref().map_or(0, Vec::len))
+                .sum::<usize>();
+        if work < SPLIT_MIN_WORK {
+            return self;
+        }
+        let half = self.springs.pairs.len() / 2;
+        let mut parts = [SpringPass::default(), SpringPass::default()];
+        for r in &self.springs.runs {
+            for (k, range) in [(0, r.start..r.end.min(half)), (1, r.start.max(half)..r.end)] {
+                if range.start < range.end {
+                    let part = &mut parts[k];
+                    let start = part.pairs.len();
+                    part.pairs.extend_from_slice(&self.springs.pairs[range]);
+                    part.runs.push(crate::forces::Run {
+                        param: r.param,
+                        start,
+                        end: part.pairs.len(),
+                    });
+                }
+            }
+        }
+        self.split = Some(Split { springs: parts });
+        self
     }
 
     /// Scratch sized for this plan.
@@ -188,6 +243,12 @@ impl Plan {
             v: vec![Vec3::zeros(); self.n],
             f: vec![Vec3::zeros(); self.n],
             grids: vec![Grid::default(); self.conditionals.len()],
+            f2: if self.split.is_some() {
+                vec![Vec3::zeros(); self.n]
+            } else {
+                Vec::new()
+            },
+            ready: vec![false; self.conditionals.len()],
         }
     }
 
@@ -225,6 +286,43 @@ impl Plan {
         }
     }
 
+    /// `F(x, v)` in two halves (see [`Split`]), on two threads when rayon has them.
+    fn forces_split(&self, split: &Split, p: &[f64], x: &[Vec3], s: &mut Scratch) {
+        for ((c, grid), ready) in self.conditionals.iter().zip(&mut s.grids).zip(&mut s.ready) {
+            *ready = c.prepare(p, x, grid);
+        }
+        let (grids, ready, v) = (&s.grids, &s.ready, &s.v);
+        let conditional_half = |f: &mut [Vec3], index: usize| {
+            let part = Part { index, count: 2 };
+            for ((c, grid), &ok) in self.conditionals.iter().zip(grids).zip(ready) {
+                if ok {
+                    c.accumulate_part(p, x, v, f, grid, part);
+                }
+            }
+        };
+        let (f, f2) = (&mut s.f, &mut s.f2);
+        rayon::join(
+            || {
+                f.fill(Vec3::zeros());
+                split.springs[0].accumulate(p, x, v, f);
+                self.dampers.accumulate(p, v, f);
+                self.anchors.accumulate(p, x, v, f);
+                self.drags.accumulate(p, v, f);
+                self.nonlinear_drags.accumulate(p, v, f);
+                self.angles.accumulate(p, x, f);
+                conditional_half(f, 0);
+            },
+            || {
+                f2.fill(Vec3::zeros());
+                split.springs[1].accumulate(p, x, v, f2);
+                conditional_half(f2, 1);
+            },
+        );
+        for (a, b) in f.iter_mut().zip(f2.iter()) {
+            *a += b;
+        }
+    }
+
     /// One step of the CORDIS scheme (SPEC §2.1): on entry `x` = x(n), `x_prev` = x(n-1); on
     /// exit `x` = x(n+1), `x_prev` = x(n). Returns the first particle whose new position is not
     /// finite, if any (the step is still completed).
@@ -236,7 +334,10 @@ impl Plan {
         s: &mut Scratch,
     ) -> Option<usize> {
         self.velocities(x, x_prev, &mut s.v);
-        self.forces(p, x, &s.v, &mut s.f, &mut s.grids);
+        match &self.split {
+            None => self.forces(p, x, &s.v, &mut s.f, &mut s.grids),
+            Some(split) => self.forces_split(split, p, x, s),
+        }
         let bad = self.integrate(p, x, x_prev, &s.f);
         std::mem::swap(x, x_prev);
         self.provot.apply(p, x, &self.free);

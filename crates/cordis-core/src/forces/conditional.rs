@@ -28,12 +28,34 @@ impl ConditionalPass {
         p: &[f64],
         x: &[Vec3],
         grid: &mut Grid,
+        visit: impl FnMut(usize, usize, Vec3),
+    ) {
+        if self.prepare(p, x, grid) {
+            self.for_each_active_pair_in(p, x, grid, Part::WHOLE, visit);
+        }
+    }
+
+    /// Sorts the members into `grid`; false when there is nothing to pair (no valid range,
+    /// or a non-finite position).
+    pub fn prepare(&self, p: &[f64], x: &[Vec3], grid: &mut Grid) -> bool {
+        let range = self.range(p);
+        if !(range > 0.0 && range.is_finite()) {
+            return false;
+        }
+        grid.build(x, self.b.as_deref().unwrap_or(&self.a), range)
+    }
+
+    /// The active pairs of one part of the work, on a grid made by [`ConditionalPass::prepare`]:
+    /// the parts of a split are disjoint and together give every pair once.
+    pub fn for_each_active_pair_in(
+        &self,
+        p: &[f64],
+        x: &[Vec3],
+        grid: &Grid,
+        part: Part,
         mut visit: impl FnMut(usize, usize, Vec3),
     ) {
         let range = self.range(p);
-        if !(range > 0.0 && range.is_finite()) {
-            return;
-        }
         // Compare squared lengths, except where range² leaves the normal floats (range below
         // ~1e-154 m or above ~1e154 m): there it underflows to 0 or overflows, and
         // `|d|² < range²` would no longer mean `|d| < range` (SPEC §2.2).
@@ -48,10 +70,7 @@ impl ConditionalPass {
         };
         match &self.b {
             None => {
-                if !grid.build(x, &self.a, range) {
-                    return;
-                }
-                grid.for_each_candidate_pair(|i, j| {
+                grid.for_each_candidate_pair_in(part.of(grid.num_cells()), |i, j| {
                     let (i, j) = (i as usize, j as usize);
                     let d = x[j] - x[i];
                     if near(&d) {
@@ -59,11 +78,8 @@ impl ConditionalPass {
                     }
                 });
             }
-            Some(b) => {
-                if !grid.build(x, b, range) {
-                    return;
-                }
-                for &i in &self.a {
+            Some(_) => {
+                for &i in &self.a[part.of(self.a.len())] {
                     let i = i as usize;
                     grid.for_each_near(&x[i], |j| {
                         let j = j as usize;
@@ -79,19 +95,50 @@ impl ConditionalPass {
 
     /// Adds the spring forces of the active pairs.
     pub fn accumulate(&self, p: &[f64], x: &[Vec3], v: &[Vec3], f: &mut [Vec3], grid: &mut Grid) {
+        if self.prepare(p, x, grid) {
+            self.accumulate_part(p, x, v, f, grid, Part::WHOLE);
+        }
+    }
+
+    /// Adds the spring forces of one part's active pairs (grid already prepared).
+    pub fn accumulate_part(
+        &self,
+        p: &[f64],
+        x: &[Vec3],
+        v: &[Vec3],
+        f: &mut [Vec3],
+        grid: &Grid,
+        part: Part,
+    ) {
         let (k, l0, z) = (p[self.param], p[self.param + 1], p[self.param + 2]);
         if z == 0.0 {
-            self.for_each_active_pair(p, x, grid, |i, j, _| {
+            self.for_each_active_pair_in(p, x, grid, part, |i, j, _| {
                 let fi = spring_force::<false>(&x[i], &x[j], &v[i], &v[j], k, l0, 0.0);
                 f[i] += fi;
                 f[j] -= fi;
             });
         } else {
-            self.for_each_active_pair(p, x, grid, |i, j, _| {
+            self.for_each_active_pair_in(p, x, grid, part, |i, j, _| {
                 let fi = spring_force::<true>(&x[i], &x[j], &v[i], &v[j], k, l0, z);
                 f[i] += fi;
                 f[j] -= fi;
             });
         }
+    }
+}
+
+/// Part `index` of `count` equal shares of some work (cells, members).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Part {
+    pub index: usize,
+    pub count: usize,
+}
+
+impl Part {
+    pub const WHOLE: Part = Part { index: 0, count: 1 };
+
+    /// This part's share of `0..n`.
+    pub fn of(self, n: usize) -> std::ops::Range<usize> {
+        (n * self.index / self.count)..(n * (self.index + 1) / self.count)
     }
 }

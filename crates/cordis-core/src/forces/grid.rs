@@ -98,36 +98,50 @@ impl Grid {
         &self.sorted[self.cell_start[c] as usize..self.cell_start[c + 1] as usize]
     }
 
+    /// Number of cells (the range of [`Grid::for_each_candidate_pair_in`]).
+    pub fn num_cells(&self) -> usize {
+        self.dims[0] * self.dims[1] * self.dims[2]
+    }
+
     /// Calls `visit(i, j)` once for every unordered pair of members in the same or adjacent
     /// cells (candidates: the caller tests the distance).
-    pub fn for_each_candidate_pair(&self, mut visit: impl FnMut(u32, u32)) {
+    pub fn for_each_candidate_pair(&self, visit: impl FnMut(u32, u32)) {
+        self.for_each_candidate_pair_in(0..self.num_cells(), visit);
+    }
+
+    /// The pairs of [`Grid::for_each_candidate_pair`] whose first cell (in linear order) is in
+    /// `cells`: disjoint ranges give disjoint pair sets, so threads can share the work.
+    pub fn for_each_candidate_pair_in(
+        &self,
+        cells: std::ops::Range<usize>,
+        mut visit: impl FnMut(u32, u32),
+    ) {
         let [nx, ny, nz] = self.dims;
-        for cz in 0..nz {
-            for cy in 0..ny {
-                for cx in 0..nx {
-                    let c = (cz * ny + cy) * nx + cx;
-                    let here = self.cell(c);
-                    for (a, &i) in here.iter().enumerate() {
-                        for &j in &here[a + 1..] {
-                            visit(i, j);
-                        }
-                    }
-                    // Forward half of the 26 neighbours: each adjacent cell pair once.
-                    for (dx, dy, dz) in HALF_SHELL {
-                        let (x2, y2, z2) = (cx as isize + dx, cy as isize + dy, cz as isize + dz);
-                        if x2 < 0 || y2 < 0 || z2 < 0 {
-                            continue;
-                        }
-                        let (x2, y2, z2) = (x2 as usize, y2 as usize, z2 as usize);
-                        if x2 >= nx || y2 >= ny || z2 >= nz {
-                            continue;
-                        }
-                        let there = self.cell((z2 * ny + y2) * nx + x2);
-                        for &i in here {
-                            for &j in there {
-                                visit(i, j);
-                            }
-                        }
+        for c in cells {
+            let (cx, cy, cz) = (c % nx, (c / nx) % ny, c / (nx * ny));
+            let here = self.cell(c);
+            if here.is_empty() {
+                continue;
+            }
+            for (a, &i) in here.iter().enumerate() {
+                for &j in &here[a + 1..] {
+                    visit(i, j);
+                }
+            }
+            // Forward half of the 26 neighbours: each adjacent cell pair once.
+            for (dx, dy, dz) in HALF_SHELL {
+                let (x2, y2, z2) = (cx as isize + dx, cy as isize + dy, cz as isize + dz);
+                if x2 < 0 || y2 < 0 || z2 < 0 {
+                    continue;
+                }
+                let (x2, y2, z2) = (x2 as usize, y2 as usize, z2 as usize);
+                if x2 >= nx || y2 >= ny || z2 >= nz {
+                    continue;
+                }
+                let there = self.cell((z2 * ny + y2) * nx + x2);
+                for &i in here {
+                    for &j in there {
+                        visit(i, j);
                     }
                 }
             }

@@ -252,7 +252,7 @@ impl Thesis {
                 // The mutability drawn follows the father's cost: large while the fit is poor,
                 // vanishing as the cost does (the thesis' adaptation of precision).
                 let scale = if father_cost.is_finite() {
-                    (father_cost.max(0.0) / self.state.cost_ref).sqrt().min(1.0)
+                    (father_cost.max(0.0) / self.state.cost_ref).min(1.0)
                 } else {
                     1.0
                 };
