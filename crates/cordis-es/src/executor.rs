@@ -97,6 +97,8 @@ pub struct RunResult {
     pub evals: u64,
     pub generations: u64,
     pub seconds: f64,
+    /// Of `seconds`, the time spent evaluating costs (this session only, when resumed).
+    pub eval_seconds: f64,
     pub history: Vec<HistoryRow>,
     pub stopped_by: StopReason,
     pub param_error_pct: Option<f64>,
@@ -256,6 +258,7 @@ pub fn run(
         evals: problem.evals(),
         generations: generation,
         seconds,
+        eval_seconds: problem.eval_seconds(),
         param_error_pct: problem.error_pct(genome),
         history,
         stopped_by,

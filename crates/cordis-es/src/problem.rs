@@ -24,6 +24,8 @@ pub struct Problem {
     pub touches: Vec<Vec<u32>>,
     pub num_particles: usize,
     evals: AtomicU64,
+    /// Wall time spent in [`Problem::timed`] sections (population evaluations), ns.
+    eval_nanos: AtomicU64,
 }
 
 /// Scratch of one evaluating thread.
@@ -58,6 +60,7 @@ impl Problem {
             touches,
             num_particles: scene.num_particles(),
             evals: AtomicU64::new(0),
+            eval_nanos: AtomicU64::new(0),
         })
     }
 
@@ -98,6 +101,21 @@ impl Problem {
     /// Root mean square prediction error (m) of a global cost: sqrt(C / terms).
     pub fn rmse(&self, cost: f64) -> f64 {
         (cost / self.objective.terms().max(1) as f64).sqrt()
+    }
+
+    /// Runs `f` (a population's evaluation) and adds its wall time to [`Problem::eval_seconds`]:
+    /// the thesis' Annexe 2 split between evaluation and the operators.
+    pub fn timed<R>(&self, f: impl FnOnce() -> R) -> R {
+        let start = std::time::Instant::now();
+        let r = f();
+        self.eval_nanos
+            .fetch_add(start.elapsed().as_nanos() as u64, Ordering::Relaxed);
+        r
+    }
+
+    /// Wall time spent evaluating populations so far, s.
+    pub fn eval_seconds(&self) -> f64 {
+        self.eval_nanos.load(Ordering::Relaxed) as f64 * 1e-9
     }
 
     /// Number of cost evaluations so far.

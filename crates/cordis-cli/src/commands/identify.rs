@@ -211,6 +211,7 @@ pub fn run(a: Args) -> Result<()> {
         "evals": result.evals,
         "generations": result.generations,
         "seconds": result.seconds,
+        "eval_seconds": result.eval_seconds,
         "stopped_by": result.stopped_by,
     });
     if let Some(e) = result.param_error_pct {

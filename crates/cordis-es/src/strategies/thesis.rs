@@ -189,12 +189,14 @@ impl Thesis {
     }
 
     fn evaluate(problem: &Problem, inds: &mut [Individual]) {
-        inds.par_iter_mut().for_each_init(
-            || problem.scratch(),
-            |s, ind| {
-                ind.cost = problem.evaluate(&ind.genes, s, &mut ind.local);
-            },
-        );
+        problem.timed(|| {
+            inds.par_iter_mut().for_each_init(
+                || problem.scratch(),
+                |s, ind| {
+                    ind.cost = problem.evaluate(&ind.genes, s, &mut ind.local);
+                },
+            )
+        });
     }
 
     fn sort(&mut self) {
@@ -362,18 +364,20 @@ impl Thesis {
             .collect();
         let mut s = problem.scratch();
         let mut local = vec![0.0; problem.num_particles];
-        let d = powell(
-            |x| problem.evaluate(x, &mut s, &mut local),
-            &best.genes,
-            best.cost,
-            Powell {
-                lo: &lo,
-                hi: &hi,
-                step: &step,
-                rtol: 1e-12,
-                max_evals: 50 * n * n + 500,
-            },
-        );
+        let d = problem.timed(|| {
+            powell(
+                |x| problem.evaluate(x, &mut s, &mut local),
+                &best.genes,
+                best.cost,
+                Powell {
+                    lo: &lo,
+                    hi: &hi,
+                    step: &step,
+                    rtol: 1e-12,
+                    max_evals: 50 * n * n + 500,
+                },
+            )
+        });
         if d.fx < best.cost {
             let best = &mut self.state.population[0];
             best.genes = d.x;
