@@ -1,4 +1,5 @@
 pub mod import;
+pub mod render;
 pub mod simulate;
 
 use std::path::Path;

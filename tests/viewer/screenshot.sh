@@ -1,0 +1,58 @@
+#!/usr/bin/env bash
+# Headless-Chromium test of the HTML viewer (`cordis render`): builds pages for a small
+# spring scene and for a cloth compared against a softer one, screenshots them, and checks
+# that the pictures are not blank and that the page's script raised no error.
+#
+#   tests/viewer/screenshot.sh [OUTDIR]      (default: a temporary directory)
+#
+# Skipped (exit 0) when `chromium` is not on PATH. Uses target/release/cordis, building it
+# when missing. Needs python3 (standard library only).
+set -euo pipefail
+
+root=$(cd "$(dirname "$0")/../.." && pwd)
+here="$root/tests/viewer"
+if ! command -v chromium >/dev/null 2>&1; then
+    echo "skipped: chromium is not on PATH"
+    exit 0
+fi
+out=${1:-$(mktemp -d)}
+mkdir -p "$out"
+out=$(cd "$out" && pwd)
+
+cordis="$root/target/release/cordis"
+if [ ! -x "$cordis" ]; then
+    (cd "$root" && cargo build --release -p cordis-cli)
+fi
+
+python3 "$here/scenes.py" "$out"
+"$cordis" simulate "$out/spring.json" --frames 400 --out "$out/spring.csv" -q >/dev/null
+"$cordis" simulate "$out/cloth.json" --frames 300 --out "$out/cloth.npy" -q >/dev/null
+"$cordis" simulate "$out/cloth_b.json" --frames 300 --out "$out/cloth_b.npy" -q >/dev/null
+"$cordis" render "$out/spring.json" --trajectory "$out/spring.csv" --html "$out/spring.html"
+"$cordis" render "$out/cloth.json" --trajectory "$out/cloth.npy" --compare "$out/cloth_b.npy" \
+    --html "$out/cloth.html" --title "cloth: original vs softer model"
+
+# A page that does not fit its scene is refused with one line naming the file.
+if "$cordis" render "$out/spring.json" --trajectory "$out/cloth.npy" --html "$out/bad.html" \
+    2>"$out/bad.err"; then
+    echo "FAIL: a cloth motion was accepted for the spring scene"; exit 1
+fi
+grep -q "cloth.npy: has 400 particles, the scene has 9" "$out/bad.err" \
+    || { echo "FAIL: unexpected message: $(cat "$out/bad.err")"; exit 1; }
+
+shoot() { # page.html#fragment shot.png
+    local log="${2%.png}.log"
+    # --enable-logging=stderr reports console errors ("Uncaught …") on stderr.
+    chromium --headless --disable-gpu --no-sandbox --hide-scrollbars --enable-logging=stderr \
+        --window-size=1000,700 --virtual-time-budget=1000 --screenshot="$2" \
+        "file://$1" >"$log" 2>&1 || { cat "$log"; echo "FAIL: chromium failed on $1"; exit 1; }
+    if grep -E "Uncaught|SyntaxError|TypeError|ReferenceError" "$log"; then
+        echo "FAIL: the page's script failed: $1"; exit 1
+    fi
+    python3 "$here/png_check.py" "$2"
+}
+
+shoot "$out/spring.html#frame=120" "$out/spring.png"
+shoot "$out/cloth.html#frame=150" "$out/cloth.png"
+shoot "$out/cloth.html#frame=150&mode=side" "$out/cloth-side.png"
+echo "ok: screenshots in $out"
