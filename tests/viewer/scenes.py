@@ -5,7 +5,11 @@
   fixed point, thrown sideways so that it swings and tumbles);
 - cloth.json and cloth_b.json: a 20 x 20 cloth, flat at first and held at two corners, that
   falls and swings (Provot's structural, shear and bending springs); cloth_b.json has
-  stiffnesses 30 % lower, standing in for an identified model to compare with the original.
+  stiffnesses 30 % lower, standing in for an identified model to compare with the original;
+- big.json: the cloth at 51 x 51 (2,601 particles, 14,898 links), to check the file size and
+  the drawing time of a large scene;
+- fluid.json: a 2-D swirling blob of two particle groups held together by conditional links
+  (pairs closer than a range, found every step), drawn as coloured particles.
 """
 
 import json
@@ -74,11 +78,36 @@ def cloth_scene(softer=1.0, side=20, h=0.05):
             "particles": particles, "types": types, "links": links}
 
 
+def fluid_scene(side=16, h=0.1):
+    particles = []
+    c0 = (side - 1) * h / 2
+    for r in range(side):
+        for c in range(side):
+            x, y = c * h - c0, r * h - c0
+            if x * x + y * y > (c0 + 0.05) ** 2:
+                continue
+            group = "ink" if x > 0.15 and abs(y) < 0.35 else "water"
+            # A vortex: velocity around the centre, faster near it.
+            particles.append({"mass": 0.01, "pos": [x, y, 0.0], "vel": [-1.2 * y, 1.2 * x, 0.0],
+                              "group": group})
+    types = {
+        "cohesion": {"kind": "conditional", "groups": ["water"], "stiffness": 4.0,
+                     "rest_length": 0.1, "damping": 0.002, "range": 0.14},
+        "mixing": {"kind": "conditional", "groups": ["water", "ink"], "stiffness": 2.0,
+                   "rest_length": 0.1, "damping": 0.002, "range": 0.14},
+        "ink": {"kind": "conditional", "groups": ["ink"], "stiffness": 6.0,
+                "rest_length": 0.1, "damping": 0.002, "range": 0.14},
+    }
+    return {"format": "cordis-scene/1", "dt": 0.005, "gravity": [0, 0, 0],
+            "particles": particles, "types": types, "links": []}
+
+
 def main():
     out = Path(sys.argv[1])
     out.mkdir(parents=True, exist_ok=True)
     for name, scene in [("spring", spring_scene()), ("cloth", cloth_scene()),
-                        ("cloth_b", cloth_scene(softer=0.7))]:
+                        ("cloth_b", cloth_scene(softer=0.7)), ("fluid", fluid_scene()),
+                        ("big", cloth_scene(side=51, h=0.02))]:
         (out / f"{name}.json").write_text(json.dumps(scene, indent=1))
 
 

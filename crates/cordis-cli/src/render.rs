@@ -47,6 +47,7 @@ pub fn render_html(
         "frames": frames,
         "particles": scene.num_particles(),
         "up": up_vector(scene.gravity),
+        "gravity": scene.gravity.iter().any(|&g| g != 0.0),
         "fixed": scene.particles.iter().enumerate()
             .filter(|(_, p)| p.fixed).map(|(i, _)| i).collect::<Vec<_>>(),
         "groups": groups(scene),

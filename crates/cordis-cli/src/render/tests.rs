@@ -96,6 +96,7 @@ fn the_data_holds_the_scene_and_the_motions() {
     assert_eq!(d["dt"], 0.01);
     assert_eq!(d["fixed"], serde_json::json!([0]));
     assert_eq!(d["up"], serde_json::json!([0.0, 1.0, 0.0]));
+    assert_eq!(d["gravity"], true);
     let types = d["types"].as_array().unwrap();
     assert_eq!(types.len(), 5);
     assert_eq!(types[0]["count"], 6);
@@ -196,6 +197,7 @@ fn a_motionless_scene_still_has_a_grid() {
         serde_json::json!([0.0, 1.0, 0.0]),
         "weightless: y up"
     );
+    assert_eq!(d["gravity"], false);
 }
 
 #[test]

@@ -102,6 +102,8 @@
   // ---- camera ---------------------------------------------------------------------------
   // Orbit camera around `target`; the world's up is against gravity. h1, h2 span the floor.
   var UP = normalize(D.up);
+  // Weightless scenes get no floor: nothing falls towards it.
+  var hasGravity = D.gravity;
   var h1 = Math.abs(UP[1]) > 0.7 ? [0, 0, 1] : Math.abs(UP[2]) > 0.7 ? [0, -1, 0] : [0, 0, 1];
   h1 = normalize(add(h1, scale(UP, -dot(h1, UP))));
   var h2 = cross(UP, h1);
@@ -199,7 +201,10 @@
 
   var info = el("div", "panel info");
   info.appendChild(el("h1", "", D.title || "cordis"));
-  info.appendChild(el("div", "stats", N + " particles \u00b7 " + totalLinks + " links \u00b7 " +
+  var nConditional = types.filter(function (t) { return t.kind === "conditional"; }).length;
+  info.appendChild(el("div", "stats", N + " particles \u00b7 " +
+    (nConditional ? nConditional + " conditional types \u00b7 " : "") +
+    (totalLinks || !nConditional ? totalLinks + " links \u00b7 " : "") +
     T + " frames \u00b7 dt " + fmtNumber(DT) + " s"));
   var readout = el("div", "readout");
   var frameText = el("span", "frame");
@@ -225,7 +230,9 @@
     row.appendChild(sw);
     var name = el("span", "name", t.name);
     row.appendChild(name);
-    row.appendChild(el("span", "kind", t.kind + " \u00d7 " + t.count));
+    row.appendChild(el("span", "kind", t.kind === "conditional"
+      ? "conditional, range " + (t.range > 0 ? fmtNumber(t.range) + " m" : "?")
+      : t.kind + " \u00d7 " + t.count));
     row.title = t.note || "click to hide or show";
     if (t.drawn) {
       row.addEventListener("click", function () {
@@ -571,7 +578,8 @@
       ctx.lineWidth = 2;
       ctx.stroke();
       ctx.fillStyle = a[2];
-      ctx.fillText(a[1], x + dx * 1.4, y + dy * 1.4);
+      // An axis pointing at the eye has no length: its label would sit on the origin.
+      if (dx * dx + dy * dy > 16) ctx.fillText(a[1], x + dx * 1.4, y + dy * 1.4);
     });
   }
 
@@ -581,7 +589,7 @@
     ctx.beginPath();
     ctx.rect(x0, y0, w, h);
     ctx.clip();
-    drawFloor(v);
+    if (hasGravity) drawFloor(v);
     if (showBHere) {
       // Overlaid, B is dashed and pale under A; alone in its half, it is drawn like A.
       project(v, B, frame, PB);
@@ -617,6 +625,7 @@
   }
 
   function draw() {
+    var started = performance.now();
     ctx.clearRect(0, 0, cssW, cssH);
     // The bar at the bottom covers part of the page: centre the scene above it.
     var hUse = cssH - 64;
@@ -636,6 +645,9 @@
     }
     drawAxes(40, cssH - 110);
     dirty = false;
+    // For tests (headless --dump-dom) and the curious: what was drawn, and how fast.
+    document.body.setAttribute("data-frame", frame);
+    document.body.setAttribute("data-draw-ms", (performance.now() - started).toFixed(2));
   }
 
   // ---- interaction ----------------------------------------------------------------------
@@ -747,5 +759,11 @@
   setMode(B && hash.mode === "side" ? "side" : "overlay");
   setPlaying(hash.frame === undefined);
   draw();
+  if (+hash.bench > 0) {
+    // #bench=K: draw K times and record the mean time, for timing tests.
+    var t0 = performance.now();
+    for (var b = 0; b < +hash.bench; b++) draw();
+    document.body.setAttribute("data-draw-ms", ((performance.now() - t0) / +hash.bench).toFixed(2));
+  }
   requestAnimationFrame(tick);
 })();
