@@ -57,6 +57,23 @@ shoot "$out/spring.html#frame=120" "$out/spring.png"
 shoot "$out/cloth.html#frame=150" "$out/cloth.png"
 shoot "$out/cloth.html#frame=150&mode=side" "$out/cloth-side.png"
 shoot "$out/fluid.html#frame=200" "$out/fluid.png"
+# The controls: a copy of the cloth page with tests/viewer/interact.js injected after the
+# viewer's script drives them with synthetic events and reports in <body data-test>.
+python3 - "$out/cloth.html" "$here/interact.js" "$out/interact.html" <<'PY'
+import sys
+page, script, out = sys.argv[1:]
+text = open(page, encoding="utf-8").read()
+extra = "<script>\n" + open(script, encoding="utf-8").read() + "</script>\n</body>"
+open(out, "w", encoding="utf-8").write(text.replace("</body>", extra, 1))
+PY
+chromium --headless --disable-gpu --no-sandbox --window-size=1000,700 --virtual-time-budget=5000 \
+    --dump-dom "file://$out/interact.html" 2>/dev/null >"$out/interact.dom"
+result=$(grep -o 'data-test="[^"]*"' "$out/interact.dom" || true)
+echo "controls: $result"
+if [ -z "$result" ] || echo "$result" | grep -q FAIL; then
+    echo "FAIL: the controls do not respond as expected"; exit 1
+fi
+
 # A large scene: the page stays small, and building a frame's drawing is fast: `#bench=10`
 # makes the page draw ten times and record the mean time in <body data-draw-ms> (the time of
 # the script: projection and paths; the browser rasterizes afterwards, on the GPU if any).

@@ -359,8 +359,9 @@
   var timeDecimals = Math.min(6, Math.max(0, Math.ceil(-Math.log10(DT) - 1e-9)));
   function setFrame(f) {
     f = Math.max(0, Math.min(T - 1, f | 0));
-    if (f !== frame) dirty = true;
+    var changed = f !== frame;
     frame = f;
+    if (changed) redraw();
     slider.value = f;
     frameText.textContent = "frame " + f + " / " + (T - 1);
     timeText.textContent = "t = " + (f * DT).toFixed(timeDecimals) + " s";
@@ -382,13 +383,22 @@
     fpos = frame;
     playBtn.textContent = playing ? "\u275a\u275a" : "\u25b6";
     playBtn.classList.toggle("on", playing);
+    redraw();
   }
   function setMode(m) {
     mode = m;
     for (var k in modeBtns) modeBtns[k].classList.toggle("on", k === m);
     redraw();
   }
-  function redraw() { dirty = true; }
+  function redraw() {
+    dirty = true;
+    // The state, on the page for tests (headless --dump-dom, injected scripts): frame, play
+    // state, mode, speed, camera (distances in units of the motion's radius).
+    document.body.setAttribute("data-frame", frame);
+    document.body.setAttribute("data-state", [playing ? "playing" : "paused", mode, speed,
+      cam.yaw.toFixed(4), cam.pitch.toFixed(4), (cam.dist / radius).toFixed(4),
+      cam.target.map(function (c) { return (c / radius).toFixed(4); }).join(" ")].join(","));
+  }
 
   // ---- drawing --------------------------------------------------------------------------
   var PA = new Projected(), PB = new Projected();
@@ -645,8 +655,7 @@
     }
     drawAxes(40, cssH - 110);
     dirty = false;
-    // For tests (headless --dump-dom) and the curious: what was drawn, and how fast.
-    document.body.setAttribute("data-frame", frame);
+    // For tests (headless --dump-dom) and the curious: how fast the last frame was built.
     document.body.setAttribute("data-draw-ms", (performance.now() - started).toFixed(2));
   }
 
@@ -654,7 +663,7 @@
   var pointers = new Map(), dragMode = null, pinchDist = 0;
   canvas.addEventListener("contextmenu", function (e) { e.preventDefault(); });
   canvas.addEventListener("pointerdown", function (e) {
-    canvas.setPointerCapture(e.pointerId);
+    try { canvas.setPointerCapture(e.pointerId); } catch (err) { /* pointer already gone */ }
     pointers.set(e.pointerId, [e.clientX, e.clientY]);
     dragMode = e.button === 2 || e.button === 1 || e.shiftKey ? "pan" : "orbit";
     if (pointers.size === 2) {
@@ -704,7 +713,7 @@
 
   playBtn.addEventListener("click", function () { setPlaying(!playing); playBtn.blur(); });
   slider.addEventListener("input", function () { setFrame(+slider.value); fpos = frame; });
-  speedSel.addEventListener("change", function () { speed = +speedSel.value; speedSel.blur(); });
+  speedSel.addEventListener("change", function () { speed = +speedSel.value; speedSel.blur(); redraw(); });
   resetBtn.addEventListener("click", function () { defaultView(); redraw(); resetBtn.blur(); });
   window.addEventListener("keydown", function (e) {
     if (e.target && e.target.tagName === "SELECT") return;
