@@ -11,8 +11,8 @@ pub struct Args {
     /// The motion to show (.csv, .npy or .tra), drawn solid.
     #[arg(long, short = 't')]
     trajectory: PathBuf,
-    /// A second motion of the same scene (e.g. the identified model's), drawn dashed in a
-    /// lighter shade over the first, or side by side.
+    /// A second motion of the same scene (e.g. the identified model's), drawn pale and dashed
+    /// under the first, or side by side.
     #[arg(long, short = 'c')]
     compare: Option<PathBuf>,
     /// The page to write: one self-contained HTML file, nothing loaded from the network.
