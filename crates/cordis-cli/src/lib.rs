@@ -5,6 +5,7 @@
 //! 1 for a failed run (diverged, I/O), 2 for bad input or usage.
 
 mod commands;
+pub mod render;
 
 use std::ffi::OsString;
 
@@ -43,6 +44,11 @@ enum Command {
     /// Convert the thesis' files (NAME.mas, NAME.cat, NAME.ini, …) into a JSON scene.
     #[command(after_help = "Example:\n  cordis import data/tri --dt 0.01 --out tri.json")]
     Import(commands::import::Args),
+    /// Write a self-contained HTML page that plays a motion in 3-D (optionally against another).
+    #[command(
+        after_help = "Example:\n  cordis simulate rigid.json --frames 200 --out rigid.csv\n  cordis render rigid.json --trajectory rigid.csv --compare identified.csv --html rigid.html"
+    )]
+    Render(commands::render::Args),
 }
 
 /// Runs the command line; returns the process exit code.
@@ -66,6 +72,7 @@ where
         Command::Cost(a) => commands::cost::run(a),
         Command::Example(a) => commands::example::run(a),
         Command::Import(a) => commands::import::run(a),
+        Command::Render(a) => commands::render::run(a),
     };
     match result {
         Ok(()) => 0,

@@ -2,6 +2,7 @@ pub mod cost;
 pub mod example;
 pub mod identify;
 pub mod import;
+pub mod render;
 pub mod simulate;
 
 use std::path::Path;
