@@ -33,20 +33,44 @@ impl FromStr for StrategyName {
     }
 }
 
+/// What a strategy may be configured with, from the CLI or Python.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StrategyOptions {
+    pub population: usize,
+    /// Thesis `Param.gene` values.
+    pub gene: Option<GeneParams>,
+    /// Thesis strategy: Powell's descent from this generation, every `descent_every`.
+    pub descent_start: u64,
+    pub descent_every: u64,
+}
+
+impl Default for StrategyOptions {
+    fn default() -> Self {
+        let t = ThesisConfig::default();
+        StrategyOptions {
+            population: t.population,
+            gene: None,
+            descent_start: t.descent_start,
+            descent_every: t.descent_every,
+        }
+    }
+}
+
 /// Builds the named strategy; returns it with the name of what will actually run.
 pub fn make_strategy(
     name: StrategyName,
     _problem: &Problem,
-    population: usize,
-    gene: Option<&GeneParams>,
+    options: &StrategyOptions,
 ) -> (Box<dyn Strategy>, &'static str) {
     match name {
         StrategyName::Auto | StrategyName::Thesis => {
             let mut c = ThesisConfig {
-                population,
+                population: options.population,
+                descent_start: options.descent_start,
+                descent_every: options.descent_every,
                 ..ThesisConfig::default()
             };
-            if let Some(g) = gene {
+            if let Some(g) = &options.gene {
                 c.pcross = g.pcross.unwrap_or(c.pcross);
                 c.pmut = g.pmut.unwrap_or(c.pmut);
                 c.reducer = g.reducer.unwrap_or(c.reducer);

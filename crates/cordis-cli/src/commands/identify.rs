@@ -8,7 +8,7 @@ use anyhow::{bail, Context, Result};
 use cordis_core::Scene;
 use cordis_es::cost::CostKind;
 use cordis_es::executor::{self, HistoryRow, Observer, RunConfig, StopRules};
-use cordis_es::identify::{add_noise, make_strategy, StrategyName};
+use cordis_es::identify::{add_noise, make_strategy, StrategyName, StrategyOptions};
 use cordis_es::problem::Problem;
 
 #[derive(clap::Args, Debug)]
@@ -51,6 +51,12 @@ pub struct Args {
     /// Thesis file Param.gene (key=value): population, pcross, pmut, reducer, generation, noise.
     #[arg(long)]
     param_gene: Option<PathBuf>,
+    /// Thesis strategy: first generation of Powell's descent on the best individual.
+    #[arg(long, default_value_t = 400)]
+    descent_start: u64,
+    /// Thesis strategy: generations between descents (0: never).
+    #[arg(long, default_value_t = 100)]
+    descent_every: u64,
     /// Write a checkpoint here (every 50 generations and at the end).
     #[arg(long)]
     checkpoint: Option<PathBuf>,
@@ -130,7 +136,13 @@ pub fn run(a: Args) -> Result<()> {
                 None
             },
         );
-    let (mut strategy, ran) = make_strategy(a.strategy, &problem, population, gene.as_ref());
+    let options = StrategyOptions {
+        population,
+        gene,
+        descent_start: a.descent_start,
+        descent_every: a.descent_every,
+    };
+    let (mut strategy, ran) = make_strategy(a.strategy, &problem, &options);
     let config = RunConfig {
         seed: a.seed,
         stop: StopRules {
