@@ -182,6 +182,16 @@ fn stop_text(s: StopReason) -> &'static str {
     }
 }
 
+/// A non-negative integer argument as `T`, or a `ValueError` naming it (rather than the
+/// `OverflowError` of a plain conversion).
+fn count<T: TryFrom<i128>>(x: impl Into<i128>, what: &str) -> PyResult<T> {
+    let x = x.into();
+    T::try_from(x)
+        .ok()
+        .filter(|_| x >= 0)
+        .ok_or_else(|| bad(what, format!("must be a non-negative integer, got {x}")))
+}
+
 fn bad(what: &str, message: impl std::fmt::Display) -> PyErr {
     PyValueError::new_err(format!("{what}: {message}"))
 }
@@ -226,22 +236,27 @@ pub fn identify(
     scene: &Scene,
     traj: &Bound<'_, PyAny>,
     strategy: &str,
-    generations: Option<u64>,
-    population: usize,
-    seed: u64,
+    generations: Option<i64>,
+    population: i64,
+    seed: i128,
     callback: Option<Bound<'_, PyAny>>,
     noise: f64,
     cost: &str,
     time_limit: Option<f64>,
     target_cost: Option<f64>,
-    max_evals: Option<u64>,
-    threads: Option<usize>,
+    max_evals: Option<i64>,
+    threads: Option<i64>,
     truth: Option<PyRef<'_, Scene>>,
     checkpoint: Option<PathBuf>,
     resume: Option<PathBuf>,
     dt: Option<f64>,
 ) -> PyResult<IdentifyResult> {
     let name: StrategyName = strategy.parse().map_err(|e| bad("strategy", e))?;
+    let generations: Option<u64> = generations.map(|g| count(g, "generations")).transpose()?;
+    let population: usize = count(population, "population")?;
+    let seed: u64 = count(seed, "seed")?;
+    let max_evals: Option<u64> = max_evals.map(|m| count(m, "max_evals")).transpose()?;
+    let threads: Option<usize> = threads.map(|t| count(t, "threads")).transpose()?;
     if population < 2 {
         return Err(bad(
             "population",
