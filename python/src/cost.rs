@@ -40,8 +40,7 @@ pub struct CostReport {
 #[pymethods]
 impl CostReport {
     fn __repr__(&self, py: Python<'_>) -> String {
-        let per = self.per_particle.bind(py).readonly();
-        let per = per.as_array();
+        let per: Vec<f64> = self.per_particle.bind(py).to_vec().unwrap_or_default();
         let worst = per
             .iter()
             .enumerate()
@@ -149,8 +148,14 @@ impl Objective {
     /// The global cost of `params` (a float64 vector of `num_params` values).
     fn __call__(&self, py: Python<'_>, params: &Bound<'_, PyAny>) -> PyResult<f64> {
         // Fast path: a contiguous float64 vector is read in place, no copy.
-        if let Ok(a) = params.cast::<PyArray1<f64>>() {
-            let ro = a.readonly();
+        if let Ok(ro) = params
+            .cast::<PyArray1<f64>>()
+            .map_err(PyErr::from)
+            .and_then(|a| {
+                a.try_readonly()
+                    .map_err(|e| PyValueError::new_err(e.to_string()))
+            })
+        {
             if let Ok(p) = ro.as_slice() {
                 if self.inner.uses_linear(p) {
                     return self

@@ -34,12 +34,16 @@ pub fn as_f64_array<'py>(
 
 /// The values of a float64 array in C (row-major) order, whatever its strides.
 pub fn c_order_values(a: &Bound<'_, PyArrayDyn<f64>>) -> PyResult<Vec<f64>> {
-    let ro = a.readonly();
+    let ro = a.try_readonly().map_err(borrow_error)?;
     let view = ro.as_array();
     Ok(match view.as_slice() {
         Some(s) => s.to_vec(),
         None => view.iter().copied().collect(),
     })
+}
+
+fn borrow_error(e: numpy::BorrowError) -> PyErr {
+    PyValueError::new_err(format!("array is being written by another thread: {e}"))
 }
 
 /// A `(T, N, 3)` array-like as a core trajectory. A wrong shape is a `ValueError` naming the

@@ -232,7 +232,7 @@ def test_non_finite_parameters_never_give_nan(rigid):
 
 def test_linear_call_is_well_under_a_millisecond():
     """The 32×32 cloth without Provot's limit (so that it is linear in its parameters), 100
-    frames: a call from Python costs a few µs on the precomputed form (measured 4 µs; 1.5 µs
+    frames: a call from Python costs a few µs on the precomputed form (measured 2–4 µs; 0.9–1.5 µs
     on the rigid example, which bounds the Python overhead). The bound is loose for shared
     machines."""
     d = cordis.example("cloth").to_dict()

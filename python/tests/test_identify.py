@@ -173,6 +173,9 @@ def test_noise_and_cost_kind_change_the_run(rigid):
 def test_ctrl_c_stops_cleanly_and_raises_with_the_result(rigid, tmp_path):
     _, traj, scene = rigid
     cp = tmp_path / "cp.json"
+    # A process started in the background by a shell inherits SIGINT ignored, and Python then
+    # keeps it so: install the usual handler for the test.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT))
     start = time.monotonic()
     timer.start()
@@ -181,6 +184,7 @@ def test_ctrl_c_stops_cleanly_and_raises_with_the_result(rigid, tmp_path):
             cordis.identify(scene, traj, generations=None, time_limit=20, checkpoint=cp)
     finally:
         timer.cancel()
+        signal.signal(signal.SIGINT, previous)
     assert time.monotonic() - start < 5
     res = e.value.result
     assert res.stopped_by == "interrupted" and res.generations > 0
