@@ -2,45 +2,72 @@
 
 A scene is a network of point masses (particles) joined by links whose types come from a
 catalogue (springs, dampers, anchors, drags, angle and conditional links…). Scenes are read
-from the JSON format ``cordis-scene/1``; simulation returns numpy arrays.
+from the JSON format ``cordis-scene/1`` or taken from the shipped examples; simulation,
+trajectories and costs are numpy arrays.
 
 Example::
 
     import cordis
 
-    scene = cordis.Scene.from_dict({
-        "dt": 0.01,
-        "particles": [
-            {"mass": 1.0, "pos": [0, 0, 0], "fixed": True},
-            {"mass": 1.0, "pos": [1.5, 0, 0]},
-        ],
-        "types": {"rib": {"kind": "spring", "stiffness": 20.0, "rest_length": 1.0}},
-        "links": [{"type": "rib", "particles": [0, 1]}],
-    })
-    traj = scene.simulate(frames=200)   # numpy float64, shape (200, 2, 3), in m
+    truth = cordis.example("rigid")                   # or cordis.Scene.from_json("scene.json")
+    traj = truth.simulate(frames=100)                 # numpy float64, shape (100, 15, 3), in m
+    cordis.write_trajectory("rigid.npy", traj)        # .csv, .npy or .tra
 
-Errors are subclasses of :class:`CordisError` (:class:`SceneError`, :class:`FormatError`…) and
-name the place of the fault, e.g. ``links[3].particles[1]: particle 40 does not exist``.
+    scene = cordis.example("rigid", unknowns=True)    # stiffnesses and rest lengths unknown
+    res = cordis.identify(scene, traj, generations=500, truth=truth)
+    print(res.params, res.param_error_pct)
+
+    f = cordis.Objective(truth, traj)                 # the cost, compiled once: f(params) -> float
+    f(f.param_vector())                               # 0.0 at the true parameters
+
+Errors are subclasses of :class:`CordisError` (:class:`SceneError`, :class:`TrajectoryError`,
+:class:`CostKindError`…) and name the place of the fault, e.g.
+``links[3].particles[1]: particle 40 does not exist``. The GIL is released during
+``simulate``, ``identify``, batch evaluations and file I/O.
 """
 
 from ._cordis import (
+    EXAMPLES,
+    CheckpointError,
     CordisError,
     CordisIOError,
+    CostKindError,
+    CostReport,
     DivergedError,
     FormatError,
+    IdentifyResult,
+    Objective,
+    ParamLengthError,
     Scene,
     SceneError,
     TrajectoryError,
     __version__,
+    cost,
+    example,
+    identify,
+    read_trajectory,
+    write_trajectory,
 )
 
 __all__ = [
+    "EXAMPLES",
+    "CheckpointError",
     "CordisError",
     "CordisIOError",
+    "CostKindError",
+    "CostReport",
     "DivergedError",
     "FormatError",
+    "IdentifyResult",
+    "Objective",
+    "ParamLengthError",
     "Scene",
     "SceneError",
     "TrajectoryError",
     "__version__",
+    "cost",
+    "example",
+    "identify",
+    "read_trajectory",
+    "write_trajectory",
 ]

@@ -1,22 +1,39 @@
 """Type stubs of the compiled extension ``cordis._cordis`` (re-exported by ``cordis``)."""
 
 import os
-from typing import Any, Dict, List, Mapping, Optional, Tuple, Union, final
+from typing import Any, Callable, Dict, List, Mapping, Optional, Tuple, Union, final
 
 import numpy as np
 import numpy.typing as npt
 
 __version__: str
+EXAMPLES: Tuple[str, ...]
 __all__ = [
+    "__version__",
     "CordisError",
-    "CordisIOError",
-    "DivergedError",
-    "FormatError",
-    "Scene",
     "SceneError",
     "TrajectoryError",
-    "__version__",
+    "FormatError",
+    "DivergedError",
+    "CheckpointError",
+    "CordisIOError",
+    "CostKindError",
+    "ParamLengthError",
+    "Scene",
+    "read_trajectory",
+    "write_trajectory",
+    "example",
+    "EXAMPLES",
+    "CostReport",
+    "Objective",
+    "cost",
+    "IdentifyResult",
+    "identify",
+    "_cli_main",
 ]
+
+_PathLike = Union[str, "os.PathLike[str]"]
+_ArrayLike = npt.ArrayLike
 
 class CordisError(Exception):
     """Base class of every error raised by cordis."""
@@ -51,6 +68,22 @@ class CordisIOError(CordisError, OSError):
 
     place: str
     message: str
+
+class CostKindError(CordisError, ValueError):
+    """A cost kind that does not parse (``horizon:x``, ``shrt``…); ``place`` quotes it."""
+
+    place: str
+    message: str
+
+class ParamLengthError(CordisError, ValueError):
+    """A parameter vector or population of the wrong length."""
+
+    place: str
+    expected: int
+    got: int
+
+class CheckpointError(CordisError):
+    """A checkpoint could not be read or written, or does not fit the run it should resume."""
 
 @final
 class Scene:
@@ -105,3 +138,168 @@ class Scene:
     def __copy__(self) -> "Scene": ...
     def __deepcopy__(self, memo: Optional[Dict[int, Any]]) -> "Scene": ...
     def __reduce__(self) -> Tuple[Any, Tuple[str]]: ...
+
+def read_trajectory(path: _PathLike, /) -> npt.NDArray[np.float64]:
+    """Reads a ``.csv``, ``.npy`` or ``.tra`` trajectory (by extension) as ``(T, N, 3)`` m.
+
+    >>> traj = cordis.read_trajectory("rigid.csv")
+    """
+
+def write_trajectory(path: _PathLike, array: _ArrayLike, dt: Optional[float] = None) -> None:
+    """Writes positions ``(T, N, 3)`` (any float64-convertible array, m) atomically.
+
+    The format follows the extension (``.csv``, ``.npy``, ``.tra``). ``dt`` (s) is checked;
+    none of the formats stores it. A wrong shape raises ValueError, a non-finite value
+    TrajectoryError.
+
+    >>> cordis.write_trajectory("rigid.npy", scene.simulate(100))
+    """
+
+def example(name: str, unknowns: bool = False, width: float = 25.0, seed: int = 0) -> Scene:
+    """The shipped example ``name`` (one of :data:`EXAMPLES`) at its default size.
+
+    With ``unknowns=True`` every positive link-type parameter is unknown, in a box ``width``
+    times wide holding the true value at a place drawn from ``seed``.
+
+    >>> truth = cordis.example("rigid")
+    >>> scene = cordis.example("rigid", unknowns=True)
+    """
+
+@final
+class CostReport:
+    """Everything a cost says about one parameter vector."""
+
+    @property
+    def total(self) -> float:
+        """The global cost C = Σ_i c_i (m²; for ``harmonic``, 1 / Σ 1/(e + ε))."""
+    @property
+    def rmse(self) -> float:
+        """sqrt(Σ e / terms): RMS prediction error of a particle, m."""
+    @property
+    def per_particle(self) -> npt.NDArray[np.float64]:
+        """Local cost c_i of every particle ``(N,)`` (0 for fixed particles)."""
+    @property
+    def terms(self) -> int:
+        """Number of (predicted frame, free particle) pairs."""
+    @property
+    def kind(self) -> str:
+        """The cost kind, as text."""
+
+def cost(scene: Scene, traj: _ArrayLike, kind: str = "short") -> CostReport:
+    """The cost of ``kind`` of ``scene`` (at its own values) against ``traj`` ``(T, N, 3)`` m.
+
+    The last few compiled (scene, trajectory, kind) triples are cached; an optimiser should use
+    :class:`Objective`.
+
+    >>> cordis.cost(truth, truth.simulate(100)).total
+    0.0
+    """
+
+@final
+class Objective:
+    """A cost compiled once; ``f(params) -> float`` on vectors laid out as ``param_names()``.
+
+    >>> f = cordis.Objective(truth, traj)
+    >>> f(f.param_vector())
+    0.0
+    """
+
+    def __new__(
+        cls, scene: Scene, traj: _ArrayLike, kind: str = "short", generation: int = 0
+    ) -> "Objective": ...
+    def __call__(self, params: _ArrayLike) -> float:
+        """The global cost of ``params`` (float64 vector of ``num_params`` values)."""
+    def report(self, params: _ArrayLike) -> CostReport:
+        """Cost, RMSE, local costs and term count of ``params``."""
+    def evaluate_batch(self, params: _ArrayLike) -> npt.NDArray[np.float64]:
+        """Costs of every row of ``params`` ``(M, num_params)``, in parallel, GIL released."""
+    def param_vector(self) -> npt.NDArray[np.float64]:
+        """The scene's own parameter vector."""
+    def param_names(self) -> List[str]:
+        """``types.NAME.PARAM``, ``particles[i].mass``, ``gravity[k]`` for every slot."""
+    @property
+    def num_params(self) -> int: ...
+    @property
+    def frames(self) -> int: ...
+    @property
+    def particles(self) -> int: ...
+    @property
+    def terms(self) -> int:
+        """Number of (predicted frame, free particle) pairs: rmse = sqrt(cost / terms)."""
+    @property
+    def kind(self) -> str: ...
+    @property
+    def linear(self) -> bool:
+        """True when the short cost is a precomputed quadratic form (O(θ²) calls)."""
+
+@final
+class IdentifyResult:
+    """What :func:`identify` found."""
+
+    HISTORY_COLUMNS: List[str]
+
+    @property
+    def scene(self) -> Scene:
+        """The scene with the identified values written in."""
+    @property
+    def params(self) -> Dict[str, float]:
+        """Identified value of each unknown, by name."""
+    @property
+    def truth(self) -> Optional[Dict[str, float]]:
+        """True value of each unknown when ``truth`` was given."""
+    @property
+    def cost(self) -> float: ...
+    @property
+    def rmse(self) -> float:
+        """sqrt(cost / terms), m."""
+    @property
+    def history(self) -> npt.NDArray[np.float64]:
+        """One row per generation, columns :attr:`HISTORY_COLUMNS` (NaN error without truth)."""
+    @property
+    def evals(self) -> int: ...
+    @property
+    def generations(self) -> int: ...
+    @property
+    def seconds(self) -> float: ...
+    @property
+    def strategy(self) -> str: ...
+    @property
+    def param_error_pct(self) -> Optional[float]:
+        """Mean relative error against the truth, %."""
+    @property
+    def stopped_by(self) -> str:
+        """``generations``, ``max_evals``, ``time_limit``, ``target_cost``, ``callback``, ``interrupted``."""
+
+def identify(
+    scene: Scene,
+    traj: _ArrayLike,
+    strategy: str = "auto",
+    generations: Optional[int] = 1000,
+    population: int = 100,
+    seed: int = 0,
+    callback: Optional[Callable[[int, float, Dict[str, float]], Optional[bool]]] = None,
+    *,
+    noise: float = 0.0,
+    cost: str = "short",
+    time_limit: Optional[float] = None,
+    target_cost: Optional[float] = None,
+    max_evals: Optional[int] = None,
+    threads: Optional[int] = None,
+    truth: Optional[Scene] = None,
+    checkpoint: Optional[_PathLike] = None,
+    resume: Optional[_PathLike] = None,
+    dt: Optional[float] = None,
+) -> IdentifyResult:
+    """Identifies the unknowns of ``scene`` from the observed positions ``traj`` (GIL released).
+
+    ``callback(generation, best_cost, params)`` runs after every generation; returning False
+    stops the run, an exception stops it and is raised again. Ctrl-C stops cleanly and raises
+    KeyboardInterrupt with the partial result as its ``result`` attribute.
+
+    >>> res = cordis.identify(scene, traj, generations=500, truth=truth)
+    >>> res.param_error_pct < 1.0
+    True
+    """
+
+def _cli_main(argv: List[str], /) -> int:
+    """Runs the ``cordis`` command line (``argv[0]`` is the program name)."""

@@ -6,7 +6,8 @@
 //! *where* a scene is wrong without parsing the message.
 
 use cordis_core::CordisError as CoreError;
-use pyo3::exceptions::{PyException, PyOSError};
+use cordis_es::CostError;
+use pyo3::exceptions::{PyException, PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyDict, PyTuple, PyType};
@@ -42,31 +43,68 @@ pyo3::create_exception!(
     "The simulation left the finite numbers (unstable for this dt). Has `frame` and `particle`."
 );
 
-/// `CordisIOError(CordisError, OSError)`: `create_exception!` takes a single base, so this class
-/// is made once with Python's `type()` and kept here.
-static IO_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+pyo3::create_exception!(
+    cordis,
+    CheckpointError,
+    CordisError,
+    "A checkpoint could not be read, written, or does not fit the run it should resume."
+);
 
-/// The `CordisIOError` class (created on first use).
+/// Classes with two bases (`CordisError` and a built-in one, so that `except ValueError` or
+/// `except OSError` also catch them): `create_exception!` takes a single base, so each is made
+/// once with Python's `type()` and kept here.
+static IO_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+static COST_KIND_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+static PARAM_LENGTH_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+
+fn dual_type<'py, B: pyo3::PyTypeInfo>(
+    py: Python<'py>,
+    cell: &'static PyOnceLock<Py<PyType>>,
+    name: &str,
+    doc: &str,
+) -> PyResult<&'py Bound<'py, PyType>> {
+    cell.get_or_try_init(py, || {
+        let bases = PyTuple::new(py, [py.get_type::<CordisError>(), py.get_type::<B>()])?;
+        let ns = PyDict::new(py);
+        ns.set_item("__module__", "cordis")?;
+        ns.set_item("__doc__", doc)?;
+        let cls = py
+            .get_type::<PyType>()
+            .call1((name, bases, ns))?
+            .cast_into::<PyType>()?;
+        Ok(cls.unbind())
+    })
+    .map(|t| t.bind(py))
+}
+
+/// The `CordisIOError(CordisError, OSError)` class (created on first use).
 pub fn io_error_type(py: Python<'_>) -> PyResult<&Bound<'_, PyType>> {
-    IO_ERROR
-        .get_or_try_init(py, || {
-            let bases = PyTuple::new(
-                py,
-                [py.get_type::<CordisError>(), py.get_type::<PyOSError>()],
-            )?;
-            let ns = PyDict::new(py);
-            ns.set_item("__module__", "cordis")?;
-            ns.set_item(
-                "__doc__",
-                "A file could not be read or written (also an OSError: `errno`, `filename`).",
-            )?;
-            let cls = py
-                .get_type::<PyType>()
-                .call1(("CordisIOError", bases, ns))?
-                .cast_into::<PyType>()?;
-            Ok(cls.unbind())
-        })
-        .map(|t| t.bind(py))
+    dual_type::<PyOSError>(
+        py,
+        &IO_ERROR,
+        "CordisIOError",
+        "A file could not be read or written (also an OSError: `errno`, `filename`).",
+    )
+}
+
+/// `CostKindError(CordisError, ValueError)`: a cost-kind string that does not parse.
+pub fn cost_kind_error_type(py: Python<'_>) -> PyResult<&Bound<'_, PyType>> {
+    dual_type::<PyValueError>(
+        py,
+        &COST_KIND_ERROR,
+        "CostKindError",
+        "A cost kind that does not parse (`horizon:x`, `shrt`…); `place` is the text.",
+    )
+}
+
+/// `ParamLengthError(CordisError, ValueError)`: a parameter vector of the wrong length.
+pub fn param_length_error_type(py: Python<'_>) -> PyResult<&Bound<'_, PyType>> {
+    dual_type::<PyValueError>(
+        py,
+        &PARAM_LENGTH_ERROR,
+        "ParamLengthError",
+        "A parameter vector or population of the wrong length; has `expected` and `got`.",
+    )
 }
 
 /// Registers the exception classes on the extension module.
@@ -77,7 +115,10 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("TrajectoryError", py.get_type::<TrajectoryError>())?;
     m.add("FormatError", py.get_type::<FormatError>())?;
     m.add("DivergedError", py.get_type::<DivergedError>())?;
+    m.add("CheckpointError", py.get_type::<CheckpointError>())?;
     m.add("CordisIOError", io_error_type(py)?)?;
+    m.add("CostKindError", cost_kind_error_type(py)?)?;
+    m.add("ParamLengthError", param_length_error_type(py)?)?;
     Ok(())
 }
 
@@ -142,4 +183,48 @@ fn placed<'py, T: pyo3::PyTypeInfo>(
     e.setattr("place", place)?;
     e.setattr("message", message)?;
     Ok(e)
+}
+
+/// The Python exception for an error of `cordis-es`: core errors as [`to_py`], a bad cost kind
+/// as `CostKindError`, a wrong length as `ParamLengthError`, a trajectory that does not fit
+/// its scene as `TrajectoryError`.
+pub fn cost_to_py(err: CostError) -> PyErr {
+    match err {
+        CostError::Core(e) => to_py(e),
+        other => Python::attach(|py| build_cost(py, &other).unwrap_or_else(|e| e)),
+    }
+}
+
+fn build_cost(py: Python<'_>, err: &CostError) -> PyResult<PyErr> {
+    let text = err.to_string();
+    let value = match err {
+        CostError::Kind { place, message } => {
+            let e = cost_kind_error_type(py)?.call1((&text,))?;
+            e.setattr("place", place)?;
+            e.setattr("message", message)?;
+            e
+        }
+        CostError::Length {
+            place,
+            expected,
+            got,
+        } => {
+            let e = param_length_error_type(py)?.call1((&text,))?;
+            e.setattr("place", place)?;
+            e.setattr("expected", expected)?;
+            e.setattr("got", got)?;
+            e
+        }
+        CostError::Mismatch { place, message } => {
+            placed::<TrajectoryError>(py, &text, place, message)?
+        }
+        // Non-exhaustive: a variant added later still maps to the base class.
+        other => py.get_type::<CordisError>().call1((other.to_string(),))?,
+    };
+    Ok(PyErr::from_value(value))
+}
+
+/// A `CheckpointError` with the run loop's one-line message.
+pub fn checkpoint_error(message: String) -> PyErr {
+    CheckpointError::new_err(message)
 }

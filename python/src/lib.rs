@@ -5,19 +5,30 @@
 //! the core call and map errors with [`errors::to_py`]. The pure-Python package `cordis`
 //! (python/cordis/) re-exports everything from here and adds Python-only helpers.
 //!
-//! Later modules (costs, identification, trajectory files) slot in as `cost.rs`,
-//! `identify.rs`, `trajectory.rs` with their own `register`.
+//! Modules: `scene.rs` (core `Scene`), `trajectory.rs` (`cordis_core::io`), `examples.rs`
+//! (`cordis_core::examples`), `cost.rs` (`cordis_es::cost`), `identify.rs` (`cordis_es::problem`,
+//! `identify`, `executor`), `cli.rs` (`cordis_cli`), `errors.rs` (both error enums).
 
 use pyo3::prelude::*;
 
+pub mod cli;
+pub mod cost;
 pub mod errors;
+pub mod examples;
+pub mod identify;
 pub mod json;
 pub mod scene;
+pub mod trajectory;
 
 #[pymodule]
 fn _cordis(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     errors::register(m)?;
     m.add_class::<scene::Scene>()?;
+    trajectory::register(m)?;
+    examples::register(m)?;
+    cost::register(m)?;
+    identify::register(m)?;
+    cli::register(m)?;
     Ok(())
 }

@@ -7,8 +7,7 @@
 use std::path::PathBuf;
 
 use cordis_core::Scene as CoreScene;
-use numpy::ndarray::Array3;
-use numpy::{IntoPyArray, PyArray3};
+use numpy::PyArray3;
 use pyo3::exceptions::{PyMemoryError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyString, PyTuple, PyType};
@@ -109,10 +108,7 @@ impl Scene {
         let frames = check_frames(frames, n).map_err(FramesError::into_py)?;
         let scene = &self.inner;
         let traj = py.detach(|| scene.simulate(frames)).map_err(to_py)?;
-        let shape = (traj.frames(), traj.particles(), 3);
-        let array = Array3::from_shape_vec(shape, traj.into_flat())
-            .map_err(|e| PyValueError::new_err(format!("trajectory shape: {e}")))?;
-        Ok(array.into_pyarray(py))
+        crate::trajectory::traj_to_py(py, traj)
     }
 
     /// Time step, s.

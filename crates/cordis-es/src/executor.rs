@@ -72,6 +72,14 @@ impl HistoryRow {
 /// Sees every generation; returns false to stop the run (a Python callback, Ctrl-C…).
 pub trait Observer: Send {
     fn observe(&mut self, row: &HistoryRow) -> bool;
+
+    /// [`Observer::observe`] with the best genome so far (internal coordinates, see
+    /// [`crate::space`]), for observers that report the parameters themselves (the Python
+    /// callback). The run loop calls this one; by default it forwards to `observe`.
+    fn observe_best(&mut self, row: &HistoryRow, best_genome: &[f64]) -> bool {
+        let _ = best_genome;
+        self.observe(row)
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -175,7 +183,7 @@ pub fn run(
             seconds_before + start.elapsed().as_secs_f64(),
         );
         for o in observers.iter_mut() {
-            o.observe(&row);
+            o.observe_best(&row, strategy.best().0);
         }
         history.push(row);
     }
@@ -214,7 +222,7 @@ pub fn run(
         let row = make_row(problem, &*strategy, generation, elapsed(&start));
         let mut go_on = true;
         for o in observers.iter_mut() {
-            go_on &= o.observe(&row);
+            go_on &= o.observe_best(&row, strategy.best().0);
         }
         history.push(row);
         if let Some(path) = &config.checkpoint {

@@ -1,0 +1,137 @@
+//! Trajectories between numpy and the core: `read_trajectory`, `write_trajectory`, and the
+//! conversions every other module uses (`(T, N, 3)` float64 arrays, metres).
+
+use std::path::PathBuf;
+
+use cordis_core::Trajectory;
+use numpy::ndarray::Array3;
+use numpy::{IntoPyArray, PyArray3, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
+use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::prelude::*;
+
+use crate::errors::to_py;
+
+/// Any array-like of numbers as a float64 numpy array: a float64 array as it is, anything else
+/// through `numpy.asarray(x, dtype=float64)`. `what` names the argument in errors.
+pub fn as_f64_array<'py>(
+    x: &Bound<'py, PyAny>,
+    what: &str,
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    if let Ok(a) = x.cast::<PyArrayDyn<f64>>() {
+        return Ok(a.clone());
+    }
+    let np = x.py().import("numpy")?;
+    let converted = np
+        .call_method1("asarray", (x, np.getattr("float64")?))
+        .map_err(|e| {
+            PyTypeError::new_err(format!(
+                "{what}: expected an array of numbers (float64-convertible): {}",
+                e.value(x.py())
+            ))
+        })?;
+    Ok(converted.cast_into::<PyArrayDyn<f64>>()?)
+}
+
+/// The values of a float64 array in C (row-major) order, whatever its strides.
+pub fn c_order_values(a: &Bound<'_, PyArrayDyn<f64>>) -> PyResult<Vec<f64>> {
+    let ro = a.try_readonly().map_err(borrow_error)?;
+    let view = ro.as_array();
+    Ok(match view.as_slice() {
+        Some(s) => s.to_vec(),
+        None => view.iter().copied().collect(),
+    })
+}
+
+fn borrow_error(e: numpy::BorrowError) -> PyErr {
+    PyValueError::new_err(format!("array is being written by another thread: {e}"))
+}
+
+/// A `(T, N, 3)` array-like as a core trajectory. A wrong shape is a `ValueError` naming the
+/// expected one; a value that is not finite is a `TrajectoryError` naming frame, particle and
+/// coordinate.
+pub fn traj_from_py(x: &Bound<'_, PyAny>, what: &str) -> PyResult<Trajectory> {
+    let a = as_f64_array(x, what)?;
+    let shape = a.shape().to_vec();
+    if shape.len() != 3 || shape[2] != 3 {
+        return Err(PyValueError::new_err(format!(
+            "{what}: expected an array of shape (T, N, 3) (frames, particles, xyz), got shape {}",
+            shape_text(&shape)
+        )));
+    }
+    let data = c_order_values(&a)?;
+    Trajectory::from_flat(shape[0], shape[1], data).map_err(to_py)
+}
+
+/// A core trajectory as a C-contiguous float64 array `(T, N, 3)`.
+pub fn traj_to_py(py: Python<'_>, traj: Trajectory) -> PyResult<Bound<'_, PyArray3<f64>>> {
+    let shape = (traj.frames(), traj.particles(), 3);
+    let array = Array3::from_shape_vec(shape, traj.into_flat())
+        .map_err(|e| PyValueError::new_err(format!("trajectory shape: {e}")))?;
+    Ok(array.into_pyarray(py))
+}
+
+/// `(a, b, c)` as Python prints a shape.
+pub fn shape_text(shape: &[usize]) -> String {
+    match shape {
+        [one] => format!("({one},)"),
+        _ => format!(
+            "({})",
+            shape
+                .iter()
+                .map(|d| d.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
+}
+
+/// A positive, finite time step (s), or a `ValueError` naming `what`.
+pub fn check_dt(dt: f64, what: &str) -> PyResult<f64> {
+    if dt.is_finite() && dt > 0.0 {
+        Ok(dt)
+    } else {
+        Err(PyValueError::new_err(format!(
+            "{what}: must be a positive number of seconds, got {dt}"
+        )))
+    }
+}
+
+/// Reads a trajectory file — `.csv` (`frame,particle,x,y,z`), `.npy` (float64 `(T, N, 3)`) or
+/// the thesis' `.tra`, chosen by extension — as a float64 array `(T, N, 3)`, m.
+///
+/// >>> traj = cordis.read_trajectory("rigid.csv")   # doctest: +SKIP
+#[pyfunction]
+#[pyo3(signature = (path, /))]
+pub fn read_trajectory(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyArray3<f64>>> {
+    let traj = py
+        .detach(|| cordis_core::io::read_trajectory(&path))
+        .map_err(to_py)?;
+    traj_to_py(py, traj)
+}
+
+/// Writes positions `(T, N, 3)` (any float64-convertible array, m) atomically, in the format
+/// the extension names (`.csv`, `.npy`, `.tra`). `dt` (s), when given, is checked; none of the
+/// three formats stores it, so a reader gives it again (the scene's `dt` by default).
+///
+/// >>> cordis.write_trajectory("rigid.npy", scene.simulate(100))   # doctest: +SKIP
+#[pyfunction]
+#[pyo3(signature = (path, array, dt = None))]
+pub fn write_trajectory(
+    py: Python<'_>,
+    path: PathBuf,
+    array: &Bound<'_, PyAny>,
+    dt: Option<f64>,
+) -> PyResult<()> {
+    let mut traj = traj_from_py(array, "array")?;
+    if let Some(dt) = dt {
+        traj.dt = Some(check_dt(dt, "dt")?);
+    }
+    py.detach(|| cordis_core::io::write_trajectory(&path, &traj))
+        .map_err(to_py)
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(read_trajectory, m)?)?;
+    m.add_function(wrap_pyfunction!(write_trajectory, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,54 @@
+"""cordis.example and cordis.EXAMPLES."""
+
+import pytest
+
+import cordis
+
+
+def test_examples_are_the_shipped_names():
+    assert cordis.EXAMPLES == ("rigid", "cloth", "fluid", "horse")
+
+
+@pytest.mark.parametrize("name", cordis.EXAMPLES)
+def test_every_example_builds_and_has_no_unknowns(name):
+    s = cordis.example(name)
+    assert s.num_particles > 0 and not s.has_unknowns
+    assert cordis.example(name) == s  # deterministic
+
+
+def test_unknowns_are_boxes_around_the_truth():
+    truth = cordis.example("rigid").to_dict()
+    boxed = cordis.example("rigid", unknowns=True, width=25.0, seed=3).to_dict()
+    n = 0
+    for name, t in truth["types"].items():
+        for key, value in t.items():
+            b = boxed["types"][name][key]
+            if isinstance(value, float) and value > 0 and key != "rest_cos":
+                assert isinstance(b, dict), (name, key)
+                assert b["min"] < value < b["max"]
+                assert b["max"] / b["min"] == pytest.approx(25.0)
+                n += 1
+            else:
+                assert b == value
+    assert n == 20
+    # Another seed puts the truth elsewhere in its box.
+    other = cordis.example("rigid", unknowns=True, seed=4).to_dict()
+    assert other != boxed
+    assert cordis.example("rigid", unknowns=True, seed=3).to_dict() == boxed
+
+
+def test_width_sets_the_box_ratio():
+    d = cordis.example("rigid", unknowns=True, width=4.0).to_dict()
+    b = d["types"]["brace"]["stiffness"]
+    assert b["max"] / b["min"] == pytest.approx(4.0)
+
+
+def test_unknown_name_lists_the_names():
+    with pytest.raises(ValueError, match="unknown example `tadpol`.*rigid, cloth, fluid, horse"):
+        cordis.example("tadpol")
+
+
+@pytest.mark.parametrize("width", [1.0, 0.5, float("nan"), float("inf")])
+def test_bad_width_is_a_value_error(width):
+    with pytest.raises(ValueError, match="width"):
+        cordis.example("rigid", unknowns=True, width=width)
