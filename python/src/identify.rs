@@ -14,7 +14,7 @@ use std::time::Duration;
 use cordis_es::executor::{
     self, HistoryRow, Observer, RunConfig, RunResult, StopReason, StopRules,
 };
-use cordis_es::identify::{add_noise, make_strategy, StrategyName};
+use cordis_es::identify::{add_noise, make_strategy, StrategyName, StrategyOptions};
 use cordis_es::problem::Problem;
 use cordis_es::space::ParameterSpace;
 use numpy::ndarray::Array2;
@@ -127,14 +127,14 @@ impl IdentifyResult {
 
 /// The Python callback as a run-loop observer; also stops the run once it asked to stop or
 /// raised (the exception is kept and re-raised by `identify`).
-struct CallbackObserver<'a> {
+struct CallbackObserver {
     callback: Option<Py<PyAny>>,
-    space: &'a ParameterSpace,
+    space: ParameterSpace,
     error: Option<PyErr>,
     stop: bool,
 }
 
-impl Observer for CallbackObserver<'_> {
+impl Observer for CallbackObserver {
     fn observe(&mut self, _row: &HistoryRow) -> bool {
         !self.stop
     }
@@ -319,8 +319,12 @@ pub fn identify(
         }
         Ok(problem)
     });
-    let problem = prepared?;
-    let (mut strategy, _) = make_strategy(name, &problem, population, None);
+    let mut problem = prepared?;
+    let options = StrategyOptions {
+        population,
+        ..StrategyOptions::default()
+    };
+    let (mut strategy, _) = make_strategy(name, &problem, &options);
     let config = RunConfig {
         seed,
         stop: StopRules {
@@ -339,7 +343,7 @@ pub fn identify(
         .map_err(|e| PyRuntimeError::new_err(format!("threads: {e}")))?;
     let mut observer = CallbackObserver {
         callback,
-        space: &problem.space,
+        space: problem.space.clone(),
         error: None,
         stop: false,
     };
@@ -347,7 +351,7 @@ pub fn identify(
 
     let (outcome, signal) = py.detach(|| {
         let (done, finished) = mpsc::channel::<()>();
-        let (problem, config, interrupt, pool) = (&problem, &config, &interrupt, &pool);
+        let (problem, config, interrupt, pool) = (&mut problem, &config, &interrupt, &pool);
         let observer = &mut observer;
         let strategy = strategy.as_mut();
         std::thread::scope(|s| {
