@@ -401,10 +401,12 @@ struct MassRow {
     c: f64,
 }
 
-/// `|Dξ + d|²` and the free masses' first rows.
+/// `|Dξ + d|² + ρ²` (D square upper-triangular: the rows are compressed by Givens as they
+/// come) and the free masses' first rows.
 struct XiSystem {
     d: DMatrix<f64>,
     rhs: DVector<f64>,
+    rho2: f64,
     masses: Vec<MassRow>,
 }
 
@@ -418,9 +420,10 @@ fn xi_system(
 ) -> XiSystem {
     let p = red.xi.len();
     let nc = sys.cols.len();
-    let mut out: Vec<f64> = Vec::new(); // rows of [D | d], row-major
+    let mut global = Factor::new(p + 1);
     let mut masses = Vec::new();
     let mut y = vec![0.0; p + 2];
+    let mut out = vec![0.0; p + 1];
     for b in &sys.blocks {
         let rows = &b.rows;
         let free_mass = b.particle.filter(|&i| mass(i).is_none());
@@ -441,30 +444,25 @@ fn xi_system(
                 yc += v * red.consts[k];
             }
             let a = rows[(r, nc)];
-            match (&mut local, b.particle) {
-                (Some(f), _) => {
-                    y[0] = a;
-                    y[p + 1] = yc;
-                    f.add_row(&mut y);
-                }
-                (None, None) => {
-                    out.extend_from_slice(&y[..p]);
-                    out.push(yc + a);
-                }
-                (None, Some(i)) => {
-                    let m = mass(i).unwrap_or(1.0);
-                    match weighting {
-                        Weighting::Position => {
-                            out.extend(y[..p].iter().map(|v| v / m));
-                            out.push(yc / m + a);
-                        }
-                        Weighting::Force => {
-                            out.extend_from_slice(&y[..p]);
-                            out.push(yc + m * a);
-                        }
-                    }
-                }
+            if let Some(f) = &mut local {
+                y[0] = a;
+                y[p + 1] = yc;
+                f.add_row(&mut y);
+                continue;
             }
+            let (scale, constant) = match (b.particle, weighting) {
+                (None, _) => (1.0, yc + a),
+                (Some(i), Weighting::Position) => {
+                    let m = mass(i).unwrap_or(1.0);
+                    (1.0 / m, yc / m + a)
+                }
+                (Some(i), Weighting::Force) => (1.0, yc + mass(i).unwrap_or(1.0) * a),
+            };
+            for (o, v) in out.iter_mut().zip(&y[..p]) {
+                *o = v * scale;
+            }
+            out[p] = constant;
+            global.add_row(&mut out);
         }
         if let (Some(f), Some(i)) = (local, free_mass) {
             let m = f.matrix();
@@ -475,36 +473,37 @@ fn xi_system(
                 c: m[(0, p + 1)],
             });
             for r in 1..p + 2 {
-                out.extend((1..p + 2).map(|l| m[(r, l)]));
+                for (o, l) in out.iter_mut().zip(1..p + 2) {
+                    *o = m[(r, l)];
+                }
+                global.add_row(&mut out);
             }
         }
     }
     if let Some(total) = total.filter(|_| !masses.is_empty()) {
         let w2: f64 = masses.iter().map(|m| (1.0 / m.rho).powi(2)).sum();
         let sw = w2.sqrt();
-        let mut row = vec![0.0; p + 1];
+        out.fill(0.0);
         let mut c = total;
         for m in &masses {
-            for (r, s) in row.iter_mut().zip(m.s.iter()) {
+            for (r, s) in out.iter_mut().zip(m.s.iter()) {
                 *r += s / m.rho;
             }
             c += m.c / m.rho;
         }
-        row[p] = c;
-        out.extend(row.iter().map(|v| v / sw));
-    }
-    let m = out.len() / (p + 1);
-    // At least p rows, so that the SVD sees every direction (missing rows are zeros).
-    let rows = m.max(p);
-    let mut d = DMatrix::zeros(rows, p);
-    let mut rhs = DVector::zeros(rows);
-    for r in 0..m {
-        for l in 0..p {
-            d[(r, l)] = out[r * (p + 1) + l];
+        out[p] = c;
+        for v in &mut out {
+            *v /= sw;
         }
-        rhs[r] = out[r * (p + 1) + p];
+        global.add_row(&mut out);
     }
-    XiSystem { d, rhs, masses }
+    let m = global.matrix();
+    XiSystem {
+        d: m.view((0, 0), (p, p)).into_owned(),
+        rhs: m.view((0, p), (p, 1)).column(0).into_owned(),
+        rho2: m[(p, p)].powi(2),
+        masses,
+    }
 }
 
 /// SVD solution of `min |Dξ + d|²` on equilibrated columns.
@@ -704,7 +703,7 @@ pub(crate) fn solve(spec: &Spec) -> Result<Outcome, String> {
             }
         }
         // With free masses, the total's row already holds the first rows' Σe².
-        let residual = (&xs.d * &sol.xi + &xs.rhs).norm_squared();
+        let residual = (&xs.d * &sol.xi + &xs.rhs).norm_squared() + xs.rho2;
         if !xs.masses.is_empty() {
             let w2: f64 = xs.masses.iter().map(|m| m.rho.powi(-2)).sum();
             let gamma = total.map(|t| {
