@@ -177,7 +177,7 @@ pub(crate) fn supported(problem: &Problem) -> Result<(), String> {
     let kind = problem.objective.kind();
     if problem.objective.window() != Some(1) || matches!(kind, CostKind::Harmonic { .. }) {
         return Err(format!(
-            "the exact solvers minimise the short cost, not `{kind:?}`"
+            "the exact solvers minimise the short cost, not `{kind}`"
         ));
     }
     generic_cols(&problem.scene).map(|_| ())

@@ -12,7 +12,7 @@
 //! the observed speeds (distances) within the box are sorted, an interval is scored at its
 //! middle, and the best one is found by a coarse-to-fine grid over the interval index (24
 //! points, then the bracket around the best, until ≤ 48 intervals remain and all are
-//! scored). Several nonlinear unknowns are searched one at a time, cycling until none moves
+//! scored; the points of a grid are scored in parallel). Several nonlinear unknowns are searched one at a time, cycling until none moves
 //! (coordinate descent, at most [`MAX_CYCLES`] cycles). The answer is the middle of the
 //! best interval; every value in it fits the data equally, and the report gives it. A
 //! landscape with several separate basins can trap the grid in the wrong one; this has not
@@ -21,6 +21,7 @@
 use std::collections::HashMap;
 
 use cordis_core::forces::grid::Grid;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::exact::{self, ExactReport, Solution, Spec, Weighting};
@@ -91,13 +92,13 @@ fn interval(c: &[f64], min: f64, max: f64, j: usize) -> (f64, f64) {
     (lo, hi)
 }
 
-/// Index in `0..n` of the least `f`, by a coarse-to-fine grid (see the module docs).
-fn search(n: usize, mut f: impl FnMut(usize) -> f64) -> usize {
+/// Index in `0..n` of the least `f`, by a coarse-to-fine grid (see the module docs); `f`
+/// scores a batch of indices (in parallel).
+fn search(n: usize, mut f: impl FnMut(&[usize]) -> Vec<f64>) -> usize {
     let (mut lo, mut hi) = (0, n - 1);
-    let best_of = |idx: &[usize], f: &mut dyn FnMut(usize) -> f64| {
+    let mut best_of = |idx: &[usize]| {
         let mut best = (idx[0], f64::INFINITY);
-        for &j in idx {
-            let v = f(j);
+        for (&j, v) in idx.iter().zip(f(idx)) {
             if v < best.1 {
                 best = (j, v);
             }
@@ -107,11 +108,11 @@ fn search(n: usize, mut f: impl FnMut(usize) -> f64) -> usize {
     loop {
         if hi - lo < 48 {
             let all: Vec<usize> = (lo..=hi).collect();
-            return best_of(&all, &mut f);
+            return best_of(&all);
         }
         let mut idx: Vec<usize> = (0..=24).map(|k| lo + (hi - lo) * k / 24).collect();
         idx.dedup();
-        let b = best_of(&idx, &mut f);
+        let b = best_of(&idx);
         let at = idx.iter().position(|&j| j == b).unwrap_or(0);
         lo = idx[at.saturating_sub(1)];
         hi = idx[(at + 1).min(idx.len() - 1)];
@@ -147,13 +148,7 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
         }
         p
     };
-    let mut cache: HashMap<Vec<usize>, f64> = HashMap::new();
-    let mut evals = 0u64;
-    let mut score = |at: &[usize]| -> f64 {
-        if let Some(&v) = cache.get(at) {
-            return v;
-        }
-        evals += 1;
+    let score = |at: &[usize]| -> f64 {
         let p = params_at(at);
         let system = exact::assemble(&problem.objective, &problem.scene, &cols, &p);
         let spec = Spec {
@@ -163,12 +158,21 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
             linear: split.linear.clone(),
             weighting,
         };
-        let v = match exact::solve(&spec) {
+        match exact::solve(&spec) {
             Ok(o) if o.residual.is_finite() => o.residual,
             _ => f64::INFINITY,
-        };
-        cache.insert(at.to_vec(), v);
-        v
+        }
+    };
+    let mut cache: HashMap<Vec<usize>, f64> = HashMap::new();
+    let mut evals = 0u64;
+    let mut score_batch = |points: Vec<Vec<usize>>| -> Vec<f64> {
+        let todo: Vec<&Vec<usize>> = points.iter().filter(|a| !cache.contains_key(*a)).collect();
+        evals += todo.len() as u64;
+        let scores: Vec<f64> = todo.par_iter().map(|a| score(a)).collect();
+        for (a, v) in todo.into_iter().zip(scores) {
+            cache.insert(a.clone(), v);
+        }
+        points.iter().map(|a| cache[a]).collect()
     };
     // Start in the interval holding each unknown's starting value.
     let mut at: Vec<usize> = dims
@@ -179,10 +183,17 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
         let before = at.clone();
         for d in 0..dims.len() {
             let n = dims[d].1.len() + 1;
-            let mut trial = at.clone();
-            at[d] = search(n, |j| {
-                trial[d] = j;
-                score(&trial)
+            let base = at.clone();
+            at[d] = search(n, |js| {
+                let points = js
+                    .iter()
+                    .map(|&j| {
+                        let mut a = base.clone();
+                        a[d] = j;
+                        a
+                    })
+                    .collect();
+                score_batch(points)
             });
         }
         if at == before {
