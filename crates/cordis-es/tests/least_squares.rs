@@ -337,3 +337,46 @@ fn auto_runs_least_squares_through_the_executor() {
     let p = Problem::new(&unknown, &traj, CostKind::Long).unwrap();
     assert_eq!(make_strategy(StrategyName::Auto, &p, 10, None).1, "thesis");
 }
+
+#[test]
+fn known_stiffness_or_known_rest_length_couplings() {
+    // Alternate types: K known with l0 unknown (θ = K·l0 is free alone), K unknown with l0
+    // known (K and K·l0 tied), both unknown.
+    let truth = random_network(12, 20, 6);
+    let mut unknown = with_unknown_boxes(&truth, 25.0, 6);
+    for (t, ty) in unknown.types.iter_mut().enumerate() {
+        let known = match t % 3 {
+            0 => "stiffness",
+            1 => "rest_length",
+            _ => continue,
+        };
+        let k = ty.kind.param_index(known).unwrap();
+        ty.params[k] = truth.types[t].params[k];
+    }
+    let (err, _, report) = identify(&truth, &unknown, 300, None);
+    assert!(err < 1e-6, "{err} % {report:?}");
+    // With every stiffness known, the scale comes from them: free masses need no total.
+    let mut unknown = with_unknown_masses(&with_unknown_boxes(&truth, 25.0, 6));
+    for (t, ty) in unknown.types.iter_mut().enumerate() {
+        ty.params[0] = truth.types[t].params[0];
+    }
+    let traj = truth.simulate(300).unwrap();
+    let problem = Problem::new(&unknown, &traj, CostKind::Short).unwrap();
+    let sol = least_squares::solve(&problem).unwrap();
+    let t = truth.param_values();
+    for (u, v) in problem
+        .space
+        .unknowns
+        .iter()
+        .zip(problem.space.values(&sol.genome))
+    {
+        if !report_names_fixed(&truth, &u.name) {
+            assert!(
+                ((v - t[u.slot]) / t[u.slot]).abs() < 1e-8,
+                "{}: {v} vs {}",
+                u.name,
+                t[u.slot]
+            );
+        }
+    }
+}
