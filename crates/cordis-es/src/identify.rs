@@ -8,15 +8,21 @@ use cordis_core::Trajectory;
 
 use crate::problem::Problem;
 use crate::rng;
+use crate::strategies::exact;
+use crate::strategies::hybrid::Hybrid;
+use crate::strategies::least_squares::LeastSquares;
 use crate::strategies::thesis::{Thesis, ThesisConfig};
 use crate::strategy::Strategy;
 
 /// `--strategy` values.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StrategyName {
-    /// The best strategy for the problem (for now: `thesis`; exact solvers come next).
+    /// `least-squares` when every unknown enters the short cost linearly, `hybrid` when only
+    /// ranges and v_max do not, else `thesis`.
     Auto,
     Thesis,
+    LeastSquares,
+    Hybrid,
 }
 
 impl FromStr for StrategyName {
@@ -26,8 +32,10 @@ impl FromStr for StrategyName {
         match s {
             "auto" => Ok(StrategyName::Auto),
             "thesis" => Ok(StrategyName::Thesis),
+            "least-squares" => Ok(StrategyName::LeastSquares),
+            "hybrid" => Ok(StrategyName::Hybrid),
             _ => Err(format!(
-                "unknown strategy `{s}` (expected one of: auto, thesis)"
+                "unknown strategy `{s}` (expected one of: auto, thesis, least-squares, hybrid)"
             )),
         }
     }
@@ -59,10 +67,20 @@ impl Default for StrategyOptions {
 /// Builds the named strategy; returns it with the name of what will actually run.
 pub fn make_strategy(
     name: StrategyName,
-    _problem: &Problem,
+    problem: &Problem,
     options: &StrategyOptions,
 ) -> (Box<dyn Strategy>, &'static str) {
+    let name = match name {
+        StrategyName::Auto => match exact::supported(problem) {
+            Ok(()) if exact::split(problem).nonlinear.is_empty() => StrategyName::LeastSquares,
+            Ok(()) => StrategyName::Hybrid,
+            Err(_) => StrategyName::Thesis,
+        },
+        other => other,
+    };
     match name {
+        StrategyName::LeastSquares => (Box::new(LeastSquares::new()), "least-squares"),
+        StrategyName::Hybrid => (Box::new(Hybrid::new()), "hybrid"),
         StrategyName::Auto | StrategyName::Thesis => {
             let mut c = ThesisConfig {
                 population: options.population,
@@ -78,6 +96,27 @@ pub fn make_strategy(
             (Box::new(Thesis::new(c)), "thesis")
         }
     }
+}
+
+/// Whether the strategy that will run (as named by [`make_strategy`]) can run on `problem`:
+/// the exact solvers say why not (a nonlinear cost kind, free masses without a total…)
+/// before a run starts.
+pub fn check_strategy(ran: &str, problem: &Problem) -> Result<(), String> {
+    if ran != "least-squares" && ran != "hybrid" {
+        return Ok(());
+    }
+    exact::supported(problem)?;
+    let split = exact::split(problem);
+    if ran == "least-squares" {
+        if let Some(&k) = split.nonlinear.first() {
+            return Err(format!(
+                "{}: enters the short cost nonlinearly (use --strategy hybrid)",
+                problem.space.unknowns[k].name
+            ));
+        }
+    }
+    let cols = exact::generic_cols(&problem.scene)?;
+    exact::check_scale(problem, &split, &cols)
 }
 
 /// The trajectory with Gaussian noise of standard deviation `sigma` (m) added to every

@@ -77,6 +77,18 @@ impl Problem {
         Ok(self)
     }
 
+    /// Sets the known total mass (kg) of the free particles ([`ParameterSpace::total_mass`]).
+    pub fn with_total_mass(mut self, total: f64) -> Result<Self, CostError> {
+        if !(total > 0.0 && total.is_finite()) {
+            return Err(CostError::Mismatch {
+                place: "total_mass".into(),
+                message: format!("must be a positive number of kg, got {total}"),
+            });
+        }
+        self.space.total_mass = Some(total);
+        Ok(self)
+    }
+
     pub fn dim(&self) -> usize {
         self.space.dim()
     }

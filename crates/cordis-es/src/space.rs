@@ -77,6 +77,10 @@ pub struct ParameterSpace {
     /// The scene's parameter vector with every known value in place (unknown slots hold their
     /// starting value until a genome fills them).
     pub base: Vec<f64>,
+    /// Known total mass of the free particles, kg (thesis §3.3: with free masses, masses and
+    /// stiffnesses are only determined up to a common scale; a fixed total removes it). Fixed
+    /// particles never move, so their masses enter no cost and are not counted.
+    pub total_mass: Option<f64>,
 }
 
 impl ParameterSpace {
@@ -125,6 +129,7 @@ impl ParameterSpace {
         ParameterSpace {
             unknowns,
             base: scene.param_values(),
+            total_mass: None,
         }
     }
 

@@ -40,6 +40,12 @@ pub trait Strategy: Send {
 
     /// Restores a state written by [`Strategy::save_state`].
     fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String>;
+
+    /// What the strategy wants the run summary to say beside the numbers (an exact solver's
+    /// condition number and warnings); `null` for nothing.
+    fn report(&self) -> serde_json::Value {
+        serde_json::Value::Null
+    }
 }
 
 /// Exact f64 vectors in JSON (as IEEE bit patterns, so ±inf survive and nothing is rounded).

@@ -8,7 +8,9 @@ use anyhow::{bail, Context, Result};
 use cordis_core::Scene;
 use cordis_es::cost::CostKind;
 use cordis_es::executor::{self, HistoryRow, Observer, RunConfig, StopRules};
-use cordis_es::identify::{add_noise, make_strategy, StrategyName, StrategyOptions};
+use cordis_es::identify::{
+    add_noise, check_strategy, make_strategy, StrategyName, StrategyOptions,
+};
 use cordis_es::problem::Problem;
 
 #[derive(clap::Args, Debug)]
@@ -18,7 +20,7 @@ pub struct Args {
     /// Observed trajectory (.csv, .npy or .tra), every particle in scene order.
     #[arg(long, short = 't')]
     trajectory: PathBuf,
-    /// Identification strategy: auto | thesis.
+    /// Identification strategy: auto | thesis | least-squares | hybrid.
     #[arg(long, default_value = "auto")]
     strategy: StrategyName,
     /// Stop after this many generations.
@@ -72,6 +74,10 @@ pub struct Args {
     /// The true scene, to report the mean parameter error.
     #[arg(long)]
     truth: Option<PathBuf>,
+    /// Known total mass (kg) of the free particles, when masses are unknown: masses and link
+    /// parameters are otherwise only determined up to a common scale.
+    #[arg(long)]
+    total_mass: Option<f64>,
     /// Time step of the trajectory when its file does not give one (default: the scene's dt).
     #[arg(long)]
     dt: Option<f64>,
@@ -122,6 +128,9 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(t) = &a.truth {
         problem = problem.with_truth(&Scene::from_json_path(t)?)?;
     }
+    if let Some(m) = a.total_mass {
+        problem = problem.with_total_mass(m).context("--total-mass")?;
+    }
     let population = a
         .population
         .or(gene.as_ref().and_then(|g| g.population).map(|p| p as usize))
@@ -143,6 +152,14 @@ pub fn run(a: Args) -> Result<()> {
         descent_every: a.descent_every,
     };
     let (mut strategy, ran) = make_strategy(a.strategy, &problem, &options);
+    check_strategy(ran, &problem).map_err(|e| anyhow::anyhow!("{}: {e}", a.scene.display()))?;
+    // An exact solver is done after generation 0.
+    let exact = ran == "least-squares" || ran == "hybrid";
+    let generations = if exact {
+        Some(a.generations.unwrap_or(0))
+    } else {
+        generations
+    };
     let config = RunConfig {
         seed: a.seed,
         stop: StopRules {
@@ -216,6 +233,35 @@ pub fn run(a: Args) -> Result<()> {
             eprintln!("  {:<40} {:>14.6e}{truth}", u.name, v);
         }
     }
+    let report = strategy.report();
+    if !a.quiet {
+        if let Some(e) = report.get("error").and_then(|v| v.as_str()) {
+            eprintln!("warning: {e}");
+        }
+        for (key, what) in [
+            (
+                "undetermined",
+                "not determined by the data (held at the starting value)",
+            ),
+            (
+                "poorly_determined",
+                "poorly determined (large condition number)",
+            ),
+            (
+                "clamped",
+                "unconstrained solution outside the box (clamped onto it)",
+            ),
+        ] {
+            let names: Vec<&str> = report
+                .get(key)
+                .and_then(|v| v.as_array())
+                .map(|a| a.iter().filter_map(|v| v.as_str()).collect())
+                .unwrap_or_default();
+            if !names.is_empty() {
+                eprintln!("warning: {}: {what}", names.join(", "));
+            }
+        }
+    }
     let mut summary = serde_json::json!({
         "strategy": ran,
         "cost": result.cost,
@@ -228,6 +274,9 @@ pub fn run(a: Args) -> Result<()> {
     });
     if let Some(e) = result.param_error_pct {
         summary["param_error_pct"] = e.into();
+    }
+    if !report.is_null() {
+        summary["solver"] = report;
     }
     println!("{summary}");
     Ok(())

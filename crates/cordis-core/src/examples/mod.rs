@@ -9,11 +9,13 @@
 mod cloth;
 mod fluid;
 mod horse;
+mod random;
 mod rigid;
 
 pub use cloth::{cloth, CLOTH_FRAMES};
 pub use fluid::{fluid, FLUID_FRAMES};
 pub use horse::{horse, HORSE_FRAMES};
+pub use random::random_network;
 pub use rigid::{rigid, RIGID_FRAMES};
 
 use crate::Scene;

@@ -1,0 +1,980 @@
+//! What the exact solvers share ([`super::least_squares`], [`super::hybrid`]): the short cost of
+//! a scene whose forces are linear in θ written as a least-squares system, reduced to the
+//! unknowns, and solved by SVD with rank, box and total-mass handling.
+//!
+//! **θ** (the columns, [`Col`]): per type `(K, K·l0, Z)` for springs, anchors and conditional
+//! links (at a given range), `(Z)` for dampers and drags, `(z1, z2)` for a nonlinear drag (at a
+//! given v_max), `(K, K·c0)` for angles; gravity is known (a constant). Every prediction
+//! residual is affine in θ.
+//!
+//! **The system** ([`System`]): blocks of rows `[Φ | a]` whose sum of squares `Σ |Φθ + m a|²`
+//! is the cost. Either one block from [`LinearShortCost::factor`] (known masses, position space:
+//! exactly the short cost, `m = 1`), or one block per free particle from [`assemble`]
+//! (force space: the rows are the particle's `dt² F_i(θ) + m_i (dt² g - dt² a_i)`, `a_i` its
+//! observed acceleration, compressed to a triangular factor). A force-space block is turned
+//! into the short cost's rows by dividing Φ by the particle's mass (position weighting), or
+//! used as is with the mass unknown (force weighting, [`Weighting`]).
+//!
+//! **The reduction** to the unknowns ξ: a known parameter is a constant; a type with unknown K
+//! and unknown l0 contributes ξ = (K, K·l0) and `l0 = (K·l0)/K` afterwards; with one of them
+//! known the other is the unknown itself (`θ_{K·l0} = l0 · ξ_K` or `K · ξ_{l0}`). So θ = Aξ + c
+//! and the cost is `|D ξ + d|²` with `D`, `d` from the blocks.
+//!
+//! **Free masses** (force weighting): each particle's mass is eliminated from its own rows by
+//! a QR whose first column is the mass: the first row `ρ_i m_i + s_iᵀξ + c_i` is the only one
+//! that involves `m_i`, the others go to the global system. Under a known total `Σ m_i = M` the
+//! first rows' residuals `e_i` are no longer free: the least `Σ e_i²` with `Σ e_i/ρ_i = γ(ξ)`
+//! (γ affine in ξ) is `γ²/Σ ρ_i⁻²`, one more row of the global system. Without a total the
+//! first rows are fitted exactly (the scale then comes from a known parameter or mass).
+//!
+//! **Solving**: SVD of the column-equilibrated `D` (each column scaled to unit norm, so that
+//! the condition number compares unknowns of different units fairly). A singular value below
+//! [`RANK_TOL`] × the largest means the data cannot determine a combination of unknowns: the
+//! unknowns loading on its singular vector are reported **undetermined** and the one loading
+//! most is held at its starting value, then the system is solved again. An unknown that comes
+//! out of its box is clamped onto the box and held there, the worst one first, and the system
+//! solved again (an active-set heuristic: each clamp is optimal for the others, not a full
+//! bounded least-squares search). Both are reported.
+
+use std::collections::HashMap;
+
+use cordis_core::{LinkKind, Scene, Vec3};
+use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
+
+use crate::cost::{CostKind, LinearShortCost, Objective, ThetaEntry};
+use crate::problem::Problem;
+use crate::space::Role;
+use crate::strategy::lossless;
+
+/// Singular values below this fraction of the largest (column-scaled design) are taken as
+/// zero. Measured on noiseless data, a never-stretched type gives ~1e-15 and the shipped
+/// examples' smallest legitimate ones are above 1e-9.
+pub const RANK_TOL: f64 = 1e-11;
+
+/// Above this condition number an identified value is reported as poorly determined (data
+/// noise of relative size ε moves it by up to ~ε × condition).
+pub const POOR_CONDITION: f64 = 1e8;
+
+/// One entry of θ.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Col {
+    /// K of type t (N/m; angles N·m).
+    K(usize),
+    /// K·l0 (N) or K·c0 (N·m) of type t.
+    KRest(usize),
+    /// Z of type t (N·s/m), or z1 of a nonlinear drag.
+    Z(usize),
+    /// z2 of a nonlinear drag (N·s/m).
+    Z2(usize),
+    /// Gravity along an axis (m/s²), always known.
+    G(usize),
+}
+
+/// Rows `[Φ | a]` (`cols + 1` columns) of one particle (`Some(i)`: a force-space block whose
+/// `a` column is multiplied by the particle's mass) or of the whole cost (`None`: position space,
+/// `a` multiplied by 1).
+#[derive(Clone, Debug)]
+pub(crate) struct Block {
+    pub particle: Option<usize>,
+    pub rows: DMatrix<f64>,
+}
+
+#[derive(Clone, Debug)]
+pub(crate) struct System {
+    pub cols: Vec<Col>,
+    pub blocks: Vec<Block>,
+}
+
+/// How force-space blocks enter the cost.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Weighting {
+    /// Divided by the (known) mass: exactly the short cost.
+    Position,
+    /// As they are, masses unknown allowed: the short cost with particle i's terms weighted
+    /// by m_i² (the only weighting in which the residual is linear in the masses).
+    Force,
+}
+
+/// Upper-triangular factor of a sum of squared rows, rows rotated in by Givens.
+#[derive(Clone, Debug)]
+pub(crate) struct Factor {
+    n: usize,
+    a: Vec<f64>,
+}
+
+impl Factor {
+    pub fn new(n: usize) -> Self {
+        Factor {
+            n,
+            a: vec![0.0; n * n],
+        }
+    }
+
+    /// Rotates `row` (length n, destroyed) into the factor.
+    pub fn add_row(&mut self, row: &mut [f64]) {
+        let n = self.n;
+        for k in 0..n {
+            let w = row[k];
+            if w == 0.0 {
+                continue;
+            }
+            let o = k * n;
+            let r = self.a[o + k];
+            // sqrt(a² + b²) is exact enough and much cheaper than hypot away from over/underflow.
+            let mut rho = (r * r + w * w).sqrt();
+            if !(rho > 1e-150 && rho < 1e150) {
+                rho = r.hypot(w);
+            }
+            let (c, s) = (r / rho, w / rho);
+            self.a[o + k] = rho;
+            let a = &mut self.a[o + k + 1..o + n];
+            for (x, y) in a.iter_mut().zip(&mut row[k + 1..n]) {
+                let (xv, yv) = (*x, *y);
+                *x = c * xv + s * yv;
+                *y = c * yv - s * xv;
+            }
+        }
+    }
+
+    pub fn matrix(&self) -> DMatrix<f64> {
+        DMatrix::from_row_slice(self.n, self.n, &self.a)
+    }
+}
+
+/// The θ columns of a scene for [`assemble`], or why its short cost is not linear in θ.
+pub(crate) fn generic_cols(scene: &Scene) -> Result<Vec<Col>, String> {
+    let mut cols = Vec::new();
+    for (t, ty) in scene.types.iter().enumerate() {
+        if ty.max_elongation.is_some() && scene.links.iter().any(|l| l.type_index == t) {
+            return Err(format!(
+                "types.{}: a max_elongation (Provot) limit makes the short cost nonlinear",
+                ty.name
+            ));
+        }
+        match ty.kind {
+            LinkKind::Spring | LinkKind::Anchor | LinkKind::Conditional => {
+                cols.extend([Col::K(t), Col::KRest(t), Col::Z(t)])
+            }
+            LinkKind::Damper | LinkKind::Drag => cols.push(Col::Z(t)),
+            LinkKind::NonlinearDrag => cols.extend([Col::Z(t), Col::Z2(t)]),
+            LinkKind::Angle => cols.extend([Col::K(t), Col::KRest(t)]),
+            #[allow(unreachable_patterns)]
+            other => {
+                return Err(format!(
+                    "types.{}: kind `{}` is not supported by the exact solvers",
+                    ty.name,
+                    other.name()
+                ))
+            }
+        }
+    }
+    Ok(cols)
+}
+
+/// Why the exact solvers cannot run on a problem (`Ok` when they can).
+pub(crate) fn supported(problem: &Problem) -> Result<(), String> {
+    let kind = problem.objective.kind();
+    if problem.objective.window() != Some(1) || matches!(kind, CostKind::Harmonic { .. }) {
+        return Err(format!(
+            "the exact solvers minimise the short cost, not `{kind}`"
+        ));
+    }
+    generic_cols(&problem.scene).map(|_| ())
+}
+
+/// The system of a [`LinearShortCost`]: its global factor as one position-space block.
+pub(crate) fn from_linear(lin: &LinearShortCost) -> System {
+    let (r, q, rho) = lin.factor();
+    let d = lin.dim();
+    let mut rows = DMatrix::zeros(d + 1, d + 1);
+    for k in 0..d {
+        for l in k..d {
+            rows[(k, l)] = r[k * d + l];
+        }
+        rows[(k, d)] = q[k];
+    }
+    rows[(d, d)] = rho;
+    let cols = lin
+        .entries()
+        .iter()
+        .map(|e| match *e {
+            ThetaEntry::Stiffness { type_index } => Col::K(type_index),
+            ThetaEntry::StiffnessRestLength { type_index }
+            | ThetaEntry::StiffnessRestCos { type_index } => Col::KRest(type_index),
+            ThetaEntry::Damping { type_index } => Col::Z(type_index),
+            ThetaEntry::Gravity { axis } => Col::G(axis),
+        })
+        .collect();
+    System {
+        cols,
+        blocks: vec![Block {
+            particle: None,
+            rows,
+        }],
+    }
+}
+
+/// Parameter slot of a column's linear parameter: K, the rest parameter, Z (z1) or z2.
+fn slots(scene: &Scene, t: usize) -> (usize, usize, usize) {
+    let o = scene.param_layout().type_offsets[t];
+    match scene.types[t].kind {
+        LinkKind::Damper | LinkKind::Drag | LinkKind::NonlinearDrag => (o, o + 1, o),
+        _ => (o, o + 1, o + 2),
+    }
+}
+
+/// The slots of the θ-linear parameters of every type (K, l0, Z, c0, z1, z2): not ranges
+/// and not v_max.
+fn linear_slots(scene: &Scene) -> Vec<usize> {
+    let layout = scene.param_layout();
+    let mut out = Vec::new();
+    for (t, ty) in scene.types.iter().enumerate() {
+        let o = layout.type_offsets[t];
+        let n = match ty.kind {
+            LinkKind::Damper | LinkKind::Drag => 1,
+            LinkKind::Angle | LinkKind::NonlinearDrag => 2,
+            _ => 3,
+        };
+        out.extend(o..o + n);
+    }
+    out
+}
+
+/// Builds the force-space blocks of the short cost at the nonlinear values in `p` (ranges,
+/// v_max; the linear parameters in `p` are ignored). Each θ column's forces come from the
+/// scene's own force passes run on a probe parameter vector (the column's parameter 1, every
+/// other linear one 0; `K·l0` as the difference of `K = 1, l0 = 1` and `K = 1, l0 = 0`), so
+/// the design is the cost's own arithmetic. Cost: (columns + 1) force passes per frame.
+pub(crate) fn assemble(obj: &Objective, scene: &Scene, cols: &[Col], p: &[f64]) -> System {
+    let plan = obj.plan();
+    let n = plan.n;
+    let nc = cols.len();
+    let mut zero = p.to_vec();
+    for s in linear_slots(scene) {
+        zero[s] = 0.0;
+    }
+    let mut probes: Vec<(Vec<f64>, Option<usize>)> = Vec::with_capacity(nc);
+    for (k, c) in cols.iter().enumerate() {
+        let mut q = zero.clone();
+        let reference = match *c {
+            Col::K(t) => {
+                q[slots(scene, t).0] = 1.0;
+                None
+            }
+            Col::KRest(t) => {
+                let (ks, rs, _) = slots(scene, t);
+                q[ks] = 1.0;
+                q[rs] = 1.0;
+                cols[..k].iter().position(|&c| c == Col::K(t))
+            }
+            Col::Z(t) => {
+                q[slots(scene, t).2] = 1.0;
+                None
+            }
+            Col::Z2(t) => {
+                q[slots(scene, t).1] = 1.0;
+                None
+            }
+            Col::G(_) => None, // never a generic column: gravity is in the `a` column
+        };
+        probes.push((q, reference));
+    }
+    let dt2 = plan.dt * plan.dt;
+    let layout = &plan.layout;
+    let g = if plan.has_gravity {
+        let o = layout.gravity_offset;
+        Vec3::new(p[o], p[o + 1], p[o + 2])
+    } else {
+        Vec3::zeros()
+    };
+    let free = &obj.free;
+    let mut factors: Vec<Factor> = free.iter().map(|_| Factor::new(nc + 1)).collect();
+    let geo = obj.geometry();
+    let mut s = obj.scratch();
+    let mut f0 = vec![Vec3::zeros(); n];
+    let mut raw = vec![vec![Vec3::zeros(); n]; nc];
+    let mut row = vec![0.0; nc + 1];
+    for t in 2..obj.obs.frames {
+        obj.observed_forces(&zero, t - 1, &mut s, geo);
+        f0.copy_from_slice(&s.core.f);
+        for (k, (q, _)) in probes.iter().enumerate() {
+            obj.observed_forces(q, t - 1, &mut s, geo);
+            raw[k].copy_from_slice(&s.core.f);
+        }
+        let (x1, x2, x0) = (obj.obs.frame(t - 1), obj.obs.frame(t - 2), obj.obs.frame(t));
+        for (l, &i) in free.iter().enumerate() {
+            let b = (x1[i] * 2.0 - x2[i]) - x0[i];
+            for r in 0..3 {
+                for (k, (_, reference)) in probes.iter().enumerate() {
+                    let base = match reference {
+                        Some(j) => raw[*j][i][r],
+                        None => f0[i][r],
+                    };
+                    row[k] = dt2 * (raw[k][i][r] - base);
+                }
+                row[nc] = dt2 * g[r] + b[r];
+                factors[l].add_row(&mut row);
+            }
+        }
+    }
+    System {
+        cols: cols.to_vec(),
+        blocks: free
+            .iter()
+            .zip(factors)
+            .map(|(&i, f)| Block {
+                particle: Some(i),
+                rows: f.matrix(),
+            })
+            .collect(),
+    }
+}
+
+/// One unknown of the reduced problem: `p[slot] = ξ`, or `ξ / ξ[per]` (a rest length or cosine
+/// recovered from K·l0 and K).
+#[derive(Clone, Copy, Debug)]
+struct Xi {
+    slot: usize,
+    per: Option<usize>,
+}
+
+/// θ = Aξ + c: per column, at most one term (ξ index, coefficient), and a constant.
+struct Reduction {
+    xi: Vec<Xi>,
+    terms: Vec<Option<(usize, f64)>>,
+    consts: Vec<f64>,
+}
+
+fn reduce(scene: &Scene, cols: &[Col], p: &[f64], free: &[bool]) -> Reduction {
+    let mut xi: Vec<Xi> = Vec::new();
+    let mut index: HashMap<usize, usize> = HashMap::new();
+    let mut get = |slot: usize, per: Option<usize>, xi: &mut Vec<Xi>| -> usize {
+        *index.entry(slot).or_insert_with(|| {
+            xi.push(Xi { slot, per });
+            xi.len() - 1
+        })
+    };
+    let gravity = scene.param_layout().gravity_offset;
+    let mut terms = Vec::with_capacity(cols.len());
+    let mut consts = Vec::with_capacity(cols.len());
+    for c in cols {
+        let (term, constant) = match *c {
+            Col::K(t) | Col::Z(t) | Col::Z2(t) => {
+                let (ks, rs, zs) = slots(scene, t);
+                let s = match *c {
+                    Col::K(_) => ks,
+                    Col::Z(_) => zs,
+                    _ => rs,
+                };
+                if free[s] {
+                    (Some((get(s, None, &mut xi), 1.0)), 0.0)
+                } else {
+                    (None, p[s])
+                }
+            }
+            Col::KRest(t) => {
+                let (k, r, _) = slots(scene, t);
+                match (free[k], free[r]) {
+                    (true, true) => {
+                        let kx = get(k, None, &mut xi);
+                        (Some((get(r, Some(kx), &mut xi), 1.0)), 0.0)
+                    }
+                    (true, false) => (Some((get(k, None, &mut xi), p[r])), 0.0),
+                    (false, true) => (Some((get(r, None, &mut xi), p[k])), 0.0),
+                    (false, false) => (None, p[k] * p[r]),
+                }
+            }
+            Col::G(axis) => (None, p[gravity + axis]),
+        };
+        terms.push(term);
+        consts.push(constant);
+    }
+    Reduction { xi, terms, consts }
+}
+
+/// The first QR row of a particle whose mass is free: `ρ m + sᵀξ + c`.
+struct MassRow {
+    particle: usize,
+    rho: f64,
+    s: DVector<f64>,
+    c: f64,
+}
+
+/// `|Dξ + d|² + ρ²` (D square upper-triangular: the rows are compressed by Givens as they
+/// come) and the free masses' first rows.
+struct XiSystem {
+    d: DMatrix<f64>,
+    rhs: DVector<f64>,
+    rho2: f64,
+    masses: Vec<MassRow>,
+}
+
+/// The reduced system; `mass(i)` is `Some(m)` for a known (or held) mass, `None` for a free one.
+fn xi_system(
+    sys: &System,
+    red: &Reduction,
+    weighting: Weighting,
+    mass: &dyn Fn(usize) -> Option<f64>,
+    total: Option<f64>,
+) -> XiSystem {
+    let p = red.xi.len();
+    let nc = sys.cols.len();
+    let mut global = Factor::new(p + 1);
+    let mut masses = Vec::new();
+    let mut y = vec![0.0; p + 2];
+    let mut out = vec![0.0; p + 1];
+    for b in &sys.blocks {
+        let rows = &b.rows;
+        let free_mass = b.particle.filter(|&i| mass(i).is_none());
+        let mut local = free_mass.map(|_| Factor::new(p + 2));
+        for r in 0..rows.nrows() {
+            // y = [a | Yξ | yc] for a free mass, else [Y | const].
+            y.fill(0.0);
+            let off = usize::from(local.is_some());
+            let mut yc = 0.0;
+            for k in 0..nc {
+                let v = rows[(r, k)];
+                if v == 0.0 {
+                    continue;
+                }
+                if let Some((j, coef)) = red.terms[k] {
+                    y[off + j] += v * coef;
+                }
+                yc += v * red.consts[k];
+            }
+            let a = rows[(r, nc)];
+            if let Some(f) = &mut local {
+                y[0] = a;
+                y[p + 1] = yc;
+                f.add_row(&mut y);
+                continue;
+            }
+            let (scale, constant) = match (b.particle, weighting) {
+                (None, _) => (1.0, yc + a),
+                (Some(i), Weighting::Position) => {
+                    let m = mass(i).unwrap_or(1.0);
+                    (1.0 / m, yc / m + a)
+                }
+                (Some(i), Weighting::Force) => (1.0, yc + mass(i).unwrap_or(1.0) * a),
+            };
+            for (o, v) in out.iter_mut().zip(&y[..p]) {
+                *o = v * scale;
+            }
+            out[p] = constant;
+            global.add_row(&mut out);
+        }
+        if let (Some(f), Some(i)) = (local, free_mass) {
+            let m = f.matrix();
+            masses.push(MassRow {
+                particle: i,
+                rho: m[(0, 0)],
+                s: DVector::from_iterator(p, (1..=p).map(|l| m[(0, l)])),
+                c: m[(0, p + 1)],
+            });
+            for r in 1..p + 2 {
+                for (o, l) in out.iter_mut().zip(1..p + 2) {
+                    *o = m[(r, l)];
+                }
+                global.add_row(&mut out);
+            }
+        }
+    }
+    if let Some(total) = total.filter(|_| !masses.is_empty()) {
+        let w2: f64 = masses.iter().map(|m| (1.0 / m.rho).powi(2)).sum();
+        let sw = w2.sqrt();
+        out.fill(0.0);
+        let mut c = total;
+        for m in &masses {
+            for (r, s) in out.iter_mut().zip(m.s.iter()) {
+                *r += s / m.rho;
+            }
+            c += m.c / m.rho;
+        }
+        out[p] = c;
+        for v in &mut out {
+            *v /= sw;
+        }
+        global.add_row(&mut out);
+    }
+    let m = global.matrix();
+    XiSystem {
+        d: m.view((0, 0), (p, p)).into_owned(),
+        rhs: m.view((0, p), (p, 1)).column(0).into_owned(),
+        rho2: m[(p, p)].powi(2),
+        masses,
+    }
+}
+
+/// SVD solution of `min |Dξ + d|²` on equilibrated columns.
+struct Lsq {
+    xi: DVector<f64>,
+    condition: f64,
+    /// Right singular vectors (scaled space) of the zero singular values.
+    null: Vec<DVector<f64>>,
+    /// Right singular vector of the smallest nonzero singular value.
+    weakest: Option<DVector<f64>>,
+}
+
+fn lsq(d: &DMatrix<f64>, rhs: &DVector<f64>) -> Option<Lsq> {
+    let p = d.ncols();
+    if p == 0 {
+        return Some(Lsq {
+            xi: DVector::zeros(0),
+            condition: 1.0,
+            null: Vec::new(),
+            weakest: None,
+        });
+    }
+    let scale: Vec<f64> = (0..p)
+        .map(|j| {
+            let n = d.column(j).norm();
+            if n > 0.0 {
+                n
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let mut ds = d.clone();
+    for (j, &sc) in scale.iter().enumerate() {
+        ds.column_mut(j).unscale_mut(sc);
+    }
+    if !ds.iter().all(|v| v.is_finite()) || !rhs.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let svd = ds.svd(true, true);
+    let (u, vt) = (svd.u.as_ref()?, svd.v_t.as_ref()?);
+    let sv = &svd.singular_values;
+    let smax = sv.iter().cloned().fold(0.0, f64::max);
+    let mut xi = DVector::zeros(p);
+    let mut null = Vec::new();
+    let mut smin = f64::INFINITY;
+    let mut weakest = None;
+    for k in 0..sv.len() {
+        let v = vt.row(k).transpose();
+        if sv[k] <= RANK_TOL * smax || smax == 0.0 {
+            null.push(v);
+            continue;
+        }
+        let coef = u.column(k).dot(rhs) / sv[k];
+        xi -= &v * coef;
+        if sv[k] < smin {
+            smin = sv[k];
+            weakest = Some(v);
+        }
+    }
+    for j in 0..p {
+        xi[j] /= scale[j];
+    }
+    let condition = if null.is_empty() {
+        smax / smin
+    } else {
+        f64::INFINITY
+    };
+    Some(Lsq {
+        xi,
+        condition,
+        null,
+        weakest,
+    })
+}
+
+/// What to solve: the problem's unknowns `linear` (indices into `space.unknowns`: type
+/// parameters entering θ and masses) with everything else at its value in `p`.
+pub(crate) struct Spec<'a> {
+    pub problem: &'a Problem,
+    pub system: &'a System,
+    /// Full parameter vector: known values, nonlinear values, starting values of the unknowns.
+    pub p: Vec<f64>,
+    pub linear: Vec<usize>,
+    pub weighting: Weighting,
+}
+
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Outcome {
+    /// The full parameter vector with the solution in place.
+    pub params: Vec<f64>,
+    /// The cost in the system's weighting (position weighting: the short cost), m².
+    pub residual: f64,
+    /// Of the column-equilibrated design of the last solve.
+    pub condition: f64,
+    pub undetermined: Vec<String>,
+    pub poorly: Vec<String>,
+    pub clamped: Vec<String>,
+}
+
+/// Solves a [`Spec`]: see the module docs (undetermined unknowns held, out-of-box ones clamped,
+/// re-solving after each). `Err` when the numbers are not finite.
+pub(crate) fn solve(spec: &Spec) -> Result<Outcome, String> {
+    let space = &spec.problem.space;
+    let scene = &spec.problem.scene;
+    let layout = scene.param_layout();
+    let start = &spec.p;
+    let mut p = start.clone();
+    let mut held = vec![false; space.unknowns.len()];
+    let mut out = Outcome::default();
+    let by_slot: HashMap<usize, usize> = spec
+        .linear
+        .iter()
+        .map(|&k| (space.unknowns[k].slot, k))
+        .collect();
+    let free_particles: Vec<usize> = spec.problem.objective.free.clone();
+    for _ in 0..=spec.linear.len() + 1 {
+        let mut free = vec![false; p.len()];
+        let mut free_mass = vec![false; scene.num_particles()];
+        for &k in &spec.linear {
+            let u = &space.unknowns[k];
+            if held[k] {
+                continue;
+            }
+            if u.role == Role::Mass {
+                free_mass[u.slot - layout.mass_offset] = true;
+            } else {
+                free[u.slot] = true;
+            }
+        }
+        let red = reduce(scene, &spec.system.cols, &p, &free);
+        let mass = |i: usize| (!free_mass[i]).then(|| p[layout.mass_offset + i]);
+        let total = space.total_mass.map(|m| {
+            m - free_particles
+                .iter()
+                .filter(|&&i| !free_mass[i])
+                .map(|&i| p[layout.mass_offset + i])
+                .sum::<f64>()
+        });
+        let xs = xi_system(spec.system, &red, spec.weighting, &mass, total);
+
+        // A mass with no acceleration information at all (rows independent of it).
+        let rho_max = xs.masses.iter().map(|m| m.rho.abs()).fold(0.0, f64::max);
+        if let Some(m) = xs
+            .masses
+            .iter()
+            .find(|m| m.rho.abs() <= RANK_TOL * rho_max || m.rho.is_nan())
+        {
+            let k = by_slot[&(layout.mass_offset + m.particle)];
+            held[k] = true;
+            p[space.unknowns[k].slot] = start[space.unknowns[k].slot];
+            push_unique(&mut out.undetermined, &space.unknowns[k].name);
+            continue;
+        }
+
+        let sol = lsq(&xs.d, &xs.rhs).ok_or("the least-squares system is not finite")?;
+        let name_of = |j: usize| &space.unknowns[by_slot[&red.xi[j].slot]].name;
+        if !sol.null.is_empty() {
+            for v in &sol.null {
+                let big = v.amax();
+                for j in 0..v.len() {
+                    if v[j].abs() >= 0.2 * big {
+                        push_unique(&mut out.undetermined, name_of(j));
+                    }
+                }
+                let j = v.iamax();
+                let k = by_slot[&red.xi[j].slot];
+                if !held[k] {
+                    held[k] = true;
+                    p[space.unknowns[k].slot] = start[space.unknowns[k].slot];
+                }
+            }
+            continue;
+        }
+        out.condition = sol.condition;
+        out.poorly.clear();
+        if sol.condition > POOR_CONDITION {
+            if let Some(v) = &sol.weakest {
+                let big = v.amax();
+                for j in 0..v.len() {
+                    if v[j].abs() >= 0.2 * big {
+                        push_unique(&mut out.poorly, name_of(j));
+                    }
+                }
+            }
+        }
+
+        // Values: direct ones first, then rest lengths and cosines as (K·l0)/K.
+        for (j, x) in red.xi.iter().enumerate() {
+            if x.per.is_none() {
+                p[x.slot] = sol.xi[j];
+            }
+        }
+        for (j, x) in red.xi.iter().enumerate() {
+            if let Some(kx) = x.per {
+                p[x.slot] = sol.xi[j] / sol.xi[kx];
+            }
+        }
+        // With free masses, the total's row already holds the first rows' Σe².
+        let residual = (&xs.d * &sol.xi + &xs.rhs).norm_squared() + xs.rho2;
+        if !xs.masses.is_empty() {
+            let w2: f64 = xs.masses.iter().map(|m| m.rho.powi(-2)).sum();
+            let gamma = total.map(|t| {
+                t + xs
+                    .masses
+                    .iter()
+                    .map(|m| (m.s.dot(&sol.xi) + m.c) / m.rho)
+                    .sum::<f64>()
+            });
+            for m in &xs.masses {
+                let e = gamma.map_or(0.0, |g| g / m.rho / w2);
+                p[layout.mass_offset + m.particle] = (e - m.s.dot(&sol.xi) - m.c) / m.rho;
+            }
+        }
+
+        // The worst box violation, in internal coordinates per box width.
+        let mut worst: Option<(usize, f64)> = None;
+        for &k in &spec.linear {
+            if held[k] {
+                continue;
+            }
+            let u = &space.unknowns[k];
+            let v = p[u.slot];
+            let (lo, hi) = u.internal_bounds();
+            let excess = if v.is_nan() || (u.log && v <= 0.0) {
+                f64::INFINITY
+            } else {
+                let z = u.to_internal(v);
+                ((lo - z).max(z - hi)) / (hi - lo).max(f64::MIN_POSITIVE)
+            };
+            if excess > 1e-9 && worst.is_none_or(|(_, w)| excess > w) {
+                worst = Some((k, excess));
+            }
+        }
+        if let Some((k, _)) = worst {
+            let u = &space.unknowns[k];
+            let v = p[u.slot];
+            p[u.slot] = if v.is_nan() || (u.log && v <= 0.0) {
+                u.min
+            } else {
+                u.from_internal(u.to_internal(v))
+            };
+            held[k] = true;
+            push_unique(&mut out.clamped, &u.name);
+            continue;
+        }
+        out.residual = residual;
+        out.params = p;
+        return Ok(out);
+    }
+    Err("the least-squares solve did not settle (every unknown held)".into())
+}
+
+fn push_unique(v: &mut Vec<String>, s: &str) {
+    if !v.iter().any(|x| x == s) {
+        v.push(s.to_string());
+    }
+}
+
+/// What an exact solve says beside its answer (the `solver` field of a run summary).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ExactReport {
+    /// Condition number of the column-equilibrated design of the final solve (1: orthogonal
+    /// unknowns; `inf` when nothing was solved).
+    #[serde(with = "lossless")]
+    pub condition: f64,
+    /// Unknowns the data cannot determine (held at their starting value).
+    pub undetermined: Vec<String>,
+    /// Unknowns on the weakest direction when the condition number exceeds [`POOR_CONDITION`].
+    pub poorly_determined: Vec<String>,
+    /// Unknowns whose unconstrained solution left the box (clamped onto it).
+    pub clamped: Vec<String>,
+    /// How the answer was reached (weightings, intervals of the nonlinear parameters…).
+    pub notes: Vec<String>,
+    /// Why the solve failed; the answer is then the starting point.
+    pub error: Option<String>,
+}
+
+impl ExactReport {
+    /// One line per thing a user should know, for a terminal.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut w = Vec::new();
+        if let Some(e) = &self.error {
+            w.push(e.clone());
+        }
+        if !self.undetermined.is_empty() {
+            w.push(format!(
+                "{}: not determined by the data (held at the starting value)",
+                self.undetermined.join(", ")
+            ));
+        }
+        if !self.poorly_determined.is_empty() {
+            w.push(format!(
+                "{}: poorly determined (condition number {:.1e})",
+                self.poorly_determined.join(", "),
+                self.condition
+            ));
+        }
+        if !self.clamped.is_empty() {
+            w.push(format!(
+                "{}: the unconstrained solution is outside the box (clamped onto it)",
+                self.clamped.join(", ")
+            ));
+        }
+        w
+    }
+}
+
+/// The answer of an exact solver.
+#[derive(Clone, Debug)]
+pub struct Solution {
+    /// Internal coordinates ([`crate::space`]).
+    pub genome: Vec<f64>,
+    /// The problem's own cost of the genome.
+    pub cost: f64,
+    pub report: ExactReport,
+}
+
+/// The problem's unknowns split into those the linear solve determines (type parameters that
+/// enter θ, masses of free particles) and the nonlinear ones (ranges, v_max); masses of fixed
+/// particles enter no cost and are neither.
+pub(crate) struct Split {
+    pub linear: Vec<usize>,
+    pub nonlinear: Vec<usize>,
+    pub fixed_masses: Vec<usize>,
+    pub free_masses: bool,
+}
+
+pub(crate) fn split(problem: &Problem) -> Split {
+    let layout = problem.scene.param_layout();
+    let mut s = Split {
+        linear: Vec::new(),
+        nonlinear: Vec::new(),
+        fixed_masses: Vec::new(),
+        free_masses: false,
+    };
+    for (k, u) in problem.space.unknowns.iter().enumerate() {
+        match u.role {
+            Role::Range | Role::Speed => s.nonlinear.push(k),
+            Role::Mass => {
+                if problem.scene.particles[u.slot - layout.mass_offset].fixed {
+                    s.fixed_masses.push(k);
+                } else {
+                    s.free_masses = true;
+                    s.linear.push(k);
+                }
+            }
+            _ => s.linear.push(k),
+        }
+    }
+    s
+}
+
+/// With free masses, something must fix the scale of masses and forces together: a total
+/// mass, a known mass of a free particle, or a known nonzero force parameter.
+pub(crate) fn check_scale(problem: &Problem, split: &Split, cols: &[Col]) -> Result<(), String> {
+    if !split.free_masses || problem.space.total_mass.is_some() {
+        return Ok(());
+    }
+    let layout = problem.scene.param_layout();
+    let masses: Vec<usize> = split
+        .linear
+        .iter()
+        .map(|&k| problem.space.unknowns[k].slot)
+        .collect();
+    let known_mass = problem
+        .objective
+        .free
+        .iter()
+        .any(|&i| !masses.contains(&(layout.mass_offset + i)));
+    let mut free = vec![false; problem.space.base.len()];
+    for &s in &masses {
+        free[s] = true;
+    }
+    let red = reduce(&problem.scene, cols, &problem.space.base, &free);
+    let known_force = cols
+        .iter()
+        .zip(&red.consts)
+        .any(|(c, &v)| !matches!(c, Col::G(_)) && v != 0.0);
+    if known_mass || known_force {
+        return Ok(());
+    }
+    Err(
+        "masses and link parameters are only determined up to a common scale \
+         (thesis §3.3): give the total mass of the free particles (--total-mass)"
+            .into(),
+    )
+}
+
+/// The problem's cost of a full parameter vector (one counted evaluation).
+pub(crate) fn real_cost(problem: &Problem, params: &[f64]) -> (Vec<f64>, f64) {
+    let genome = problem.space.genome_of(params);
+    let mut s = problem.scratch();
+    let mut local = vec![0.0; problem.num_particles];
+    let cost = problem.evaluate(&genome, &mut s, &mut local);
+    (genome, cost)
+}
+
+/// Solves the linear unknowns of `split` at the nonlinear values in `p`. With free masses:
+/// force weighting first (masses and θ together), then θ again in position weighting at those
+/// masses (the short cost's own weighting); the better by the problem's cost is kept.
+pub(crate) fn solve_linear(
+    problem: &Problem,
+    system: &System,
+    p: Vec<f64>,
+    split: &Split,
+    report: &mut ExactReport,
+) -> Result<(Vec<f64>, f64), String> {
+    let weighting = if split.free_masses {
+        Weighting::Force
+    } else {
+        Weighting::Position
+    };
+    let spec = Spec {
+        problem,
+        system,
+        p,
+        linear: split.linear.clone(),
+        weighting,
+    };
+    let mut best = solve(&spec)?;
+    let (mut genome, mut cost) = real_cost(problem, &best.params);
+    if split.free_masses {
+        let theta_only: Vec<usize> = split
+            .linear
+            .iter()
+            .copied()
+            .filter(|&k| problem.space.unknowns[k].role != Role::Mass)
+            .collect();
+        let refined = solve(&Spec {
+            problem,
+            system,
+            p: best.params.clone(),
+            linear: theta_only,
+            weighting: Weighting::Position,
+        })?;
+        let (g2, c2) = real_cost(problem, &refined.params);
+        report.notes.push(format!(
+            "free masses: masses and links solved together in force weighting (each particle's \
+             terms weighted by m²; cost {cost:.6e}), then the links again at those masses in the \
+             short cost's weighting (cost {c2:.6e}); kept the {}",
+            if c2 < cost { "second" } else { "first" }
+        ));
+        if c2 < cost {
+            // What was undetermined or clamped among the masses stays reported.
+            best = Outcome {
+                undetermined: best.undetermined,
+                clamped: best.clamped,
+                ..refined
+            };
+            genome = g2;
+            cost = c2;
+        }
+    } else if cost.is_finite() {
+        // Below an rmse of 1e-10 m both are rounding of an exact fit.
+        let floor = 1e-20 * problem.objective.terms() as f64;
+        let scale = cost.abs().max(best.residual.abs());
+        if (cost - best.residual).abs() > 1e-6 * scale && scale > floor {
+            report.notes.push(format!(
+                "the solver's residual {:.6e} differs from the cost {cost:.6e}",
+                best.residual
+            ));
+        }
+    }
+    report.condition = best.condition;
+    report.undetermined = best.undetermined;
+    report.poorly_determined = best.poorly;
+    report.clamped = best.clamped;
+    for &k in &split.fixed_masses {
+        let name = &problem.space.unknowns[k].name;
+        push_unique(&mut report.undetermined, name);
+    }
+    Ok((genome, cost))
+}
