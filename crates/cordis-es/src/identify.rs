@@ -8,6 +8,10 @@ use cordis_core::Trajectory;
 
 use crate::problem::Problem;
 use crate::rng;
+use crate::strategies::annealing::{Annealing, AnnealingConfig};
+use crate::strategies::cmaes::{Cmaes, CmaesConfig};
+use crate::strategies::parisian::{Parisian, ParisianConfig};
+use crate::strategies::self_adaptive::{SelfAdaptive, SelfAdaptiveConfig};
 use crate::strategies::thesis::{Thesis, ThesisConfig};
 use crate::strategy::Strategy;
 
@@ -17,6 +21,10 @@ pub enum StrategyName {
     /// The best strategy for the problem (for now: `thesis`; exact solvers come next).
     Auto,
     Thesis,
+    Cmaes,
+    SelfAdaptive,
+    Annealing,
+    Parisian,
 }
 
 impl FromStr for StrategyName {
@@ -26,8 +34,13 @@ impl FromStr for StrategyName {
         match s {
             "auto" => Ok(StrategyName::Auto),
             "thesis" => Ok(StrategyName::Thesis),
+            "cmaes" => Ok(StrategyName::Cmaes),
+            "self-adaptive" => Ok(StrategyName::SelfAdaptive),
+            "annealing" => Ok(StrategyName::Annealing),
+            "parisian" => Ok(StrategyName::Parisian),
             _ => Err(format!(
-                "unknown strategy `{s}` (expected one of: auto, thesis)"
+                "unknown strategy `{s}` (expected one of: auto, thesis, cmaes, self-adaptive, \
+                 annealing, parisian)"
             )),
         }
     }
@@ -52,6 +65,35 @@ pub fn make_strategy(
                 c.reducer = g.reducer.unwrap_or(c.reducer);
             }
             (Box::new(Thesis::new(c)), "thesis")
+        }
+        // `population` is λ (the initial λ for cmaes, the number of chains for annealing, the
+        // total over the sub-populations for parisian).
+        StrategyName::Cmaes => {
+            let c = CmaesConfig {
+                population: Some(population),
+                ..CmaesConfig::default()
+            };
+            (Box::new(Cmaes::new(c)), "cmaes")
+        }
+        StrategyName::SelfAdaptive => (
+            Box::new(SelfAdaptive::new(SelfAdaptiveConfig::with_lambda(
+                population,
+            ))),
+            "self-adaptive",
+        ),
+        StrategyName::Annealing => {
+            let c = AnnealingConfig {
+                chains: population,
+                ..AnnealingConfig::default()
+            };
+            (Box::new(Annealing::new(c)), "annealing")
+        }
+        StrategyName::Parisian => {
+            let c = ParisianConfig {
+                population,
+                ..ParisianConfig::default()
+            };
+            (Box::new(Parisian::new(c)), "parisian")
         }
     }
 }

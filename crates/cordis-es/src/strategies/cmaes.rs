@@ -39,9 +39,11 @@ pub struct CmaesConfig {
     pub sigma0: f64,
     /// TolX, relative to `sigma0`.
     pub tol_x: f64,
-    /// TolFun, relative to the median cost of the first generation (costs have no natural
-    /// scale: an absolute 1e-12 would stop a fit whose costs are all below it).
+    /// TolFun, absolute (Hansen's 1e-12 suits test functions; identification costs have no
+    /// natural scale and noise-free data drive them toward 0, so the default is 0: off).
     pub tol_fun: f64,
+    /// TolFun relative to the generation's best cost: stops a run stalled above 0.
+    pub tol_fun_rel: f64,
     pub max_condition: f64,
     /// IPOP doubles λ at each restart up to this many times the initial λ.
     pub max_population_factor: usize,
@@ -53,7 +55,8 @@ impl Default for CmaesConfig {
             population: None,
             sigma0: 0.3,
             tol_x: 1e-12,
-            tol_fun: 1e-12,
+            tol_fun: 0.0,
+            tol_fun_rel: 1e-12,
             max_condition: 1e14,
             max_population_factor: 512,
         }
@@ -365,6 +368,8 @@ pub struct Ipop {
     #[serde(with = "lossless")]
     tol_fun: f64,
     #[serde(with = "lossless")]
+    tol_fun_rel: f64,
+    #[serde(with = "lossless")]
     max_condition: f64,
     max_lambda: usize,
     #[serde(with = "bits")]
@@ -375,8 +380,8 @@ pub struct Ipop {
 }
 
 impl Ipop {
-    /// Starts at `x0` (unit box) with λ = `lambda0`; `tol_fun` is absolute here.
-    pub fn new(x0: Vec<f64>, lambda0: usize, config: &CmaesConfig, tol_fun: f64) -> Ipop {
+    /// Starts at `x0` (unit box) with λ = `lambda0`.
+    pub fn new(x0: Vec<f64>, lambda0: usize, config: &CmaesConfig) -> Ipop {
         let lambda0 = lambda0.max(2);
         Ipop {
             run: CmaEs::new(x0.clone(), config.sigma0, lambda0),
@@ -384,7 +389,8 @@ impl Ipop {
             restarts: 0,
             sigma0: config.sigma0,
             tol_x: config.tol_x * config.sigma0,
-            tol_fun,
+            tol_fun: config.tol_fun,
+            tol_fun_rel: config.tol_fun_rel,
             max_condition: config.max_condition,
             max_lambda: lambda0.saturating_mul(config.max_population_factor.max(1)),
             best_x: x0,
@@ -406,9 +412,15 @@ impl Ipop {
                 self.best_x = x.clone();
             }
         }
+        let gen_best = costs.iter().copied().fold(f64::INFINITY, f64::min);
+        let tol_fun = if gen_best.is_finite() {
+            self.tol_fun.max(self.tol_fun_rel * gen_best.abs())
+        } else {
+            self.tol_fun
+        };
         if let Some(end) = self
             .run
-            .tell(xs, costs, self.tol_x, self.tol_fun, self.max_condition)
+            .tell(xs, costs, self.tol_x, tol_fun, self.max_condition)
         {
             self.last_end = Some(end);
             self.restarts += 1;
@@ -417,10 +429,6 @@ impl Ipop {
             let mean = (0..self.run.n).map(|_| rng::uniform(&mut r)).collect();
             self.run = CmaEs::new(mean, self.sigma0, lambda);
         }
-    }
-
-    pub fn set_tol_fun(&mut self, tol_fun: f64) {
-        self.tol_fun = tol_fun;
     }
 
     /// The best point ever told (as told: not reflected) and its cost.
@@ -475,12 +483,6 @@ impl Cmaes {
         let xs = st.ipop.ask(seed, generation);
         let genomes: Vec<Vec<f64>> = xs.iter().map(|y| from_unit(&self.boxes, y)).collect();
         let costs = evaluate_genomes(problem, &genomes);
-        if generation == 0 {
-            let mut finite: Vec<f64> = costs.iter().copied().filter(|c| c.is_finite()).collect();
-            finite.sort_by(f64::total_cmp);
-            let scale = finite.get(finite.len() / 2).copied().unwrap_or(1.0);
-            st.ipop.set_tol_fun(self.config.tol_fun * scale);
-        }
         for (g, &c) in genomes.iter().zip(&costs) {
             if c < st.best_cost {
                 st.best_cost = c;
@@ -518,7 +520,7 @@ impl Strategy for Cmaes {
             .population
             .unwrap_or_else(|| default_lambda(problem.dim()));
         self.state = Some(State {
-            ipop: Ipop::new(x0, lambda, &self.config, 0.0),
+            ipop: Ipop::new(x0, lambda, &self.config),
             best_genome: start,
             best_cost: f64::INFINITY,
             mean_cost: f64::INFINITY,
@@ -594,8 +596,12 @@ mod tests {
         budget: usize,
         seed: u64,
     ) -> (Option<usize>, f64) {
-        let config = CmaesConfig::default();
-        let mut es = Ipop::new(x0, default_lambda(n), &config, config.tol_fun);
+        // Hansen's absolute TolFun for test functions.
+        let config = CmaesConfig {
+            tol_fun: 1e-12,
+            ..CmaesConfig::default()
+        };
+        let mut es = Ipop::new(x0, default_lambda(n), &config);
         let mut evals = 0;
         let mut gen = 0;
         while evals < budget {
@@ -720,8 +726,11 @@ mod tests {
     #[test]
     fn same_seed_same_run_and_restart_doubles_lambda() {
         let run = |seed| {
-            let config = CmaesConfig::default();
-            let mut es = Ipop::new(vec![0.5; 4], 6, &config, 1e-3);
+            let config = CmaesConfig {
+                tol_fun: 1e-3,
+                ..CmaesConfig::default()
+            };
+            let mut es = Ipop::new(vec![0.5; 4], 6, &config);
             for gen in 0..200 {
                 let xs = es.ask(seed, gen);
                 let costs: Vec<f64> = xs.iter().map(|y| sphere(y) + 1.0).collect();

@@ -1,7 +1,9 @@
 //! The identification strategies, one file each, all behind [`crate::strategy::Strategy`].
 
+pub mod annealing;
 pub mod cmaes;
 mod common;
+pub mod parisian;
 pub mod self_adaptive;
 pub mod thesis;
 

@@ -138,6 +138,12 @@ impl SaEs {
 
     /// Generation 0: λ mutations of `x0` (the first is `x0` itself), with σ = σ0, α = 0.
     pub fn initial(&self, x0: &[f64], seed: u64) -> Vec<Individual> {
+        self.initial_from(x0, seed, 1)
+    }
+
+    /// [`SaEs::initial`] with child k drawing from stream `first_stream + k` (several ES sharing
+    /// one generation's streams).
+    pub fn initial_from(&self, x0: &[f64], seed: u64, first_stream: u64) -> Vec<Individual> {
         let c = &self.config;
         let n_sigma = if c.per_coordinate { self.n } else { 1 };
         let n_alpha = if c.correlated {
@@ -155,7 +161,7 @@ impl SaEs {
             .map(|k| {
                 let mut ind = base.clone();
                 if k > 0 {
-                    let mut r = rng::stream(seed, 0, k as u64 + 1);
+                    let mut r = rng::stream(seed, 0, first_stream + k as u64);
                     self.mutate_x(&mut ind, &mut r);
                 }
                 ind
@@ -165,9 +171,14 @@ impl SaEs {
 
     /// The λ children of `generation` (costs unset).
     pub fn offspring(&self, seed: u64, generation: u64) -> Vec<Individual> {
+        self.offspring_from(seed, generation, 1)
+    }
+
+    /// [`SaEs::offspring`] with child k drawing from stream `first_stream + k`.
+    pub fn offspring_from(&self, seed: u64, generation: u64, first_stream: u64) -> Vec<Individual> {
         (0..self.config.lambda)
             .map(|k| {
-                let mut r = rng::stream(seed, generation, k as u64 + 1);
+                let mut r = rng::stream(seed, generation, first_stream + k as u64);
                 let mut child = self.recombine(&mut r);
                 self.mutate(&mut child, &mut r);
                 child
