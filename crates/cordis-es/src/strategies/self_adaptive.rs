@@ -24,6 +24,7 @@
 //! [0, 1], σ in units of the box width); a mutated point is reflected back into it. Child k of
 //! generation g draws from [`crate::rng::stream`]`(seed, g, k + 1)`.
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::cmaes::mean_finite;
@@ -176,7 +177,9 @@ impl SaEs {
 
     /// [`SaEs::offspring`] with child k drawing from stream `first_stream + k`.
     pub fn offspring_from(&self, seed: u64, generation: u64, first_stream: u64) -> Vec<Individual> {
+        // Each child owns its stream, so building them in parallel changes nothing.
         (0..self.config.lambda)
+            .into_par_iter()
             .map(|k| {
                 let mut r = rng::stream(seed, generation, first_stream + k as u64);
                 let mut child = self.recombine(&mut r);
