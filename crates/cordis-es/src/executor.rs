@@ -174,6 +174,7 @@ pub fn run(
         seconds_before = cp.seconds;
         history = cp.history;
     } else {
+        problem.set_evals(0);
         problem.objective.set_generation(0);
         strategy.init(problem, config.seed);
         let row = make_row(

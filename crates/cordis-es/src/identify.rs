@@ -8,9 +8,13 @@ use cordis_core::Trajectory;
 
 use crate::problem::Problem;
 use crate::rng;
+use crate::strategies::annealing::{Annealing, AnnealingConfig};
+use crate::strategies::cmaes::{Cmaes, CmaesConfig};
 use crate::strategies::exact;
 use crate::strategies::hybrid::Hybrid;
 use crate::strategies::least_squares::LeastSquares;
+use crate::strategies::parisian::{Parisian, ParisianConfig};
+use crate::strategies::self_adaptive::{SelfAdaptive, SelfAdaptiveConfig};
 use crate::strategies::thesis::{Thesis, ThesisConfig};
 use crate::strategy::Strategy;
 
@@ -23,6 +27,10 @@ pub enum StrategyName {
     Thesis,
     LeastSquares,
     Hybrid,
+    Cmaes,
+    SelfAdaptive,
+    Annealing,
+    Parisian,
 }
 
 impl FromStr for StrategyName {
@@ -34,8 +42,13 @@ impl FromStr for StrategyName {
             "thesis" => Ok(StrategyName::Thesis),
             "least-squares" => Ok(StrategyName::LeastSquares),
             "hybrid" => Ok(StrategyName::Hybrid),
+            "cmaes" => Ok(StrategyName::Cmaes),
+            "self-adaptive" => Ok(StrategyName::SelfAdaptive),
+            "annealing" => Ok(StrategyName::Annealing),
+            "parisian" => Ok(StrategyName::Parisian),
             _ => Err(format!(
-                "unknown strategy `{s}` (expected one of: auto, thesis, least-squares, hybrid)"
+                "unknown strategy `{s}` (expected one of: auto, thesis, least-squares, hybrid, \
+                 cmaes, self-adaptive, annealing, parisian)"
             )),
         }
     }
@@ -94,6 +107,35 @@ pub fn make_strategy(
                 c.reducer = g.reducer.unwrap_or(c.reducer);
             }
             (Box::new(Thesis::new(c)), "thesis")
+        }
+        // `population` is λ (the initial λ for cmaes, the number of chains for annealing, the
+        // total over the sub-populations for parisian).
+        StrategyName::Cmaes => {
+            let c = CmaesConfig {
+                population: Some(options.population),
+                ..CmaesConfig::default()
+            };
+            (Box::new(Cmaes::new(c)), "cmaes")
+        }
+        StrategyName::SelfAdaptive => (
+            Box::new(SelfAdaptive::new(SelfAdaptiveConfig::with_lambda(
+                options.population,
+            ))),
+            "self-adaptive",
+        ),
+        StrategyName::Annealing => {
+            let c = AnnealingConfig {
+                chains: options.population,
+                ..AnnealingConfig::default()
+            };
+            (Box::new(Annealing::new(c)), "annealing")
+        }
+        StrategyName::Parisian => {
+            let c = ParisianConfig {
+                population: options.population,
+                ..ParisianConfig::default()
+            };
+            (Box::new(Parisian::new(c)), "parisian")
         }
     }
 }

@@ -1,6 +1,13 @@
 //! The identification strategies, one file each, all behind [`crate::strategy::Strategy`].
 
+pub mod annealing;
+pub mod cmaes;
+mod common;
 pub mod exact;
 pub mod hybrid;
 pub mod least_squares;
+pub mod parisian;
+pub mod self_adaptive;
 pub mod thesis;
+
+pub use common::reflect;
