@@ -20,7 +20,9 @@ pub struct Args {
     /// Observed trajectory (.csv, .npy or .tra), every particle in scene order.
     #[arg(long, short = 't')]
     trajectory: PathBuf,
-    /// Identification strategy: auto | thesis | least-squares | hybrid.
+    /// Strategy: auto | thesis | least-squares | hybrid | cmaes | self-adaptive | annealing |
+    /// parisian. auto = least-squares when every unknown enters linearly, hybrid when only
+    /// ranges or v_max do not, else thesis.
     #[arg(long, default_value = "auto")]
     strategy: StrategyName,
     /// Stop after this many generations.
