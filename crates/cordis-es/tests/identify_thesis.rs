@@ -108,3 +108,26 @@ fn resume_refuses_another_seed() {
         executor::run(&mut rigid_problem(), &mut strategy, &other, &mut [], None).unwrap_err();
     assert!(err.contains("seed 5"), "{err}");
 }
+
+#[test]
+fn generated_networks_reach_the_thesis_accuracy_too() {
+    // Networks the strategy was never tuned on: 10–15 masses, 8–10 types, 20–30 unknowns in
+    // boxes 25× wide, 100 frames, population 100, 1000 generations.
+    for (seed, masses, types) in [(11, 10, 8), (12, 12, 9), (13, 15, 10), (14, 14, 10)] {
+        let truth = examples::random_network(seed, masses, types);
+        let traj = truth.simulate(100).unwrap();
+        let unknown = with_unknown_boxes(&truth, 25.0, seed);
+        let mut problem = Problem::new(&unknown, &traj, CostKind::Short)
+            .unwrap()
+            .with_truth(&truth)
+            .unwrap();
+        let dim = problem.dim();
+        assert!((20..=30).contains(&dim), "seed {seed}: {dim} unknowns");
+        let r = run(&mut problem, &generations(1000, seed), 2);
+        let err = r.param_error_pct.unwrap();
+        assert!(
+            err < 0.01,
+            "seed {seed} ({masses} masses, {types} types, {dim} unknowns): {err} %"
+        );
+    }
+}
