@@ -205,7 +205,12 @@ class Objective:
     """
 
     def __new__(
-        cls, scene: Scene, traj: _ArrayLike, kind: str = "short", generation: int = 0
+        cls,
+        scene: Scene,
+        traj: _ArrayLike,
+        kind: str = "short",
+        generation: int = 0,
+        precompute: bool = True,
     ) -> "Objective": ...
     def __call__(self, params: _ArrayLike) -> float:
         """The global cost of ``params`` (float64 vector of ``num_params`` values)."""

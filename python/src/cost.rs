@@ -122,14 +122,17 @@ impl Objective {
     /// Compiles the cost of `kind` (`short`, `horizon:H`, `long`, `progressive[:G[:START]]`,
     /// `harmonic[:EPS]`) for `scene` and the observed positions `traj` `(T, N, 3)`, m.
     /// `generation` sets the progressive horizon's generation counter (other kinds ignore it).
+    /// `precompute=False` forces the generic path (for checks and benchmarks) where the short
+    /// cost could be a precomputed quadratic form.
     #[new]
-    #[pyo3(signature = (scene, traj, kind = "short", generation = 0))]
+    #[pyo3(signature = (scene, traj, kind = "short", generation = 0, precompute = true))]
     fn new(
         py: Python<'_>,
         scene: &Scene,
         traj: &Bound<'_, PyAny>,
         kind: &str,
         generation: usize,
+        precompute: bool,
     ) -> PyResult<Self> {
         let kind = parse_kind(kind)?;
         let traj = traj_from_py(traj, "traj")?;
@@ -138,6 +141,7 @@ impl Objective {
             .detach(|| CoreObjective::new(core, &traj, kind))
             .map_err(cost_to_py)?;
         inner.set_generation(generation);
+        inner.set_linear(precompute);
         Ok(Objective {
             inner: Arc::new(inner),
             scene: core.clone(),
@@ -247,7 +251,7 @@ impl Objective {
     /// parameters): calls then cost O(θ²), independent of N and T.
     #[getter]
     fn linear(&self) -> bool {
-        self.inner.linear().is_some()
+        self.inner.uses_linear(&self.scene.param_values())
     }
 
     fn __repr__(&self) -> String {
