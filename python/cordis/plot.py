@@ -264,13 +264,17 @@ def trajectories(
     frames: Optional[Sequence[int]] = None,
     ax: Any = None,
     plane: Optional[str] = None,
+    labels: Sequence[str] = ("original", "identified"),
+    follow: bool = False,
 ) -> "Figure":
     """The original motion (top row) beside the identified model's (bottom row) at a few frames.
 
     The thesis' Figure 4.2: ``frames`` (default five, evenly spread) of the original animation
     and of its reconstruction, links drawn, both on the same scale. ``original`` and
-    ``identified`` are positions ``(T, N, 3)`` of ``scene``'s particles. With ``ax`` (one Axes),
-    the chosen frames are overlaid there instead, the reconstruction dashed.
+    ``identified`` are positions ``(T, N, 3)`` of ``scene``'s particles; ``labels`` names the
+    two rows. ``follow=True`` centres each column on the shape at its frame (the scale stays the
+    same everywhere), for a model that travels far. With ``ax`` (one Axes), the chosen frames
+    are overlaid there instead, the reconstruction dashed.
 
     >>> fig = cordis.plot.trajectories(truth, traj, res.scene.simulate(len(traj)))
     >>> fig.savefig("frames.png")
@@ -286,6 +290,8 @@ def trajectories(
     if frames is None:
         frames = sorted(set(np.linspace(0, count - 1, min(5, count)).round().astype(int).tolist()))
     frames = [int(f) for f in frames]
+    if len(labels) != 2:
+        raise ValueError(f"labels: expected two names (original, identified), got {len(labels)}")
     for f in frames:
         if not 0 <= f < count:
             raise ValueError(f"frames: frame {f} is outside 0..{count - 1}")
@@ -299,9 +305,9 @@ def trajectories(
         fig = ax.figure
         for k, f in enumerate(frames):
             _draw_shape(ax, orig[f], pairs, fixed, a, b, _ORIGINAL,
-                        label="original" if k == 0 else None)
+                        label=labels[0] if k == 0 else None)
             _draw_shape(ax, ident[f], pairs, fixed, a, b, _IDENTIFIED, linestyle="--",
-                        alpha=0.8, label="identified" if k == 0 else None)
+                        alpha=0.8, label=labels[1] if k == 0 else None)
         ax.set_xlim(*xlim)
         ax.set_ylim(*ylim)
         ax.set_aspect("equal")
@@ -310,20 +316,30 @@ def trajectories(
         return fig
 
     n = len(frames)
+    windows = [(xlim, ylim)] * n
+    if follow:
+        shown = [np.concatenate([orig[f], ident[f]])[:, [a, b]] for f in frames]
+        half_x = max(float(np.ptp(p[:, 0])) for p in shown) / 2 * 1.1 + 1e-9
+        half_y = max(float(np.ptp(p[:, 1])) for p in shown) / 2 * 1.1 + 1e-9
+        centres = [(p.min(axis=0) + p.max(axis=0)) / 2 for p in shown]
+        windows = [((c[0] - half_x, c[0] + half_x), (c[1] - half_y, c[1] + half_y))
+                   for c in centres]
+        xlim, ylim = windows[0]
     width = xlim[1] - xlim[0]
     height = ylim[1] - ylim[0]
     panel = 2.4
     aspect = height / width if width > 0 else 1.0
-    fig, axes = plt.subplots(2, n, figsize=(panel * n + 0.8, 2 * panel * min(max(aspect, 0.4), 2.5)
-                                            + 0.9),
-                             squeeze=False, sharex=True, sharey=True, layout="constrained")
+    fig, axes = plt.subplots(2, n, figsize=(panel * n + 0.8,
+                                            2 * panel * min(max(aspect, 0.25), 2.5) + 0.9),
+                             squeeze=False, sharex="none" if follow else True,
+                             sharey="none" if follow else True, layout="constrained")
     for col, f in enumerate(frames):
         for row, (pos, color, name) in enumerate(
-                [(orig, _ORIGINAL, "original"), (ident, _IDENTIFIED, "identified")]):
+                [(orig, _ORIGINAL, labels[0]), (ident, _IDENTIFIED, labels[1])]):
             axis = axes[row][col]
             _draw_shape(axis, pos[f], pairs, fixed, a, b, color)
-            axis.set_xlim(*xlim)
-            axis.set_ylim(*ylim)
+            axis.set_xlim(*windows[col][0])
+            axis.set_ylim(*windows[col][1])
             axis.set_aspect("equal")
             axis.tick_params(labelsize="small")
             if row == 0:
@@ -369,12 +385,15 @@ def local_costs(
     from matplotlib.colors import LogNorm
 
     plt = _pyplot()
-    if ax is None:
-        fig, ax = plt.subplots(figsize=(6.4, 5.0), layout="constrained")
-    else:
-        fig = ax.figure
     a, b = _plane(pos, scene, plane)
     shape = pos[frame]
+    xlim, ylim = _limits([shape[None]], a, b)
+    if ax is None:
+        aspect = (ylim[1] - ylim[0]) / (xlim[1] - xlim[0])
+        fig, ax = plt.subplots(figsize=(6.4, 5.0 * min(max(aspect, 0.3), 1.5) + 1.2),
+                               layout="constrained")
+    else:
+        fig = ax.figure
     _draw_shape(ax, shape, _pairs(scene), np.zeros(len(shape), bool), a, b, "#b0b0b0",
                 particles=False)
     positive = np.isfinite(per) & (per > 0)
@@ -389,7 +408,6 @@ def local_costs(
         ax.scatter(shape[~positive, a], shape[~positive, b], s=size / 3, marker="s",
                    color="black", zorder=3, label="cost 0")
         ax.legend(fontsize="small", loc="best")
-    xlim, ylim = _limits([shape[None]], a, b)
     ax.set_xlim(*xlim)
     ax.set_ylim(*ylim)
     ax.set_aspect("equal")
