@@ -161,7 +161,44 @@ def _axis_labels(ax: "Axes", a: int, b: int) -> None:
 # ---------------------------------------------------------------- convergence
 
 
+_HISTORY_COLUMNS = ("generation", "evals", "seconds", "best_cost", "best_rmse", "mean_cost",
+                    "mean_mutability", "param_error_pct")
+
+
+def _read_log(path: pathlib.Path) -> np.ndarray:
+    """A ``cordis identify --log`` file (.csv or .jsonl) as a history array (NaN where empty)."""
+    lines = [line for line in path.read_text().splitlines() if line.strip()]
+    rows: List[List[float]] = []
+    if path.suffix.lower() == ".jsonl":
+        for n, line in enumerate(lines, start=1):
+            try:
+                rec = json.loads(line)
+            except json.JSONDecodeError as e:
+                raise ValueError(f"{path}:{n}: not a JSON object ({e.msg})") from None
+            rows.append([np.nan if rec.get(c) is None else float(rec[c])
+                         for c in _HISTORY_COLUMNS])
+    else:
+        if not lines:
+            raise ValueError(f"{path}: empty log")
+        header = [h.strip() for h in lines[0].split(",")]
+        missing = [c for c in _HISTORY_COLUMNS if c not in header]
+        if missing:
+            raise ValueError(f"{path}:1: not a convergence log (no {', '.join(missing)})")
+        index = [header.index(c) for c in _HISTORY_COLUMNS]
+        for n, line in enumerate(lines[1:], start=2):
+            fields = line.split(",")
+            try:
+                rows.append([float(fields[i]) if i < len(fields) and fields[i].strip() else np.nan
+                             for i in index])
+            except ValueError:
+                raise ValueError(f"{path}:{n}: not a number in {line!r}") from None
+    return np.array(rows, dtype=np.float64).reshape(-1, len(_HISTORY_COLUMNS))
+
+
 def _history(item: Any) -> Tuple[np.ndarray, Optional[str]]:
+    if isinstance(item, (str, os.PathLike)):
+        path = pathlib.Path(item)
+        return _read_log(path), path.stem
     if hasattr(item, "history"):
         return np.asarray(item.history, dtype=np.float64), str(getattr(item, "strategy", "")) or None
     h = np.asarray(item, dtype=np.float64)
@@ -181,9 +218,9 @@ def convergence(
 ) -> "Figure":
     """Best cost and, when a truth was given, the mean parameter error of one or more runs.
 
-    ``result_or_history`` is an :class:`~cordis.IdentifyResult`, its ``history`` array, a list
-    of them (one curve each, labelled by strategy or by ``labels``) or a dict
-    ``{label: result}``. ``x`` is ``"generations"``, ``"seconds"`` or ``"evals"``. Both panels
+    ``result_or_history`` is an :class:`~cordis.IdentifyResult`, its ``history`` array, the
+    path of a ``cordis identify --log`` file (``.csv`` or ``.jsonl``), a list of these (one
+    curve each, labelled by strategy, file name or ``labels``) or a dict ``{label: result}``. ``x`` is ``"generations"``, ``"seconds"`` or ``"evals"``. Both panels
     are on log scales; the error panel is left out when no run knows its truth. ``ax`` may be
     one Axes (cost only) or two (cost, error).
 

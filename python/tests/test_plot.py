@@ -183,3 +183,39 @@ def test_missing_matplotlib_names_the_extra(rigid, monkeypatch):
     monkeypatch.setitem(__import__("sys").modules, "matplotlib.pyplot", None)
     with pytest.raises(ImportError, match=r"pip install cordis-anima\[plot\]"):
         cordis.plot.convergence(rigid[2])
+
+
+def test_convergence_reads_cli_log_files(rigid, tmp_path):
+    """`cordis identify --log` files (.csv with an empty error column without --truth, .jsonl)
+    plot like the result they record."""
+    truth, traj, _ = rigid
+    scene = cordis.example("rigid", unknowns=True)
+    (tmp_path / "s.json").write_text(scene.to_json())
+    cordis.write_trajectory(tmp_path / "t.npy", traj)
+    from cordis import _cordis
+    for log in ("run.csv", "run.jsonl"):
+        assert _cordis._cli_main(["cordis", "identify", str(tmp_path / "s.json"), "-t",
+                                  str(tmp_path / "t.npy"), "--strategy", "thesis",
+                                  "--generations", "15", "--log", str(tmp_path / log),
+                                  "-q"]) == 0
+    res = cordis.identify(scene, traj, strategy="thesis", generations=15)
+    fig = cordis.plot.convergence([tmp_path / "run.csv", str(tmp_path / "run.jsonl")])
+    assert len(fig.axes) == 1  # no truth: no error panel
+    for line in fig.axes[0].get_lines():
+        np.testing.assert_allclose(line.get_ydata(), res.history[:, 3], rtol=1e-12)
+    assert [t.get_text() for t in fig.axes[0].get_legend().get_texts()] == ["run", "run"]
+    save(fig, tmp_path / "log.png")
+    (tmp_path / "bad.csv").write_text("a,b\n1,2\n")
+    with pytest.raises(ValueError, match=r"bad.csv:1: not a convergence log"):
+        cordis.plot.convergence(tmp_path / "bad.csv")
+
+
+def test_trajectories_follow_keeps_one_scale_per_column(tmp_path):
+    truth = cordis.example("horse")
+    traj = truth.simulate(53)
+    fig = cordis.plot.trajectories(truth, traj, traj, frames=[0, 52], follow=True)
+    (a0, a1), (b0, b1) = fig.axes[0].get_xlim(), fig.axes[1].get_xlim()
+    assert b0 > a0 + 1.0, "the second column follows the horse forward"
+    assert (a1 - a0) == pytest.approx(b1 - b0)
+    assert fig.axes[0].get_xlim() == fig.axes[2].get_xlim()  # both rows of a column agree
+    save(fig, tmp_path / "follow.png")
