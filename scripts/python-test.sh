@@ -12,6 +12,8 @@ trap 'rm -rf "$venv"' EXIT
 
 "$python" -m venv "$venv"
 "$venv/bin/python" -m pip install --quiet ./python pytest mypy
+# The plot extra, for cordis.plot's tests and the examples/ scripts (a wheel: a few seconds).
+"$venv/bin/python" -m pip install --quiet matplotlib
 if ! "$venv/bin/python" -m pip install --quiet mujoco; then
     echo "python-test: mujoco could not be installed; its comparison test will be skipped" >&2
 fi

@@ -20,6 +20,10 @@ Example::
     f = cordis.Objective(truth, traj)                 # the cost, compiled once: f(params) -> float
     f(f.param_vector())                               # 0.0 at the true parameters
 
+Pictures (``pip install cordis-anima[plot]`` for matplotlib): :mod:`cordis.plot` draws
+convergence curves, original vs identified frames, local costs and Pareto fronts;
+``cordis.animate(scene, traj, "motion.gif")`` writes an animation.
+
 Errors are subclasses of :class:`CordisError` (:class:`SceneError`, :class:`TrajectoryError`,
 :class:`CostKindError`…) and name the place of the fault, e.g.
 ``links[3].particles[1]: particle 40 does not exist``. The GIL is released during
@@ -48,6 +52,8 @@ from ._cordis import (
     read_trajectory,
     write_trajectory,
 )
+from . import plot  # matplotlib is imported only when a plot function runs
+from .plot import animate
 
 __all__ = [
     "EXAMPLES",
@@ -65,9 +71,11 @@ __all__ = [
     "SceneError",
     "TrajectoryError",
     "__version__",
+    "animate",
     "cost",
     "example",
     "identify",
+    "plot",
     "read_trajectory",
     "write_trajectory",
 ]

@@ -1,0 +1,610 @@
+"""Pictures of scenes, motions and identification runs (needs matplotlib: the ``plot`` extra).
+
+Install with ``pip install cordis-anima[plot]`` (or ``pip install matplotlib``). matplotlib is
+imported only when a function here is called, so ``import cordis`` never needs it.
+
+Every function draws with :mod:`matplotlib.pyplot` and returns the
+:class:`~matplotlib.figure.Figure` (``plt.show()`` displays it, ``fig.savefig("x.png")``
+writes it; close it with ``plt.close(fig)`` when making many). :func:`animate` returns the
+path it wrote. Pass ``ax=`` to draw into axes of your own figure instead.
+
+Example::
+
+    import cordis, cordis.plot
+
+    truth = cordis.example("rigid")
+    traj = truth.simulate(100)
+    res = cordis.identify(cordis.example("rigid", unknowns=True), traj, strategy="thesis",
+                          generations=300, truth=truth)
+    cordis.plot.convergence(res).savefig("convergence.png")
+    cordis.plot.trajectories(truth, traj, res.scene.simulate(100)).savefig("frames.png")
+    cordis.animate(truth, traj, "rigid.gif", compare=res.scene.simulate(100))
+
+Motions are drawn projected on the plane of the two coordinate axes along which the motion
+spreads furthest (the vertical one, when gravity is along one of them, drawn upwards); pass
+``plane="zy"`` (horizontal axis first) to choose another view.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import shutil
+from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+if TYPE_CHECKING:  # pragma: no cover - typing only
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+    from ._cordis import CostReport, IdentifyResult, Scene
+
+__all__ = ["animate", "convergence", "local_costs", "pareto", "trajectories"]
+
+_INSTALL_HINT = (
+    "cordis.plot needs matplotlib: install it with `pip install cordis-anima[plot]` "
+    "(or `pip install matplotlib`)"
+)
+
+# HISTORY_COLUMNS of IdentifyResult.history.
+_COLUMN = {"generations": 0, "evals": 1, "seconds": 2}
+_BEST_COST = 3
+_PARAM_ERROR = 7
+_X_LABEL = {"generations": "generation", "evals": "cost evaluations", "seconds": "seconds"}
+
+# Original motion solid and dark, the identified one in a contrasting colour.
+_ORIGINAL = "#1f3b73"
+_IDENTIFIED = "#d1495b"
+
+
+def _pyplot() -> Any:
+    try:
+        import matplotlib.pyplot as plt
+    except ImportError as e:
+        raise ImportError(_INSTALL_HINT) from e
+    return plt
+
+
+# ---------------------------------------------------------------- geometry helpers
+
+
+def _positions(traj: Any, name: str) -> np.ndarray:
+    a = np.asarray(traj, dtype=np.float64)
+    if a.ndim != 3 or a.shape[2] != 3 or a.shape[0] == 0:
+        raise ValueError(f"{name}: expected positions shaped (T, N, 3) with T >= 1, got {a.shape}")
+    return a
+
+
+def _pairs(scene: "Scene") -> np.ndarray:
+    """Particle index pairs to draw: every listed link between two particles, and the two arms
+    of every angle link (conditional links are not listed, anchors join a fixed point)."""
+    pairs: List[Tuple[int, int]] = []
+    for link in scene.to_dict().get("links", []):
+        p = list(link["particles"])
+        pairs.extend(zip(p[:-1], p[1:]))
+    return np.array(pairs, dtype=np.int64).reshape(-1, 2)
+
+
+def _fixed(scene: "Scene") -> np.ndarray:
+    return np.array([bool(p.get("fixed", False)) for p in scene.to_dict()["particles"]], dtype=bool)
+
+
+def _plane(traj: np.ndarray, scene: "Scene", plane: Optional[str] = None) -> Tuple[int, int]:
+    """The two coordinate axes along which ``traj`` spreads furthest, as (horizontal, vertical),
+    unless ``plane`` names them (``"xy"``, ``"zy"``…: horizontal axis first)."""
+    if plane is not None:
+        p = str(plane).lower()
+        if len(p) != 2 or p[0] == p[1] or any(c not in "xyz" for c in p):
+            raise ValueError(f"plane: expected two of x, y, z such as 'xy' or 'zy', got {plane!r}")
+        return "xyz".index(p[0]), "xyz".index(p[1])
+    extent = np.ptp(traj.reshape(-1, 3), axis=0)
+    a, b = sorted(int(i) for i in np.argsort(-extent, kind="stable")[:2])
+    g = np.abs(np.asarray(scene.gravity, dtype=np.float64))
+    if g.max() > 0 and int(np.argmax(g)) == a:
+        a, b = b, a  # gravity's axis upwards on the page
+    return a, b
+
+
+def _limits(arrays: Sequence[np.ndarray], a: int, b: int) -> Tuple[Tuple[float, float], ...]:
+    pts = np.concatenate([x.reshape(-1, 3) for x in arrays])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    pad = 0.05 * max(float(hi[a] - lo[a]), float(hi[b] - lo[b]), 1e-9)
+    return (lo[a] - pad, hi[a] + pad), (lo[b] - pad, hi[b] + pad)
+
+
+def _draw_shape(ax: "Axes", frame: np.ndarray, pairs: np.ndarray, fixed: np.ndarray,
+                a: int, b: int, color: str, linestyle: str = "-", alpha: float = 1.0,
+                label: Optional[str] = None, particles: bool = True) -> List[Any]:
+    from matplotlib.collections import LineCollection
+
+    artists: List[Any] = []
+    if len(pairs):
+        segs = list(np.stack([frame[pairs[:, 0]][:, [a, b]], frame[pairs[:, 1]][:, [a, b]]],
+                             axis=1))
+        lw = 0.4 if len(pairs) > 1000 else 1.2
+        lc = LineCollection(segs, colors=color, linewidths=lw, linestyles=linestyle, alpha=alpha,
+                            label=label)
+        ax.add_collection(lc)
+        artists.append(lc)
+        label = None
+    if particles:
+        size = 2.0 if len(frame) > 500 else 14.0
+        free = ~fixed
+        artists.append(ax.scatter(frame[free, a], frame[free, b], s=size, color=color,
+                                  alpha=alpha, zorder=3, label=label, linewidths=0))
+        if fixed.any():
+            artists.append(ax.scatter(frame[fixed, a], frame[fixed, b], s=size * 1.5, marker="s",
+                                      color="black", zorder=3, linewidths=0))
+    return artists
+
+
+def _move_shape(artists: List[Any], frame: np.ndarray, pairs: np.ndarray, fixed: np.ndarray,
+                a: int, b: int) -> None:
+    """Moves the artists made by :func:`_draw_shape` (same order) to another frame."""
+    k = 0
+    if len(pairs):
+        artists[0].set_segments(np.stack([frame[pairs[:, 0]][:, [a, b]],
+                                          frame[pairs[:, 1]][:, [a, b]]], axis=1))
+        k = 1
+    artists[k].set_offsets(frame[~fixed][:, [a, b]])
+    if fixed.any():
+        artists[k + 1].set_offsets(frame[fixed][:, [a, b]])
+
+
+def _axis_labels(ax: "Axes", a: int, b: int) -> None:
+    ax.set_xlabel(f"{'xyz'[a]} (m)")
+    ax.set_ylabel(f"{'xyz'[b]} (m)")
+
+
+# ---------------------------------------------------------------- convergence
+
+
+_HISTORY_COLUMNS = ("generation", "evals", "seconds", "best_cost", "best_rmse", "mean_cost",
+                    "mean_mutability", "param_error_pct")
+
+
+def _read_log(path: pathlib.Path) -> np.ndarray:
+    """A ``cordis identify --log`` file (.csv or .jsonl) as a history array (NaN where empty)."""
+    lines = [line for line in path.read_text().splitlines() if line.strip()]
+    rows: List[List[float]] = []
+    if path.suffix.lower() == ".jsonl":
+        for n, line in enumerate(lines, start=1):
+            try:
+                rec = json.loads(line)
+            except json.JSONDecodeError as e:
+                raise ValueError(f"{path}:{n}: not a JSON object ({e.msg})") from None
+            rows.append([np.nan if rec.get(c) is None else float(rec[c])
+                         for c in _HISTORY_COLUMNS])
+    else:
+        if not lines:
+            raise ValueError(f"{path}: empty log")
+        header = [h.strip() for h in lines[0].split(",")]
+        missing = [c for c in _HISTORY_COLUMNS if c not in header]
+        if missing:
+            raise ValueError(f"{path}:1: not a convergence log (no {', '.join(missing)})")
+        index = [header.index(c) for c in _HISTORY_COLUMNS]
+        for n, line in enumerate(lines[1:], start=2):
+            fields = line.split(",")
+            try:
+                rows.append([float(fields[i]) if i < len(fields) and fields[i].strip() else np.nan
+                             for i in index])
+            except ValueError:
+                raise ValueError(f"{path}:{n}: not a number in {line!r}") from None
+    return np.array(rows, dtype=np.float64).reshape(-1, len(_HISTORY_COLUMNS))
+
+
+def _history(item: Any) -> Tuple[np.ndarray, Optional[str]]:
+    if isinstance(item, (str, os.PathLike)):
+        path = pathlib.Path(item)
+        return _read_log(path), path.stem
+    if hasattr(item, "history"):
+        return np.asarray(item.history, dtype=np.float64), str(getattr(item, "strategy", "")) or None
+    h = np.asarray(item, dtype=np.float64)
+    if h.ndim != 2 or h.shape[1] < _PARAM_ERROR + 1:
+        raise ValueError(
+            f"expected an IdentifyResult or its history (rows of {_PARAM_ERROR + 1} columns), "
+            f"got an array shaped {h.shape}"
+        )
+    return h, None
+
+
+def convergence(
+    result_or_history: Any,
+    x: str = "generations",
+    ax: Any = None,
+    labels: Optional[Sequence[str]] = None,
+) -> "Figure":
+    """Best cost and, when a truth was given, the mean parameter error of one or more runs.
+
+    ``result_or_history`` is an :class:`~cordis.IdentifyResult`, its ``history`` array, the
+    path of a ``cordis identify --log`` file (``.csv`` or ``.jsonl``), a list of these (one
+    curve each, labelled by strategy, file name or ``labels``) or a dict ``{label: result}``. ``x`` is ``"generations"``, ``"seconds"`` or ``"evals"``. Both panels
+    are on log scales; the error panel is left out when no run knows its truth. ``ax`` may be
+    one Axes (cost only) or two (cost, error).
+
+    >>> res = cordis.identify(scene, traj, strategy="thesis", generations=300, truth=truth)
+    >>> cordis.plot.convergence(res, x="seconds").savefig("convergence.png")
+    """
+    if x not in _COLUMN:
+        raise ValueError(f"x: expected 'generations', 'seconds' or 'evals', got {x!r}")
+    if isinstance(result_or_history, Mapping):
+        items = list(result_or_history.values())
+        names: List[Optional[str]] = [str(k) for k in result_or_history.keys()]
+    elif isinstance(result_or_history, (list, tuple)):
+        items = list(result_or_history)
+        names = [None] * len(items)
+    else:
+        items = [result_or_history]
+        names = [None]
+    if not items:
+        raise ValueError("result_or_history: nothing to plot")
+    if labels is not None:
+        if len(labels) != len(items):
+            raise ValueError(f"labels: {len(labels)} labels for {len(items)} runs")
+        names = [str(s) for s in labels]
+    runs = []
+    for i, (item, name) in enumerate(zip(items, names)):
+        h, strategy = _history(item)
+        runs.append((h, name or strategy or f"run {i}"))
+
+    has_error = any(np.isfinite(h[:, _PARAM_ERROR]).any() for h, _ in runs)
+    plt = _pyplot()
+    if ax is None:
+        ncols = 2 if has_error else 1
+        fig, axes = plt.subplots(1, ncols, figsize=(5.2 * ncols, 3.8), squeeze=False,
+                                 layout="constrained")
+        axes = list(axes[0])
+    else:
+        axes = list(np.atleast_1d(np.asarray(ax, dtype=object)).ravel())
+        fig = axes[0].figure
+
+    # Log scales cannot show 0 (an exact fit): such points sit one decade under the least
+    # positive value drawn, so they stay visible at the bottom of the panel.
+    def floor(col: int) -> float:
+        vals = np.concatenate([h[:, col] for h, _ in runs])
+        pos = vals[np.isfinite(vals) & (vals > 0)]
+        return float(pos.min()) / 10 if len(pos) else 1e-16
+
+    panels = [(_BEST_COST, "best cost (m²)")]
+    if has_error and len(axes) > 1:
+        panels.append((_PARAM_ERROR, "mean parameter error (%)"))
+    for axis, (col, title) in zip(axes, panels):
+        low = floor(col)
+        for h, name in runs:
+            xs, ys = h[:, _COLUMN[x]], h[:, col]
+            keep = np.isfinite(ys)
+            if not keep.any():
+                continue
+            ys = np.where(ys > 0, ys, low)
+            style = "o-" if keep.sum() < 8 else "-"
+            axis.plot(xs[keep], ys[keep], style, label=name, markersize=4, linewidth=1.5)
+        axis.set_yscale("log")
+        if x != "generations":
+            axis.set_xscale("symlog" if x == "evals" else "linear")
+        axis.set_xlabel(_X_LABEL[x])
+        axis.set_ylabel(title)
+        axis.grid(True, which="major", alpha=0.3)
+    if len(runs) > 1 or runs[0][1]:
+        axes[0].legend(fontsize="small")
+    return fig
+
+
+# ---------------------------------------------------------------- trajectories
+
+
+def trajectories(
+    scene: "Scene",
+    original: Any,
+    identified: Any,
+    frames: Optional[Sequence[int]] = None,
+    ax: Any = None,
+    plane: Optional[str] = None,
+    labels: Sequence[str] = ("original", "identified"),
+    follow: bool = False,
+) -> "Figure":
+    """The original motion (top row) beside the identified model's (bottom row) at a few frames.
+
+    The thesis' Figure 4.2: ``frames`` (default five, evenly spread) of the original animation
+    and of its reconstruction, links drawn, both on the same scale. ``original`` and
+    ``identified`` are positions ``(T, N, 3)`` of ``scene``'s particles; ``labels`` names the
+    two rows. ``follow=True`` centres each column on the shape at its frame (the scale stays the
+    same everywhere), for a model that travels far. With ``ax`` (one Axes), the chosen frames
+    are overlaid there instead, the reconstruction dashed.
+
+    >>> fig = cordis.plot.trajectories(truth, traj, res.scene.simulate(len(traj)))
+    >>> fig.savefig("frames.png")
+    """
+    orig = _positions(original, "original")
+    ident = _positions(identified, "identified")
+    if orig.shape[1] != ident.shape[1] or orig.shape[1] != scene.num_particles:
+        raise ValueError(
+            f"identified: {ident.shape[1]} particles and original {orig.shape[1]} for a scene "
+            f"of {scene.num_particles}"
+        )
+    count = min(len(orig), len(ident))
+    if frames is None:
+        frames = sorted(set(np.linspace(0, count - 1, min(5, count)).round().astype(int).tolist()))
+    frames = [int(f) for f in frames]
+    if len(labels) != 2:
+        raise ValueError(f"labels: expected two names (original, identified), got {len(labels)}")
+    for f in frames:
+        if not 0 <= f < count:
+            raise ValueError(f"frames: frame {f} is outside 0..{count - 1}")
+    pairs, fixed = _pairs(scene), _fixed(scene)
+    a, b = _plane(orig, scene, plane)
+    xlim, ylim = _limits([orig[frames], ident[frames]], a, b)
+    dt = scene.dt
+    plt = _pyplot()
+
+    if ax is not None:
+        fig = ax.figure
+        for k, f in enumerate(frames):
+            _draw_shape(ax, orig[f], pairs, fixed, a, b, _ORIGINAL,
+                        label=labels[0] if k == 0 else None)
+            _draw_shape(ax, ident[f], pairs, fixed, a, b, _IDENTIFIED, linestyle="--",
+                        alpha=0.8, label=labels[1] if k == 0 else None)
+        ax.set_xlim(*xlim)
+        ax.set_ylim(*ylim)
+        ax.set_aspect("equal")
+        _axis_labels(ax, a, b)
+        ax.legend(fontsize="small")
+        return fig
+
+    n = len(frames)
+    windows = [(xlim, ylim)] * n
+    if follow:
+        shown = [np.concatenate([orig[f], ident[f]])[:, [a, b]] for f in frames]
+        half_x = max(float(np.ptp(p[:, 0])) for p in shown) / 2 * 1.1 + 1e-9
+        half_y = max(float(np.ptp(p[:, 1])) for p in shown) / 2 * 1.1 + 1e-9
+        centres = [(p.min(axis=0) + p.max(axis=0)) / 2 for p in shown]
+        windows = [((c[0] - half_x, c[0] + half_x), (c[1] - half_y, c[1] + half_y))
+                   for c in centres]
+        xlim, ylim = windows[0]
+    width = xlim[1] - xlim[0]
+    height = ylim[1] - ylim[0]
+    panel = 2.4
+    aspect = height / width if width > 0 else 1.0
+    fig, axes = plt.subplots(2, n, figsize=(panel * n + 0.8,
+                                            2 * panel * min(max(aspect, 0.25), 2.5) + 0.9),
+                             squeeze=False, sharex="none" if follow else True,
+                             sharey="none" if follow else True, layout="constrained")
+    for col, f in enumerate(frames):
+        for row, (pos, color, name) in enumerate(
+                [(orig, _ORIGINAL, labels[0]), (ident, _IDENTIFIED, labels[1])]):
+            axis = axes[row][col]
+            _draw_shape(axis, pos[f], pairs, fixed, a, b, color)
+            axis.set_xlim(*windows[col][0])
+            axis.set_ylim(*windows[col][1])
+            axis.set_aspect("equal")
+            axis.tick_params(labelsize="small")
+            if row == 0:
+                axis.set_title(f"frame {f}  (t = {f * dt:.3g} s)", fontsize="medium")
+            if col == 0:
+                axis.set_ylabel(f"{name}\n{'xyz'[b]} (m)")
+            if row == 1:
+                axis.set_xlabel(f"{'xyz'[a]} (m)")
+    return fig
+
+
+# ---------------------------------------------------------------- local costs
+
+
+def local_costs(
+    scene: "Scene",
+    traj: Any,
+    report_or_per_particle: Any,
+    frame: int = 0,
+    ax: Any = None,
+    plane: Optional[str] = None,
+) -> "Figure":
+    """The model's shape at ``frame`` with each particle coloured by its local cost c_i.
+
+    ``report_or_per_particle`` is a :class:`~cordis.CostReport` (its ``per_particle``) or an
+    array of N local costs (m²). The colour scale is logarithmic, with a colour bar; particles
+    of cost 0 (fixed ones, or exactly predicted) are drawn as small black squares. The thesis
+    uses these local costs to find the particles whose links are still wrong.
+
+    >>> report = cordis.Objective(scene, traj).report(guess)
+    >>> cordis.plot.local_costs(scene, traj, report).savefig("local.png")
+    """
+    pos = _positions(traj, "traj")
+    per = getattr(report_or_per_particle, "per_particle", report_or_per_particle)
+    per = np.asarray(per, dtype=np.float64).ravel()
+    if len(per) != pos.shape[1] or pos.shape[1] != scene.num_particles:
+        raise ValueError(
+            f"report_or_per_particle: {len(per)} local costs, trajectory of {pos.shape[1]} "
+            f"particles, scene of {scene.num_particles}"
+        )
+    if not 0 <= frame < len(pos):
+        raise ValueError(f"frame: {frame} is outside 0..{len(pos) - 1}")
+    from matplotlib.colors import LogNorm
+
+    plt = _pyplot()
+    a, b = _plane(pos, scene, plane)
+    shape = pos[frame]
+    xlim, ylim = _limits([shape[None]], a, b)
+    if ax is None:
+        aspect = (ylim[1] - ylim[0]) / (xlim[1] - xlim[0])
+        fig, ax = plt.subplots(figsize=(6.4, 5.0 * min(max(aspect, 0.3), 1.5) + 1.2),
+                               layout="constrained")
+    else:
+        fig = ax.figure
+    _draw_shape(ax, shape, _pairs(scene), np.zeros(len(shape), bool), a, b, "#b0b0b0",
+                particles=False)
+    positive = np.isfinite(per) & (per > 0)
+    size = 8.0 if len(shape) > 500 else 60.0
+    if positive.any():
+        lo, hi = float(per[positive].min()), float(per[positive].max())
+        norm = LogNorm(vmin=lo, vmax=hi if hi > lo else lo * 10)
+        sc = ax.scatter(shape[positive, a], shape[positive, b], c=per[positive], norm=norm,
+                        cmap="viridis", s=size, zorder=3, edgecolors="none")
+        fig.colorbar(sc, ax=ax, label="local cost $c_i$ (m²)")
+    if (~positive).any():
+        ax.scatter(shape[~positive, a], shape[~positive, b], s=size / 3, marker="s",
+                   color="black", zorder=3, label="cost 0")
+        ax.legend(fontsize="small", loc="best")
+    ax.set_xlim(*xlim)
+    ax.set_ylim(*ylim)
+    ax.set_aspect("equal")
+    _axis_labels(ax, a, b)
+    ax.set_title(f"local costs, frame {frame}", fontsize="medium")
+    return fig
+
+
+# ---------------------------------------------------------------- pareto
+
+
+_PARETO_KEYS = ("strategy", "scene", "seconds", "param_error_pct")
+
+
+def _records(records_or_path: Any) -> List[Dict[str, Any]]:
+    if isinstance(records_or_path, (str, os.PathLike)):
+        path = pathlib.Path(records_or_path)
+        records = []
+        for n, line in enumerate(path.read_text().splitlines(), start=1):
+            if line.strip():
+                try:
+                    records.append(json.loads(line))
+                except json.JSONDecodeError as e:
+                    raise ValueError(f"{path}:{n}: not a JSON object ({e.msg})") from None
+    else:
+        records = list(records_or_path)
+    for n, r in enumerate(records):
+        missing = [k for k in _PARETO_KEYS if k not in r]
+        if missing:
+            raise ValueError(f"records[{n}]: missing {', '.join(missing)}")
+    return records
+
+
+def pareto(records_or_path: Any, ax: Any = None) -> "Figure":
+    """Run time against parameter error, one marker per strategy, both on log scales.
+
+    ``records_or_path`` is a list of dicts or a JSON-lines file, each with the keys
+    ``strategy, scene, seconds, param_error_pct`` (what ``cordis bench pareto`` writes).
+    Runs of several scenes are told apart by a label beside each marker; the runs that no
+    other run of the same scene beats on both time and error are joined by a dotted line.
+    An error of 0 is drawn one decade under the least positive error.
+
+    >>> cordis.plot.pareto([{"strategy": "thesis", "scene": "rigid", "seconds": 1.2,
+    ...                      "param_error_pct": 0.01}]).savefig("pareto.png")
+    """
+    records = _records(records_or_path)
+    if not records:
+        raise ValueError("records_or_path: no runs to plot")
+    plt = _pyplot()
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(6.4, 4.6), layout="constrained")
+    else:
+        fig = ax.figure
+    secs = np.array([float(r["seconds"]) for r in records])
+    err = np.array([np.nan if r["param_error_pct"] is None else float(r["param_error_pct"])
+                    for r in records])
+    pos = err[np.isfinite(err) & (err > 0)]
+    err = np.where(np.isfinite(err) & (err <= 0), (pos.min() / 10) if len(pos) else 1e-12, err)
+    strategies = list(dict.fromkeys(str(r["strategy"]) for r in records))
+    scenes = list(dict.fromkeys(str(r["scene"]) for r in records))
+    markers = "osD^vP*Xh<>p"
+    for k, s in enumerate(strategies):
+        idx = [i for i, r in enumerate(records) if str(r["strategy"]) == s]
+        ax.scatter(secs[idx], err[idx], marker=markers[k % len(markers)], s=55, label=s,
+                   zorder=3, color=f"C{k % 10}")
+    for scene in scenes:
+        idx = [i for i, r in enumerate(records)
+               if str(r["scene"]) == scene and np.isfinite(err[i]) and secs[i] > 0]
+        front = [i for i in idx if not any(
+            secs[j] <= secs[i] and err[j] <= err[i] and (secs[j] < secs[i] or err[j] < err[i])
+            for j in idx)]
+        front.sort(key=lambda i: secs[i])
+        if len(front) > 1:
+            ax.plot(secs[front], err[front], ":", color="grey", zorder=2)
+        if len(scenes) > 1:
+            for i in idx:
+                ax.annotate(scene, (secs[i], err[i]), textcoords="offset points", xytext=(5, 4),
+                            fontsize="x-small")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("run time (s)")
+    ax.set_ylabel("mean parameter error (%)")
+    ax.grid(True, which="major", alpha=0.3)
+    ax.legend(fontsize="small", title="strategy")
+    return fig
+
+
+# ---------------------------------------------------------------- animation
+
+
+def animate(
+    scene: "Scene",
+    traj: Any,
+    path: Union[str, "os.PathLike[str]"],
+    compare: Any = None,
+    fps: int = 30,
+    every: int = 1,
+    plane: Optional[str] = None,
+) -> pathlib.Path:
+    """Writes the motion ``traj`` ``(T, N, 3)`` of ``scene`` as an animated GIF or MP4.
+
+    The format follows the extension: ``.gif`` (Pillow, installed with matplotlib) or
+    ``.mp4`` (needs ``ffmpeg`` on PATH). ``compare`` is a second motion of the same scene
+    (e.g. the identified model's), drawn dashed over the first. ``every`` keeps one frame in
+    ``every``; ``fps`` is the playback rate. Returns the path written.
+
+    >>> cordis.animate(scene, scene.simulate(200), "motion.gif", every=2)
+    PosixPath('motion.gif')
+    """
+    pos = _positions(traj, "traj")
+    if pos.shape[1] != scene.num_particles:
+        raise ValueError(f"traj: {pos.shape[1]} particles for a scene of {scene.num_particles}")
+    other = None
+    if compare is not None:
+        other = _positions(compare, "compare")
+        if other.shape[1] != pos.shape[1]:
+            raise ValueError(f"compare: {other.shape[1]} particles, traj {pos.shape[1]}")
+    if fps <= 0 or every <= 0:
+        raise ValueError(f"fps and every must be positive, got fps={fps}, every={every}")
+    out = pathlib.Path(path)
+    ext = out.suffix.lower()
+    if ext not in (".gif", ".mp4"):
+        raise ValueError(f"{out}: the animation format follows the extension: .gif or .mp4")
+    if ext == ".mp4" and shutil.which("ffmpeg") is None:
+        raise RuntimeError(f"{out}: writing .mp4 needs ffmpeg on PATH; write a .gif instead")
+
+    plt = _pyplot()
+    from matplotlib.animation import FFMpegWriter, PillowWriter
+
+    count = len(pos) if other is None else min(len(pos), len(other))
+    frames = list(range(0, count, every))
+    pairs, fixed = _pairs(scene), _fixed(scene)
+    a, b = _plane(pos, scene, plane)
+    xlim, ylim = _limits([pos[:count]] + ([other[:count]] if other is not None else []), a, b)
+    width, height = xlim[1] - xlim[0], ylim[1] - ylim[0]
+    aspect = min(max(height / width if width > 0 else 1.0, 0.5), 2.0)
+    fig, ax = plt.subplots(figsize=(5.0, 5.0 * aspect + 0.6), dpi=80, layout="constrained")
+    ax.set_xlim(*xlim)
+    ax.set_ylim(*ylim)
+    ax.set_aspect("equal")
+    _axis_labels(ax, a, b)
+    motions = [(pos, _draw_shape(ax, pos[frames[0]], pairs, fixed, a, b, _ORIGINAL,
+                                 label="motion" if other is not None else None))]
+    if other is not None:
+        motions.append((other, _draw_shape(ax, other[frames[0]], pairs, fixed, a, b, _IDENTIFIED,
+                                           linestyle="--", alpha=0.8, label="compare")))
+        ax.legend(fontsize="small", loc="upper right")
+    title = ax.set_title(" ", fontsize="medium")
+    # The layout is computed once: every frame only moves the shapes (one draw per frame).
+    fig.canvas.draw()
+    fig.set_layout_engine("none")
+    writer = PillowWriter(fps=fps) if ext == ".gif" else FFMpegWriter(fps=fps)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        with writer.saving(fig, str(out), dpi=80):
+            for f in frames:
+                for motion, artists in motions:
+                    _move_shape(artists, motion[f], pairs, fixed, a, b)
+                title.set_text(f"t = {f * scene.dt:.3f} s")
+                writer.grab_frame()
+    finally:
+        plt.close(fig)
+    return out

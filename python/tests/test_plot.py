@@ -1,0 +1,221 @@
+"""cordis.plot draws every picture it promises, readable as PNG/GIF, without a display."""
+
+import json
+
+import numpy as np
+import pytest
+
+import cordis
+
+matplotlib = pytest.importorskip("matplotlib")
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+from PIL import Image  # noqa: E402  (Pillow comes with matplotlib)
+
+import cordis.plot  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def rigid():
+    truth = cordis.example("rigid")
+    traj = truth.simulate(60)
+    scene = cordis.example("rigid", unknowns=True)
+    res = cordis.identify(scene, traj, strategy="thesis", generations=40, seed=2, truth=truth)
+    return truth, traj, res
+
+
+@pytest.fixture(autouse=True)
+def close_figures():
+    yield
+    plt.close("all")
+
+
+def assert_picture(path):
+    """A non-empty image that decodes and is not one flat colour."""
+    assert path.stat().st_size > 0
+    with Image.open(path) as im:
+        im.load()
+        pixels = np.asarray(im.convert("RGB"))
+    assert pixels.shape[0] > 50 and pixels.shape[1] > 50
+    assert len(np.unique(pixels.reshape(-1, 3), axis=0)) > 10, "a single-colour picture"
+    return pixels
+
+
+def save(fig, path):
+    assert isinstance(fig, matplotlib.figure.Figure)
+    fig.savefig(path, dpi=60)
+    return assert_picture(path)
+
+
+def test_convergence_of_one_result_has_cost_and_error_panels(rigid, tmp_path):
+    _, _, res = rigid
+    fig = cordis.plot.convergence(res)
+    assert len(fig.axes) == 2
+    cost_ax, err_ax = fig.axes
+    assert cost_ax.get_yscale() == "log" and err_ax.get_yscale() == "log"
+    (line,) = cost_ax.get_lines()
+    np.testing.assert_array_equal(line.get_ydata(), res.history[:, 3])
+    save(fig, tmp_path / "conv.png")
+
+
+def test_convergence_of_a_history_without_truth_has_one_panel(rigid, tmp_path):
+    truth, traj, _ = rigid
+    res = cordis.identify(cordis.example("rigid", unknowns=True), traj, strategy="thesis",
+                          generations=10)
+    fig = cordis.plot.convergence(res.history, x="seconds")
+    assert len(fig.axes) == 1
+    np.testing.assert_array_equal(fig.axes[0].get_lines()[0].get_xdata(), res.history[:, 2])
+    save(fig, tmp_path / "conv1.png")
+
+
+def test_convergence_of_several_runs_labels_each(rigid, tmp_path):
+    truth, traj, res = rigid
+    ls = cordis.identify(cordis.example("rigid", unknowns=True), traj, strategy="least-squares",
+                         truth=truth)
+    fig = cordis.plot.convergence([res, ls], x="evals")
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert labels == ["thesis", "least-squares"]
+    save(fig, tmp_path / "conv2.png")
+    fig = cordis.plot.convergence({"a": res, "b": ls})
+    assert [t.get_text() for t in fig.axes[0].get_legend().get_texts()] == ["a", "b"]
+
+
+def test_convergence_rejects_bad_input(rigid):
+    with pytest.raises(ValueError, match="x:"):
+        cordis.plot.convergence(rigid[2], x="hours")
+    with pytest.raises(ValueError, match="history"):
+        cordis.plot.convergence(np.zeros((3, 2)))
+    with pytest.raises(ValueError, match="labels"):
+        cordis.plot.convergence([rigid[2]], labels=["a", "b"])
+
+
+def test_trajectories_draws_two_rows_of_frames(rigid, tmp_path):
+    truth, traj, res = rigid
+    fig = cordis.plot.trajectories(truth, traj, res.scene.simulate(len(traj)))
+    assert len(fig.axes) == 10  # 2 rows x 5 frames
+    assert fig.axes[0].get_title().startswith("frame 0")
+    save(fig, tmp_path / "traj.png")
+    fig = cordis.plot.trajectories(truth, traj, traj, frames=[0, 59], plane="xy")
+    assert len(fig.axes) == 4
+    with pytest.raises(ValueError, match="frames"):
+        cordis.plot.trajectories(truth, traj, traj, frames=[60])
+    with pytest.raises(ValueError, match="plane"):
+        cordis.plot.trajectories(truth, traj, traj, plane="xx")
+
+
+def test_trajectories_overlays_into_given_axes(rigid, tmp_path):
+    truth, traj, _ = rigid
+    fig, ax = plt.subplots()
+    assert cordis.plot.trajectories(truth, traj, traj, ax=ax) is fig
+    save(fig, tmp_path / "overlay.png")
+
+
+def test_local_costs_colours_particles_on_a_log_scale(rigid, tmp_path):
+    truth, traj, res = rigid
+    scene = cordis.example("rigid", unknowns=True)
+    report = cordis.Objective(scene, traj).report(cordis.Objective(scene, traj).param_vector())
+    fig = cordis.plot.local_costs(truth, traj, report, frame=10)
+    assert len(fig.axes) == 2  # the shape and its colour bar
+    from matplotlib.colors import LogNorm
+    assert isinstance(fig.axes[0].collections[-1].norm, LogNorm)
+    save(fig, tmp_path / "local.png")
+    fig = cordis.plot.local_costs(truth, traj, report.per_particle)
+    save(fig, tmp_path / "local2.png")
+    with pytest.raises(ValueError, match="local costs"):
+        cordis.plot.local_costs(truth, traj, np.ones(3))
+
+
+def test_pareto_from_records_and_from_a_jsonl_file(tmp_path):
+    records = [
+        {"strategy": "thesis", "scene": "rigid", "seconds": 1.5, "param_error_pct": 0.02},
+        {"strategy": "least-squares", "scene": "rigid", "seconds": 0.01, "param_error_pct": 0.0},
+        {"strategy": "cmaes", "scene": "rigid", "seconds": 0.8, "param_error_pct": 3.0},
+        {"strategy": "thesis", "scene": "cloth", "seconds": 30.0, "param_error_pct": 0.5},
+    ]
+    save(cordis.plot.pareto(records), tmp_path / "p1.png")
+    path = tmp_path / "runs.jsonl"
+    path.write_text("\n".join(json.dumps(r) for r in records) + "\n")
+    fig = cordis.plot.pareto(path)
+    assert [t.get_text() for t in fig.axes[0].get_legend().get_texts()] == \
+        ["thesis", "least-squares", "cmaes"]
+    save(fig, tmp_path / "p2.png")
+    with pytest.raises(ValueError, match=r"records\[0\]: missing seconds"):
+        cordis.plot.pareto([{"strategy": "x", "scene": "y", "param_error_pct": 1}])
+    path.write_text("{nope\n")
+    with pytest.raises(ValueError, match="runs.jsonl:1"):
+        cordis.plot.pareto(path)
+
+
+def test_animate_writes_a_gif_with_several_frames(rigid, tmp_path):
+    truth, traj, res = rigid
+    out = cordis.animate(truth, traj, tmp_path / "rigid.gif", compare=res.scene.simulate(60),
+                         fps=10, every=6)
+    assert out == tmp_path / "rigid.gif"
+    assert_picture(out)
+    with Image.open(out) as im:
+        assert im.n_frames == 10
+        im.seek(im.n_frames - 1)
+        last = np.asarray(im.convert("RGB"))
+    with Image.open(out) as im:
+        first = np.asarray(im.convert("RGB"))
+    assert (first != last).any(), "the animation does not move"
+    assert cordis.animate is cordis.plot.animate
+
+
+def test_animate_rejects_unknown_formats_and_bad_counts(rigid, tmp_path):
+    truth, traj, _ = rigid
+    with pytest.raises(ValueError, match=r"\.gif or \.mp4"):
+        cordis.animate(truth, traj, tmp_path / "x.avi")
+    with pytest.raises(ValueError, match="every"):
+        cordis.animate(truth, traj, tmp_path / "x.gif", every=0)
+    with pytest.raises(ValueError, match="particles"):
+        cordis.animate(truth, traj[:, :3], tmp_path / "x.gif")
+
+
+def test_mp4_without_ffmpeg_is_a_clear_error(rigid, tmp_path, monkeypatch):
+    truth, traj, _ = rigid
+    monkeypatch.setattr(cordis.plot.shutil, "which", lambda name: None)
+    with pytest.raises(RuntimeError, match="ffmpeg"):
+        cordis.animate(truth, traj, tmp_path / "x.mp4")
+
+
+def test_missing_matplotlib_names_the_extra(rigid, monkeypatch):
+    monkeypatch.setitem(__import__("sys").modules, "matplotlib.pyplot", None)
+    with pytest.raises(ImportError, match=r"pip install cordis-anima\[plot\]"):
+        cordis.plot.convergence(rigid[2])
+
+
+def test_convergence_reads_cli_log_files(rigid, tmp_path):
+    """`cordis identify --log` files (.csv with an empty error column without --truth, .jsonl)
+    plot like the result they record."""
+    truth, traj, _ = rigid
+    scene = cordis.example("rigid", unknowns=True)
+    (tmp_path / "s.json").write_text(scene.to_json())
+    cordis.write_trajectory(tmp_path / "t.npy", traj)
+    from cordis import _cordis
+    for log in ("run.csv", "run.jsonl"):
+        assert _cordis._cli_main(["cordis", "identify", str(tmp_path / "s.json"), "-t",
+                                  str(tmp_path / "t.npy"), "--strategy", "thesis",
+                                  "--generations", "15", "--log", str(tmp_path / log),
+                                  "-q"]) == 0
+    res = cordis.identify(scene, traj, strategy="thesis", generations=15)
+    fig = cordis.plot.convergence([tmp_path / "run.csv", str(tmp_path / "run.jsonl")])
+    assert len(fig.axes) == 1  # no truth: no error panel
+    for line in fig.axes[0].get_lines():
+        np.testing.assert_allclose(line.get_ydata(), res.history[:, 3], rtol=1e-12)
+    assert [t.get_text() for t in fig.axes[0].get_legend().get_texts()] == ["run", "run"]
+    save(fig, tmp_path / "log.png")
+    (tmp_path / "bad.csv").write_text("a,b\n1,2\n")
+    with pytest.raises(ValueError, match=r"bad.csv:1: not a convergence log"):
+        cordis.plot.convergence(tmp_path / "bad.csv")
+
+
+def test_trajectories_follow_keeps_one_scale_per_column(tmp_path):
+    truth = cordis.example("horse")
+    traj = truth.simulate(53)
+    fig = cordis.plot.trajectories(truth, traj, traj, frames=[0, 52], follow=True)
+    (a0, a1), (b0, b1) = fig.axes[0].get_xlim(), fig.axes[1].get_xlim()
+    assert b0 > a0 + 1.0, "the second column follows the horse forward"
+    assert (a1 - a0) == pytest.approx(b1 - b0)
+    assert fig.axes[0].get_xlim() == fig.axes[2].get_xlim()  # both rows of a column agree
+    save(fig, tmp_path / "follow.png")
