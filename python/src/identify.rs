@@ -179,6 +179,7 @@ fn stop_text(s: StopReason) -> &'static str {
         StopReason::TargetCost => "target_cost",
         StopReason::Interrupted => "interrupted",
         StopReason::Observer => "callback",
+        StopReason::Converged => "converged",
     }
 }
 

@@ -22,7 +22,7 @@ def rigid():
 def run500(rigid):
     truth, traj, scene = rigid
     seen = []
-    res = cordis.identify(scene, traj, generations=500, seed=0, truth=truth,
+    res = cordis.identify(scene, traj, strategy="thesis", generations=500, seed=0, truth=truth,
                           callback=lambda g, c, p: seen.append((g, c, p)))
     return res, seen
 
@@ -84,14 +84,14 @@ def test_callback_sees_every_generation_with_the_best_values(run500):
 
 def test_no_truth_means_no_error(rigid):
     _, traj, scene = rigid
-    res = cordis.identify(scene, traj, generations=3)
+    res = cordis.identify(scene, traj, strategy="thesis", generations=3)
     assert res.param_error_pct is None and res.truth is None
     assert np.all(np.isnan(res.history[:, 7]))
 
 
 def test_callback_returning_false_stops(rigid):
     _, traj, scene = rigid
-    res = cordis.identify(scene, traj, generations=100,
+    res = cordis.identify(scene, traj, strategy="thesis", generations=100,
                           callback=lambda g, c, p: None if g < 5 else False)
     assert res.stopped_by == "callback" and res.generations == 5
     assert res.history.shape[0] == 6
@@ -99,7 +99,7 @@ def test_callback_returning_false_stops(rigid):
 
 def test_callback_returning_none_goes_on(rigid):
     _, traj, scene = rigid
-    res = cordis.identify(scene, traj, generations=7, callback=lambda g, c, p: None)
+    res = cordis.identify(scene, traj, strategy="thesis", generations=7, callback=lambda g, c, p: None)
     assert res.stopped_by == "generations" and res.generations == 7
 
 
@@ -117,7 +117,7 @@ def test_callback_exception_is_raised_again(rigid):
             raise Boom("at 3")
 
     with pytest.raises(Boom, match="at 3"):
-        cordis.identify(scene, traj, generations=100, callback=cb)
+        cordis.identify(scene, traj, strategy="thesis", generations=100, callback=cb)
     assert calls == [0, 1, 2, 3]
 
 
@@ -127,46 +127,46 @@ def comparable(res):
 
 def test_same_seed_same_result_on_one_and_two_threads(rigid):
     _, traj, scene = rigid
-    one = cordis.identify(scene, traj, generations=120, seed=5, threads=1)
-    two = cordis.identify(scene, traj, generations=120, seed=5, threads=2)
+    one = cordis.identify(scene, traj, strategy="thesis", generations=120, seed=5, threads=1)
+    two = cordis.identify(scene, traj, strategy="thesis", generations=120, seed=5, threads=2)
     assert comparable(one) == comparable(two)
-    other = cordis.identify(scene, traj, generations=120, seed=6, threads=2)
+    other = cordis.identify(scene, traj, strategy="thesis", generations=120, seed=6, threads=2)
     assert other.params != one.params
 
 
 def test_resume_continues_the_same_run(rigid, tmp_path):
     _, traj, scene = rigid
     cp = tmp_path / "run.json"
-    straight = cordis.identify(scene, traj, generations=120, seed=2)
-    first = cordis.identify(scene, traj, generations=60, seed=2, checkpoint=cp)
+    straight = cordis.identify(scene, traj, strategy="thesis", generations=120, seed=2)
+    first = cordis.identify(scene, traj, strategy="thesis", generations=60, seed=2, checkpoint=cp)
     assert cp.exists() and first.generations == 60
-    resumed = cordis.identify(scene, traj, generations=120, seed=2, resume=cp)
+    resumed = cordis.identify(scene, traj, strategy="thesis", generations=120, seed=2, resume=cp)
     assert resumed.generations == 120
     assert comparable(resumed) == comparable(straight)
     with pytest.raises(cordis.CheckpointError, match="seed"):
-        cordis.identify(scene, traj, generations=120, seed=3, resume=cp)
+        cordis.identify(scene, traj, strategy="thesis", generations=120, seed=3, resume=cp)
     with pytest.raises(cordis.CheckpointError):
-        cordis.identify(scene, traj, resume=tmp_path / "missing.json")
+        cordis.identify(scene, traj, strategy="thesis", resume=tmp_path / "missing.json")
 
 
 def test_other_stop_rules(rigid):
     _, traj, scene = rigid
-    r = cordis.identify(scene, traj, generations=None, max_evals=2000)
+    r = cordis.identify(scene, traj, strategy="thesis", generations=None, max_evals=2000)
     assert r.stopped_by == "max_evals" and r.evals >= 2000
-    r = cordis.identify(scene, traj, generations=None, target_cost=1.0)
+    r = cordis.identify(scene, traj, strategy="thesis", generations=None, target_cost=1.0)
     assert r.stopped_by == "target_cost" and r.cost <= 1.0
-    r = cordis.identify(scene, traj, generations=None, time_limit=0.2)
+    r = cordis.identify(scene, traj, strategy="thesis", generations=None, time_limit=0.2)
     assert r.stopped_by == "time_limit" and 0.2 <= r.seconds < 5
 
 
 def test_noise_and_cost_kind_change_the_run(rigid):
     truth, traj, scene = rigid
-    base = cordis.identify(scene, traj, generations=20, seed=1)
-    noisy = cordis.identify(scene, traj, generations=20, seed=1, noise=1e-4)
+    base = cordis.identify(scene, traj, strategy="thesis", generations=20, seed=1)
+    noisy = cordis.identify(scene, traj, strategy="thesis", generations=20, seed=1, noise=1e-4)
     assert noisy.cost > base.cost  # noise the model cannot predict
-    horizon = cordis.identify(scene, traj, generations=20, seed=1, cost="horizon:2")
+    horizon = cordis.identify(scene, traj, strategy="thesis", generations=20, seed=1, cost="horizon:2")
     assert horizon.cost != base.cost
-    ok = cordis.identify(scene, traj, generations=2, dt=truth.dt)
+    ok = cordis.identify(scene, traj, strategy="thesis", generations=2, dt=truth.dt)
     assert ok.generations == 2
 
 
@@ -181,7 +181,7 @@ def test_ctrl_c_stops_cleanly_and_raises_with_the_result(rigid, tmp_path):
     timer.start()
     try:
         with pytest.raises(KeyboardInterrupt) as e:
-            cordis.identify(scene, traj, generations=None, time_limit=20, checkpoint=cp)
+            cordis.identify(scene, traj, strategy="thesis", generations=None, time_limit=20, checkpoint=cp)
     finally:
         timer.cancel()
         signal.signal(signal.SIGINT, previous)
@@ -225,3 +225,15 @@ def test_bad_inputs_raise_the_right_classes(rigid, tmp_path):
             cordis.identify(scene, traj, **{key: -1})
     with pytest.raises(TypeError):
         cordis.identify(scene, traj, generations=1.5)
+
+
+def test_auto_solves_a_linear_scene_exactly_and_stops(rigid):
+    """`auto` picks the exact least-squares solver on the (linear) rigid example: it is done
+    after generation 0, whatever the stop rules ask for."""
+    truth, traj, scene = rigid
+    for kwargs in [{}, {"generations": None, "max_evals": 2000}, {"generations": None, "target_cost": 0.0}]:
+        r = cordis.identify(scene, traj, truth=truth, **kwargs)
+        assert r.strategy == "least-squares"
+        assert r.stopped_by == "converged"
+        assert r.generations == 0
+        assert r.param_error_pct < 1e-6

@@ -91,6 +91,8 @@ pub enum StopReason {
     TargetCost,
     Interrupted,
     Observer,
+    /// The strategy has nothing left to do (exact solvers).
+    Converged,
 }
 
 #[derive(Clone, Debug)]
@@ -211,6 +213,9 @@ pub fn run(
         }
         if interrupt.is_some_and(|f| f.load(Ordering::Relaxed)) {
             break StopReason::Interrupted;
+        }
+        if strategy.finished() {
+            break StopReason::Converged;
         }
         generation += 1;
         // A progressive horizon grows with the generations: stored costs are then stale.

@@ -24,6 +24,12 @@ pub trait Strategy: Send {
     /// [`crate::rng::stream`]`(seed, generation, …)` so that a run depends on its seed only.
     fn next_generation(&mut self, problem: &Problem, seed: u64, generation: u64);
 
+    /// True when the strategy has nothing left to do (an exact solver after its solve): the
+    /// run loop then stops with [`crate::executor::StopReason::Converged`].
+    fn finished(&self) -> bool {
+        false
+    }
+
     /// The cost function changed (a progressive horizon grew): re-evaluate every stored cost.
     /// Strategies that keep costs across generations must override this.
     fn reevaluate(&mut self, problem: &Problem) {

@@ -15,7 +15,18 @@ pub fn write_scene(scene: &Scene, out: Option<&Path>) -> Result<()> {
     let text = scene.to_json_string();
     match out {
         Some(path) => cordis_core::io::write_atomic(path, text.as_bytes())?,
-        None => print!("{text}"),
+        None => print_stdout(&text)?,
     }
     Ok(())
+}
+
+/// Writes to stdout; a closed pipe (`cordis example fluid | head`) ends the output quietly
+/// instead of panicking like `print!` does.
+pub fn print_stdout(text: &str) -> Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
+        _ => Ok(()),
+    }
 }

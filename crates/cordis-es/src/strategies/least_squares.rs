@@ -122,6 +122,10 @@ impl Strategy for LeastSquares {
 
     fn next_generation(&mut self, _problem: &Problem, _seed: u64, _generation: u64) {}
 
+    fn finished(&self) -> bool {
+        true
+    }
+
     fn best(&self) -> (&[f64], f64) {
         (&self.state.genome, self.state.cost)
     }
