@@ -30,6 +30,12 @@ enum Command {
     /// Convert the thesis' files (NAME.mas, NAME.cat, NAME.ini, …) into a JSON scene.
     #[command(after_help = "Example:\n  cordis import data/tri --dt 0.01 --out tri.json")]
     Import(commands::import::Args),
+    /// Stability report: each particle's ratio to the bound 4m > K dt² + 2 Z dt, and a JSON line.
+    #[command(after_help = "Example:\n  cordis check rigid.json")]
+    Check(commands::check::Args),
+    /// Benchmarks printing JSON lines and a readable table.
+    #[command(after_help = "Example:\n  cordis bench stability --quick")]
+    Bench(commands::bench::Args),
 }
 
 /// Runs the command line; returns the process exit code.
@@ -50,6 +56,8 @@ where
     let result = match cli.command {
         Command::Simulate(a) => commands::simulate::run(a),
         Command::Import(a) => commands::import::run(a),
+        Command::Check(a) => commands::check::run(a),
+        Command::Bench(a) => commands::bench::run(a),
     };
     match result {
         Ok(()) => 0,

@@ -23,10 +23,16 @@
 //! neighbours move against i. Hence:
 //!
 //! - `max q_i < 1` guarantees stability of the linearised scheme ([`StabilityReport::stable`]);
-//! - `max local_i ≥ 1` (first sum alone, [`StabilityReport::local_max_ratio`]) guarantees
-//!   instability of the undamped linearisation (the largest eigenvalue is at least any diagonal
-//!   entry). The true limit lies between the two; for two equal free masses on one spring the
-//!   true limit is exactly the Gershgorin one (twice the local ratio).
+//! - the first sum alone ([`StabilityReport::local_max_ratio`], the per-particle
+//!   `(dt² ΣK + 2 dt ΣZ) / 4m`) bounds the diagonal block; where that block is `ΣK · I` (links
+//!   at the particle all aligned, as in a 1-D chain, or isotropic: dampers, zero-rest-length
+//!   springs) it is a diagonal entry of the matrix, so `≥ 1` then means the undamped
+//!   linearisation explodes. With links in several directions the true block is smaller and
+//!   the local figure may overestimate too (a cloth is stable slightly beyond it).
+//!
+//! For two equal free masses on one spring the Gershgorin ratio is exact (twice the local
+//! one); for a mass joined only to fixed points both are exact. `cordis bench stability`
+//! measures how conservative the bound is on larger networks.
 //!
 //! # Local stiffness of each kind
 //!
@@ -60,7 +66,8 @@ pub struct StabilityReport {
     /// `max_ratio < 1`.
     pub stable: bool,
     /// Largest ratio with every neighbour held fixed (the per-particle
-    /// `(dt² ΣK + 2 dt ΣZ) / 4m`): at or above 1, the undamped scheme does explode.
+    /// `(dt² ΣK + 2 dt ΣZ) / 4m`): at or above 1 the undamped scheme explodes when the links
+    /// at that particle are aligned or isotropic (see the module documentation).
     pub local_max_ratio: f64,
 }
 
@@ -150,6 +157,39 @@ pub fn plan_stability(plan: &Plan, p: &[f64]) -> StabilityReport {
     }
 }
 
+/// The largest time step (s) at which the bound still holds (`max_ratio < 1` just below it),
+/// the other values of the scene unchanged; `None` when no free particle has a stiffness or
+/// a damping (any step passes). Each `q_i(dt) = a_i dt² + b_i dt` is a quadratic in dt, so
+/// two reports (at dt and dt/2) give every particle's `a_i`, `b_i` and its own root.
+pub fn max_stable_dt(scene: &Scene) -> Result<Option<f64>> {
+    let full = stability(scene)?;
+    let mut half_scene = scene.clone();
+    half_scene.dt = scene.dt / 2.0;
+    let half = stability(&half_scene)?;
+    let mut best: Option<f64> = None;
+    for (q1, q2) in full.per_particle.iter().zip(&half.per_particle) {
+        let (Some(q1), Some(q2)) = (*q1, *q2) else {
+            continue;
+        };
+        // In units of the scene's dt: q(r) = a r² + b r with r = dt'/dt.
+        let a = (2.0 * (q1 - 2.0 * q2)).max(0.0);
+        let b = (q1 - a).max(0.0);
+        let r = if a > 0.0 {
+            // The stable root of a r² + b r - 1 = 0, written without cancellation.
+            2.0 / (b + (b * b + 4.0 * a).sqrt())
+        } else if b > 0.0 {
+            1.0 / b
+        } else {
+            continue;
+        };
+        if r.is_finite() {
+            let dt = r * scene.dt;
+            best = Some(best.map_or(dt, |d| d.min(dt)));
+        }
+    }
+    Ok(best)
+}
+
 /// `a · b` with `0 · ∞ = 0`: a zero stiffness contributes nothing whatever `dt²` is.
 fn mul(a: f64, b: f64) -> f64 {
     if a == 0.0 || b == 0.0 {
@@ -210,7 +250,7 @@ impl Acc<'_> {
 /// mass divided by `s` (the same as every stiffness and damping times `s`: ratios scale as
 /// `s`), keeps small motions around its initial state small for `frames` frames; `None` when
 /// it still does at `s = 2^40`. Compare with `1 / max_ratio` (what the bound allows) and
-/// `1 / local_max_ratio` (beyond which the undamped linearisation surely fails).
+/// `1 / local_max_ratio`.
 ///
 /// Each probe runs the scene twice from rest (no initial velocity, no gravity: neither changes
 /// stability, and both move a scene by legitimate, unbounded amounts): once from the initial

@@ -7,7 +7,7 @@
 //! `-- --ignored`; their figures are in BENCHMARKS.md).
 
 use approx::assert_relative_eq;
-use cordis_core::stability::{measured_limit, plan_stability};
+use cordis_core::stability::{max_stable_dt, measured_limit, plan_stability};
 use cordis_core::{
     stability, CordisError, LinkKind, LinkType, Particle, Plan, Scene, Simulator, Vec3,
 };
@@ -306,6 +306,19 @@ fn plan_stability_follows_the_parameter_vector() {
     );
 }
 
+#[test]
+fn max_stable_dt_puts_the_worst_particle_exactly_on_the_bound() {
+    for z in [0.0, 0.3, 1.5] {
+        let mut s = linear_network(5, 12, true);
+        s.types[1].params[0] = z.into(); // damping of d0
+        let dt = max_stable_dt(&s).unwrap().unwrap();
+        s.dt = dt;
+        assert_relative_eq!(stability(&s).unwrap().max_ratio, 1.0, max_relative = 1e-9);
+    }
+    let fixed_only = Scene::new(0.1);
+    assert_eq!(max_stable_dt(&fixed_only).unwrap(), None);
+}
+
 // ---------------------------------------------------------------- linear networks
 
 /// A random network of zero-rest-length springs (F = K d) and, when `damped`, isotropic
@@ -358,7 +371,8 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
 
     /// Sufficient: scaled to max_ratio = 0.98 a linear network never explodes (damped or
-    /// not). Necessary (undamped): scaled to local_max_ratio = 1.02 it always does.
+    /// not). Necessary (undamped, and every link isotropic here): scaled to local_max_ratio =
+    /// 1.02 it always does.
     #[test]
     fn linear_networks_respect_the_bound(seed in 1u64..u64::MAX, n in 2usize..24, damped: bool) {
         let s = linear_network(seed, n, damped);

@@ -1,3 +1,5 @@
+pub mod bench;
+pub mod check;
 pub mod import;
 pub mod simulate;
 
