@@ -11,7 +11,7 @@ use numpy::ndarray::Array3;
 use numpy::{IntoPyArray, PyArray3};
 use pyo3::exceptions::{PyMemoryError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyString, PyTuple, PyType};
+use pyo3::types::{PyDict, PyString, PyTuple, PyType};
 
 use crate::errors::to_py;
 use crate::json;
@@ -113,6 +113,31 @@ impl Scene {
         let array = Array3::from_shape_vec(shape, traj.into_flat())
             .map_err(|e| PyValueError::new_err(format!("trajectory shape: {e}")))?;
         Ok(array.into_pyarray(py))
+    }
+
+    /// The stability report (`cordis check`): a dict with `max_stability_ratio` (the largest
+    /// per-particle ratio q = (dt² K + 2 dt Z) / 4m to the bound, neighbours' motion counted),
+    /// `stable` (q < 1: the scheme cannot explode), `worst_particle` (int or None),
+    /// `local_max_ratio` (neighbours held fixed), `max_stable_dt` (s, or None when any step
+    /// passes) and `per_particle` (a list of floats, None for fixed particles).
+    fn stability<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let scene = &self.inner;
+        let (r, dt_max) = py
+            .detach(|| -> cordis_core::Result<_> {
+                Ok((
+                    cordis_core::stability(scene)?,
+                    cordis_core::stability::max_stable_dt(scene)?,
+                ))
+            })
+            .map_err(to_py)?;
+        let d = PyDict::new(py);
+        d.set_item("max_stability_ratio", r.max_ratio)?;
+        d.set_item("stable", r.stable)?;
+        d.set_item("worst_particle", r.worst_particle)?;
+        d.set_item("local_max_ratio", r.local_max_ratio)?;
+        d.set_item("max_stable_dt", dt_max)?;
+        d.set_item("per_particle", r.per_particle)?;
+        Ok(d)
     }
 
     /// Time step, s.

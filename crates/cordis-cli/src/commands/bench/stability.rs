@@ -26,9 +26,9 @@ pub struct Args {
     /// Steps of the long undamped run.
     #[arg(long, default_value_t = 1_000_000)]
     long_steps: usize,
-    /// Side of the large cloth (side² particles).
-    #[arg(long, default_value_t = 317)]
-    large_side: usize,
+    /// Side of the large cloth (side² particles, at most 2000² = 4·10^6).
+    #[arg(long, default_value_t = 317, value_parser = clap::value_parser!(u32).range(2..=2000))]
+    large_side: u32,
     /// Smaller everything (CI): 2000 frames, 10^5 steps, a 100×100 cloth.
     #[arg(long)]
     quick: bool,
@@ -463,7 +463,7 @@ fn long(a: &Args) -> Result<()> {
 // ------------------------------------------------------------------------------- large
 
 fn large(a: &Args) -> Result<()> {
-    let side = a.large_side;
+    let side = a.large_side as usize;
     let s = cloth(side, 0.0005);
     let start = Instant::now();
     let r = stability(&s)?;
