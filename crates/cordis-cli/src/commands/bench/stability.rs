@@ -464,30 +464,32 @@ fn long(a: &Args) -> Result<()> {
 
 fn large(a: &Args) -> Result<()> {
     let side = a.large_side as usize;
-    let s = cloth(side, 0.0005);
-    let start = Instant::now();
-    let r = stability(&s)?;
-    let t_report = start.elapsed().as_secs_f64();
-    let frames = 100;
-    let start = Instant::now();
-    let outcome = match s.simulate(frames) {
-        Ok(_) => "bounded".to_string(),
-        Err(e) => e.to_string(),
-    };
-    let t_sim = start.elapsed().as_secs_f64();
-    eprintln!(
-        "\nlarge: cloth {side}×{side} = {} particles, {} links: report in {t_report:.3} s \
-         (max q = {:.3}), {frames} frames in {t_sim:.2} s ({outcome})",
-        s.num_particles(),
-        s.links.len(),
-        r.max_ratio
-    );
-    emit(
-        "large",
-        json!({"particles": s.num_particles(), "links": s.links.len(), "ratio": r.max_ratio,
-               "report_seconds": t_report, "frames": frames, "simulate_seconds": t_sim,
-               "outcome": outcome}),
-    );
+    eprintln!("\nlarge: {side}×{side} scenes, 100 frames each");
+    for (name, s) in [("cloth", cloth(side, 0.0005)), ("fluid", fluid(side))] {
+        let start = Instant::now();
+        let r = stability(&s)?;
+        let t_report = start.elapsed().as_secs_f64();
+        let frames = 100;
+        let start = Instant::now();
+        let outcome = match s.simulate(frames) {
+            Ok(_) => "bounded".to_string(),
+            Err(e) => e.to_string(),
+        };
+        let t_sim = start.elapsed().as_secs_f64();
+        eprintln!(
+            "  {name}: {} particles, {} listed links: report in {t_report:.3} s (max q = {:.3}), \
+             {frames} frames in {t_sim:.2} s ({outcome})",
+            s.num_particles(),
+            s.links.len(),
+            r.max_ratio
+        );
+        emit(
+            "large",
+            json!({"scene": name, "particles": s.num_particles(), "links": s.links.len(),
+                   "ratio": r.max_ratio, "report_seconds": t_report, "frames": frames,
+                   "simulate_seconds": t_sim, "outcome": outcome}),
+        );
+    }
     Ok(())
 }
 
