@@ -89,8 +89,14 @@ pub fn stability(scene: &Scene) -> Result<StabilityReport> {
 }
 
 /// The stability report of a compiled plan with any parameter vector of its layout (for
-/// example an identification candidate), at the plan's initial positions.
+/// example an identification candidate), at the plan's initial positions. Panics on a vector
+/// of the wrong length, as [`crate::Simulator::from_plan`] does (a caller's bug, not input).
 pub fn plan_stability(plan: &Plan, p: &[f64]) -> StabilityReport {
+    assert_eq!(
+        p.len(),
+        plan.layout.len,
+        "parameter vector of the wrong length"
+    );
     let n = plan.n;
     let dt = plan.dt;
     let mass = &p[plan.layout.mass_offset..plan.layout.mass_offset + n];
@@ -275,6 +281,12 @@ impl Acc<'_> {
 /// the limit is resolved to about 1e-5 (1e-3 for drags). Bisection (geometric) stops when the
 /// bracket is narrower than the relative `tol`.
 pub fn measured_limit(plan: &Plan, p: &[f64], frames: usize, tol: f64) -> Option<f64> {
+    assert_eq!(
+        p.len(),
+        plan.layout.len,
+        "parameter vector of the wrong length"
+    );
+    let tol = if tol > 1e-12 { tol } else { 1e-12 }; // a zero or NaN tolerance would not end
     let probe = Probe::new(plan, p);
     let (mut lo, mut hi);
     if probe.holds(1.0, frames) {
