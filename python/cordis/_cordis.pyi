@@ -113,6 +113,16 @@ class Scene:
         ValueError for a negative count, MemoryError for one that cannot be allocated and
         DivergedError when the motion leaves the finite numbers.
         """
+    def stability(self) -> Dict[str, Any]:
+        """The stability report, as ``cordis check`` prints it.
+
+        Keys: ``max_stability_ratio`` (float: the largest per-particle ratio
+        q = (dt² K + 2 dt Z) / 4m to the bound, neighbours' motion counted), ``stable``
+        (bool, q < 1: the scheme cannot explode), ``worst_particle`` (int or None),
+        ``local_max_ratio`` (float, neighbours held fixed), ``max_stable_dt`` (float in s, or
+        None when any step passes), ``per_particle`` (list of float, None for fixed ones).
+        Raises SceneError for an invalid scene.
+        """
     @property
     def dt(self) -> float:
         """Time step, s."""

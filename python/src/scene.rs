@@ -10,7 +10,7 @@ use cordis_core::Scene as CoreScene;
 use numpy::PyArray3;
 use pyo3::exceptions::{PyMemoryError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyString, PyTuple, PyType};
+use pyo3::types::{PyDict, PyString, PyTuple, PyType};
 
 use crate::errors::to_py;
 use crate::json;
@@ -109,6 +109,31 @@ impl Scene {
         let scene = &self.inner;
         let traj = py.detach(|| scene.simulate(frames)).map_err(to_py)?;
         crate::trajectory::traj_to_py(py, traj)
+    }
+
+    /// The stability report (`cordis check`): a dict with `max_stability_ratio` (the largest
+    /// per-particle ratio q = (dt² K + 2 dt Z) / 4m to the bound, neighbours' motion counted),
+    /// `stable` (q < 1: the scheme cannot explode), `worst_particle` (int or None),
+    /// `local_max_ratio` (neighbours held fixed), `max_stable_dt` (s, or None when any step
+    /// passes) and `per_particle` (a list of floats, None for fixed particles).
+    fn stability<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let scene = &self.inner;
+        let (r, dt_max) = py
+            .detach(|| -> cordis_core::Result<_> {
+                Ok((
+                    cordis_core::stability(scene)?,
+                    cordis_core::stability::max_stable_dt(scene)?,
+                ))
+            })
+            .map_err(to_py)?;
+        let d = PyDict::new(py);
+        d.set_item("max_stability_ratio", r.max_ratio)?;
+        d.set_item("stable", r.stable)?;
+        d.set_item("worst_particle", r.worst_particle)?;
+        d.set_item("local_max_ratio", r.local_max_ratio)?;
+        d.set_item("max_stable_dt", dt_max)?;
+        d.set_item("per_particle", r.per_particle)?;
+        Ok(d)
     }
 
     /// Time step, s.

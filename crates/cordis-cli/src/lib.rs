@@ -49,6 +49,12 @@ enum Command {
         after_help = "Example:\n  cordis simulate rigid.json --frames 200 --out rigid.csv\n  cordis render rigid.json --trajectory rigid.csv --compare identified.csv --html rigid.html"
     )]
     Render(commands::render::Args),
+    /// Stability report: each particle's ratio to the bound 4m > K dt² + 2 Z dt, and a JSON line.
+    #[command(after_help = "Example:\n  cordis check rigid.json")]
+    Check(commands::check::Args),
+    /// Benchmarks printing JSON lines and a readable table.
+    #[command(after_help = "Example:\n  cordis bench stability --quick")]
+    Bench(commands::bench::Args),
 }
 
 /// Runs the command line; returns the process exit code.
@@ -73,6 +79,8 @@ where
         Command::Example(a) => commands::example::run(a),
         Command::Import(a) => commands::import::run(a),
         Command::Render(a) => commands::render::run(a),
+        Command::Check(a) => commands::check::run(a),
+        Command::Bench(a) => commands::bench::run(a),
     };
     match result {
         Ok(()) => 0,

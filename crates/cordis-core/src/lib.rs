@@ -30,6 +30,7 @@ pub mod plan;
 mod scene;
 pub mod scene_json;
 mod simulator;
+pub mod stability;
 pub mod thesis;
 mod trajectory;
 
@@ -42,6 +43,7 @@ pub use particle::Particle;
 pub use plan::Plan;
 pub use scene::Scene;
 pub use simulator::Simulator;
+pub use stability::{stability, StabilityReport};
 pub use trajectory::Trajectory;
 
 /// 3-vector of f64 (positions in m, velocities in m/s, forces in N).

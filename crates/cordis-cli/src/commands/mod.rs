@@ -1,3 +1,5 @@
+pub mod bench;
+pub mod check;
 pub mod cost;
 pub mod example;
 pub mod identify;

@@ -1,8 +1,8 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::Result;
-use cordis_core::{Scene, Simulator};
+use anyhow::{bail, Result};
+use cordis_core::{stability::stability, Scene, Simulator};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -21,6 +21,18 @@ pub struct Args {
 
 pub fn run(a: Args) -> Result<()> {
     let scene = Scene::from_json_path(&a.scene)?;
+    check_frames(a.frames, scene.num_particles())?;
+    let r = stability(&scene)?;
+    if !r.stable {
+        // A warning, not an error: the bound is sufficient, not necessary.
+        eprintln!(
+            "warning: stability ratio {:.4} ≥ 1 at particle {} (bound 4m > K dt² + 2 Z dt): the \
+             simulation may diverge; reduce dt or see `cordis check {}`",
+            r.max_ratio,
+            r.worst_particle.map_or("?".into(), |i| i.to_string()),
+            a.scene.display()
+        );
+    }
     let mut sim = Simulator::new(&scene)?;
     let start = Instant::now();
     let traj = sim.run(a.frames)?;
@@ -53,5 +65,25 @@ pub fn run(a: Args) -> Result<()> {
             "scale": traj.scale(),
         })
     );
+    Ok(())
+}
+
+/// Refuses a frame count whose trajectory cannot be held in memory, before anything is
+/// allocated (an allocation failure would abort the process).
+fn check_frames(frames: usize, particles: usize) -> Result<()> {
+    let values = frames
+        .checked_mul(particles)
+        .and_then(|v| v.checked_mul(3))
+        .filter(|v| v.checked_mul(8).is_some_and(|b| b <= isize::MAX as usize));
+    let Some(values) = values else {
+        bail!("--frames {frames}: {frames} frames × {particles} particles do not fit in memory");
+    };
+    let mut probe: Vec<f64> = Vec::new();
+    if probe.try_reserve_exact(values).is_err() {
+        bail!(
+            "--frames {frames}: the trajectory needs {:.3e} bytes, more than can be allocated",
+            values as f64 * 8.0
+        );
+    }
     Ok(())
 }

@@ -19,7 +19,11 @@ pub struct Args {
     #[arg(long, value_delimiter = ',', default_value = "rigid,cloth,fluid,horse")]
     scenes: Vec<String>,
     /// Cost kinds.
-    #[arg(long, value_delimiter = ',', default_value = "short,horizon:5,long,harmonic")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "short,horizon:5,long,harmonic"
+    )]
     kinds: Vec<String>,
     /// Observed frames (fluid: at most 20 by default, it is heavy).
     #[arg(long, default_value_t = 100)]
@@ -43,7 +47,11 @@ pub fn run(a: Args) -> Result<()> {
     for name in &a.scenes {
         let scene = examples::by_name(name)
             .ok_or_else(|| anyhow::anyhow!("--scenes: no example named `{name}`"))?;
-        let frames = if name == "fluid" { a.frames.min(20) } else { a.frames };
+        let frames = if name == "fluid" {
+            a.frames.min(20)
+        } else {
+            a.frames
+        };
         let traj = scene.simulate(frames)?;
         let pairs = observed_pairs(&scene, &traj);
         let p = scene.param_values();
@@ -65,12 +73,21 @@ pub fn run(a: Args) -> Result<()> {
                         if batch == 1 && threads == 2 {
                             continue; // one evaluation runs on one thread
                         }
-                        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
+                        let pool = rayon::ThreadPoolBuilder::new()
+                            .num_threads(threads)
+                            .build()?;
                         let per_eval = pool.install(|| time_per_eval(&objective, &p, batch, &a))?;
                         let rate = link_evals / per_eval;
                         eprintln!(
                             "{:<7} {:<10} {:<11} {:>7} {:>6} {:>8} {:>12.3e} {:>14.3e}",
-                            name, kind.to_string(), path, threads, batch, traj.frames(), per_eval, rate
+                            name,
+                            kind.to_string(),
+                            path,
+                            threads,
+                            batch,
+                            traj.frames(),
+                            per_eval,
+                            rate
                         );
                         println!(
                             "{}",

@@ -1,0 +1,395 @@
+//! Stability of the CORDIS scheme: how close a scene is to the step size at which it explodes.
+//!
+//! # The bound
+//!
+//! For one mass m on a spring K with damping Z to a fixed point, the scheme of SPEC §2.1 is
+//! `x(n+1) = (2 - k - z) x(n) - (1 - z) x(n-1)` with `k = K dt²/m`, `z = Z dt/m`, whose roots
+//! stay in the unit disc exactly when `k + 2z < 4`: the classical CORDIS condition
+//! `4M > K + 2Z` in discrete units (`M = m`, `K = K dt²`, `Z = Z dt`, all in kg). Its ratio
+//! `q = (K dt² + 2 Z dt) / (4 m)` is therefore exact for a particle whose neighbours do not move.
+//!
+//! For a network the same energy argument (the scheme keeps
+//! `E = dᵀ(M - G/4)d + ¼ sᵀ(dt²K)s`, `d = x(n) - x(n-1)`, `s = x(n) + x(n-1)`, from growing)
+//! gives the sufficient condition `G = dt² K + 2 dt C < 4 M` as quadratic forms, with K and C
+//! the linearised stiffness and damping matrices. Its largest eigenvalue is bounded per
+//! particle by Gershgorin's theorem on `M^-½ G M^-½`, 3×3 block per particle:
+//!
+//! ```text
+//! q_i = ( Σ_links at i g_own  +  Σ_links to a free j g_ij √(m_i / m_j) ) / (4 m_i)
+//! ```
+//!
+//! where `g = dt² K + 2 dt Z` of the link (in kg). The first sum is the per-particle CORDIS
+//! condition above (the ratio with every neighbour held fixed); the second counts that free
+//! neighbours move against i. Hence:
+//!
+//! - `max q_i < 1` guarantees stability of the linearised scheme ([`StabilityReport::stable`]);
+//! - the first sum alone ([`StabilityReport::local_max_ratio`], the issue's per-particle
+//!   `(dt² ΣK + 2 dt ΣZ) / 4m`) bounds the diagonal block; where that block is `ΣK · I` (links
+//!   at the particle all aligned, as in a 1-D chain, or isotropic: dampers, zero-rest-length
+//!   springs) it is a diagonal entry of the matrix, so `≥ 1` then means the undamped
+//!   linearisation explodes. With links in several directions the true block is smaller and
+//!   the local figure may overestimate too (a cloth is stable slightly beyond it).
+//!
+//! For two equal free masses on one spring the Gershgorin ratio is exact (twice the local
+//! one); for a mass joined only to fixed points both are exact. `cordis bench stability`
+//! measures how conservative the bound is on larger networks.
+//!
+//! # Local stiffness of each kind
+//!
+//! - spring, anchor, conditional pair: K along the link and Z on the rate of elongation. The
+//!   transverse stiffness `K (1 - l0/L)` is below K whenever `L ≥ l0/2`, so K bounds the block.
+//! - damper `Z w` (isotropic): Z; drag: Z on its particle; nonlinear drag: `max(z1, z2)`.
+//! - angle (i, j, k), energy `½K(cosθ - c0)²`: the Hessian's rank-one part `K ∇c ∇cᵀ`, with
+//!   `|∂c/∂x_i| = sinθ / |a|`, `|∂c/∂x_k| = sinθ / |b|`, `|∂c/∂x_j| ≤ |∂c/∂x_i| + |∂c/∂x_k|`,
+//!   taken at `sinθ = 1` (its largest value over the motion) with the initial arm lengths
+//!   `|a|`, `|b|`. The curvature part `K (c - c0) ∇²c` vanishes at rest and is not counted, so
+//!   for angles the bound is that of small motions around the rest angle.
+//! - conditional types: one spring per pair within `range` at the initial positions.
+//! - Provot's elongation limit is a projection, not a force: it only removes energy.
+//!
+//! Fixed particles have no ratio. Unknown parameters count at [`crate::Param::value`].
+//!
+//! # Divergence
+//!
+//! The simulator stops with [`crate::CordisError::Diverged`] (frame, particle) at the first
+//! position that is not finite or beyond [`crate::plan::RUNAWAY`] = 1e100 m, and writes
+//! nothing. That threshold is absolute on purpose: a relative one (say 1e6 × the scene's
+//! initial extent) would flag legitimate motion, such as a long free fall or a thrown
+//! particle, whose distance grows without bound while the scheme is perfectly stable, and a
+//! one-particle scene has no extent. An exponential instability passes 1e100 m a few hundred
+//! frames after it starts (517 frames for q = 1.05 from 1 m), and positions below it keep
+//! `|x|²` and force products finite.
+
+use crate::error::Result;
+use crate::forces::grid::Grid;
+use crate::{Plan, Scene, Vec3};
+
+/// Per-particle ratios to the stability bound (see the module documentation).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StabilityReport {
+    /// `q_i` per particle (`None` for fixed particles): below 1 for every particle, the
+    /// linearised scheme cannot explode. May be `+inf` for absurd values, never NaN.
+    pub per_particle: Vec<Option<f64>>,
+    /// `max q_i` (0 when no particle is free).
+    pub max_ratio: f64,
+    /// The particle with the largest `q_i`.
+    pub worst_particle: Option<usize>,
+    /// `max_ratio < 1`.
+    pub stable: bool,
+    /// Largest ratio with every neighbour held fixed (the issue's per-particle
+    /// `(dt² ΣK + 2 dt ΣZ) / 4m`): at or above 1 the undamped scheme explodes when the links
+    /// at that particle are aligned or isotropic (see the module documentation).
+    pub local_max_ratio: f64,
+}
+
+/// The stability report of a scene at its parameter values. Fails only on an invalid scene.
+pub fn stability(scene: &Scene) -> Result<StabilityReport> {
+    let plan = Plan::compile(scene)?;
+    Ok(plan_stability(&plan, &scene.param_values()))
+}
+
+/// The stability report of a compiled plan with any parameter vector of its layout (for
+/// example an identification candidate), at the plan's initial positions. Panics on a vector
+/// of the wrong length, as [`crate::Simulator::from_plan`] does (a caller's bug, not input).
+pub fn plan_stability(plan: &Plan, p: &[f64]) -> StabilityReport {
+    assert_eq!(
+        p.len(),
+        plan.layout.len,
+        "parameter vector of the wrong length"
+    );
+    let n = plan.n;
+    let dt = plan.dt;
+    let mass = &p[plan.layout.mass_offset..plan.layout.mass_offset + n];
+    // √m once per particle: √(m_i/m_j) as a quotient of roots cannot overflow where the
+    // quotient itself would (masses span the whole f64 range).
+    let root: Vec<f64> = mass.iter().map(|m| m.sqrt()).collect();
+    let mut acc = Acc {
+        own: vec![0.0; n],
+        coupled: vec![0.0; n],
+        free: &plan.free,
+        root: &root,
+    };
+    let g = |k: f64, z: f64| mul(k, dt * dt) + mul(2.0 * z, dt);
+
+    for r in &plan.springs.runs {
+        let w = g(p[r.param], p[r.param + 2]);
+        for &[i, j] in &plan.springs.pairs[r.start..r.end] {
+            acc.pair(i as usize, j as usize, w);
+        }
+    }
+    for r in &plan.dampers.runs {
+        let w = g(0.0, p[r.param]);
+        for &[i, j] in &plan.dampers.pairs[r.start..r.end] {
+            acc.pair(i as usize, j as usize, w);
+        }
+    }
+    for r in &plan.anchors.runs {
+        let w = g(p[r.param], p[r.param + 2]);
+        for &i in &plan.anchors.particles[r.start..r.end] {
+            acc.own[i as usize] += w;
+        }
+    }
+    for r in &plan.drags.runs {
+        let w = g(0.0, p[r.param]);
+        for &i in &plan.drags.particles[r.start..r.end] {
+            acc.own[i as usize] += w;
+        }
+    }
+    for r in &plan.nonlinear_drags.runs {
+        let w = g(0.0, p[r.param].max(p[r.param + 1]));
+        for &i in &plan.nonlinear_drags.particles[r.start..r.end] {
+            acc.own[i as usize] += w;
+        }
+    }
+    for r in &plan.angles.runs {
+        let w = g(p[r.param], 0.0);
+        for &[i, j, k] in &plan.angles.triples[r.start..r.end] {
+            acc.angle([i as usize, j as usize, k as usize], &plan.x0, w);
+        }
+    }
+    let mut grid = Grid::default();
+    for c in &plan.conditionals {
+        let w = g(p[c.param], p[c.param + 2]);
+        c.for_each_active_pair(p, &plan.x0, &mut grid, |i, j, _| acc.pair(i, j, w));
+    }
+
+    let mut per_particle = vec![None; n];
+    let (mut max_ratio, mut worst, mut local_max) = (0.0_f64, None, 0.0_f64);
+    for i in (0..n).filter(|&i| plan.free[i]) {
+        // Divide by m before 4: `4 m` overflows for m above ~4.5e307 kg, and ∞/∞ is NaN.
+        let q = (acc.own[i] + acc.coupled[i]) / mass[i] / 4.0;
+        local_max = local_max.max(acc.own[i] / mass[i] / 4.0);
+        per_particle[i] = Some(q);
+        if worst.is_none() || q > max_ratio {
+            max_ratio = q;
+            worst = Some(i);
+        }
+    }
+    StabilityReport {
+        per_particle,
+        max_ratio,
+        worst_particle: worst,
+        stable: max_ratio < 1.0,
+        local_max_ratio: local_max,
+    }
+}
+
+/// The largest time step (s) at which the bound still holds (`max_ratio < 1` just below it),
+/// the other values of the scene unchanged; `None` when no free particle has a stiffness or
+/// a damping (any step passes). Each `q_i(dt) = a_i dt² + b_i dt` is a quadratic in dt, so
+/// two reports (at dt and dt/2) give every particle's `a_i`, `b_i` and its own root.
+pub fn max_stable_dt(scene: &Scene) -> Result<Option<f64>> {
+    let full = stability(scene)?;
+    let mut half_scene = scene.clone();
+    half_scene.dt = scene.dt / 2.0;
+    let half = stability(&half_scene)?;
+    let mut best: Option<f64> = None;
+    for (q1, q2) in full.per_particle.iter().zip(&half.per_particle) {
+        let (Some(q1), Some(q2)) = (*q1, *q2) else {
+            continue;
+        };
+        // In units of the scene's dt: q(r) = a r² + b r with r = dt'/dt.
+        let a = (2.0 * (q1 - 2.0 * q2)).max(0.0);
+        let b = (q1 - a).max(0.0);
+        let r = if a > 0.0 {
+            // The stable root of a r² + b r - 1 = 0, written without cancellation.
+            2.0 / (b + (b * b + 4.0 * a).sqrt())
+        } else if b > 0.0 {
+            1.0 / b
+        } else {
+            continue;
+        };
+        if r.is_finite() {
+            let dt = r * scene.dt;
+            best = Some(best.map_or(dt, |d| d.min(dt)));
+        }
+    }
+    Ok(best)
+}
+
+/// `a · b` with `0 · ∞ = 0`: a zero stiffness contributes nothing whatever `dt²` is.
+fn mul(a: f64, b: f64) -> f64 {
+    if a == 0.0 || b == 0.0 {
+        0.0
+    } else {
+        a * b
+    }
+}
+
+/// Gershgorin row sums in kg: `own` is the diagonal block's bound, `coupled` the off-diagonal
+/// blocks' norms already weighted by `√(m_i/m_j)`.
+struct Acc<'a> {
+    own: Vec<f64>,
+    coupled: Vec<f64>,
+    free: &'a [bool],
+    root: &'a [f64],
+}
+
+impl Acc<'_> {
+    /// A binary link of weight `w` (kg) between i and j: `[[w, -w], [-w, w]]`.
+    fn pair(&mut self, i: usize, j: usize, w: f64) {
+        if w == 0.0 {
+            return;
+        }
+        self.own[i] += w;
+        self.own[j] += w;
+        if self.free[i] && self.free[j] {
+            self.coupled[i] += w * (self.root[i] / self.root[j]);
+            self.coupled[j] += w * (self.root[j] / self.root[i]);
+        }
+    }
+
+    /// An angle of weight `w = K dt²` (kg·m²): blocks `w n_p n_q` with `n` the gradient norms
+    /// of cosθ at sinθ = 1 (1/m).
+    fn angle(&mut self, ids: [usize; 3], x: &[Vec3], w: f64) {
+        let [i, j, k] = ids;
+        let (la, lb) = ((x[i] - x[j]).norm(), (x[k] - x[j]).norm());
+        if w == 0.0 || la < crate::forces::MIN_LENGTH || lb < crate::forces::MIN_LENGTH {
+            return; // a degenerate angle has no force (forces/angle.rs)
+        }
+        let norms = [1.0 / la, 1.0 / la + 1.0 / lb, 1.0 / lb];
+        for (a, &pa) in ids.iter().enumerate() {
+            self.own[pa] += mul(w, norms[a] * norms[a]);
+            if !self.free[pa] {
+                continue;
+            }
+            for (b, &pb) in ids.iter().enumerate() {
+                if b != a && self.free[pb] {
+                    let c = mul(w, norms[a] * norms[b]);
+                    self.coupled[pa] += mul(c, self.root[pa] / self.root[pb]);
+                }
+            }
+        }
+    }
+}
+
+/// Empirical counterpart of the bound: the largest factor `s` such that the plan, with every
+/// mass divided by `s` (the same as every stiffness and damping times `s`: ratios scale as
+/// `s`), keeps small motions around its initial state small for `frames` frames; `None` when
+/// it still does at `s = 2^40`. Compare with `1 / max_ratio` (what the bound allows) and
+/// `1 / local_max_ratio`.
+///
+/// Each probe runs the scene twice from rest (no initial velocity, no gravity: neither changes
+/// stability, and both move a scene by legitimate, unbounded amounts): once from the initial
+/// positions, once from positions and previous positions perturbed by a fixed pseudo-random
+/// `ε = 1e-9` of the scene's extent, which excites every mode, the fastest included. It fails
+/// when either run diverges or the two runs separate by more than `1e6 ε`. Comparing twins
+/// rather than bounding the motion also catches instabilities that saturate (an angle link's
+/// force is bounded, so an unstable vertex rattles around without ever leaving), and does not
+/// mistake a scene released out of equilibrium for an unstable one. Near the limit an unstable
+/// mode grows by `1 + 2√(q - 1)` per step (a drag's by `1 + 2(q - 1)`), so with 5000 frames
+/// the limit is resolved to about 1e-5 (1e-3 for drags). Bisection (geometric) stops when the
+/// bracket is narrower than the relative `tol`.
+pub fn measured_limit(plan: &Plan, p: &[f64], frames: usize, tol: f64) -> Option<f64> {
+    assert_eq!(
+        p.len(),
+        plan.layout.len,
+        "parameter vector of the wrong length"
+    );
+    let tol = if tol > 1e-12 { tol } else { 1e-12 }; // a zero or NaN tolerance would not end
+    let probe = Probe::new(plan, p);
+    let (mut lo, mut hi);
+    if probe.holds(1.0, frames) {
+        lo = 1.0;
+        hi = 2.0;
+        while probe.holds(hi, frames) {
+            lo = hi;
+            hi *= 2.0;
+            if hi > 2f64.powi(40) {
+                return None;
+            }
+        }
+    } else {
+        hi = 1.0;
+        lo = 0.5;
+        while !probe.holds(lo, frames) {
+            hi = lo;
+            lo *= 0.5;
+            if lo < 2f64.powi(-60) {
+                return Some(0.0);
+            }
+        }
+    }
+    while hi / lo > 1.0 + tol {
+        let mid = (lo * hi).sqrt();
+        if probe.holds(mid, frames) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Some(lo)
+}
+
+/// One scene prepared for [`measured_limit`] probes: the plan at rest and its perturbed twin.
+struct Probe {
+    plan: Plan,
+    twin: Plan,
+    p: Vec<f64>,
+    /// Largest separation (m) between the twins that still counts as small.
+    reach: f64,
+}
+
+impl Probe {
+    fn new(plan: &Plan, p: &[f64]) -> Probe {
+        let mut plan = plan.clone();
+        let (mut lo, mut hi) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
+        for x in &plan.x0 {
+            lo = lo.inf(x);
+            hi = hi.sup(x);
+        }
+        let extent = if plan.n > 0 { (hi - lo).norm() } else { 0.0 };
+        let extent = if extent > 0.0 && extent.is_finite() {
+            extent
+        } else {
+            1.0
+        };
+        plan.x_minus1.clone_from(&plan.x0);
+        let mut twin = plan.clone();
+        let eps = 1e-9 * extent;
+        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut noise = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 2.0 * eps
+        };
+        for i in (0..plan.n).filter(|&i| plan.free[i]) {
+            twin.x0[i] += Vec3::from_fn(|_, _| noise());
+            twin.x_minus1[i] += Vec3::from_fn(|_, _| noise());
+        }
+        let mut p = p.to_vec();
+        let g = plan.layout.gravity_offset;
+        p[g..g + 3].fill(0.0);
+        Probe {
+            plan,
+            twin,
+            p,
+            reach: 1e6 * eps,
+        }
+    }
+
+    fn holds(&self, scale: f64, frames: usize) -> bool {
+        let mut p = self.p.clone();
+        let m = self.plan.layout.mass_offset;
+        for mass in &mut p[m..m + self.plan.n] {
+            *mass /= scale;
+        }
+        let mut a = crate::Simulator::from_plan(self.plan.clone(), p.clone());
+        let mut b = crate::Simulator::from_plan(self.twin.clone(), p);
+        for _ in 1..frames {
+            if a.step().is_err() || b.step().is_err() {
+                return false;
+            }
+            let apart = a
+                .positions()
+                .iter()
+                .zip(b.positions())
+                .any(|(xa, xb)| (xa - xb).norm() > self.reach);
+            if apart {
+                return false;
+            }
+        }
+        true
+    }
+}
