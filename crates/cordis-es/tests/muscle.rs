@@ -6,7 +6,7 @@ use cordis_core::examples::muscle;
 use cordis_core::{Bounds, LinkKind, LinkType, Param, Scene, Trajectory};
 use cordis_es::cost::CostKind;
 use cordis_es::executor::{self, RunConfig, RunResult, StopRules};
-use cordis_es::identify::with_unknown_boxes;
+use cordis_es::identify::{make_strategy, with_unknown_boxes, StrategyName, StrategyOptions};
 use cordis_es::problem::Problem;
 use cordis_es::space::Role;
 use cordis_es::strategies::cmaes::{Cmaes, CmaesConfig};
@@ -108,4 +108,33 @@ fn the_neuro_mechanical_model_beats_the_passive_one() {
     // The passive model cannot inject energy, so it cannot follow the growing oscillation.
     assert!(best[0] < 1e-3 * best[1], "{best:?}");
     assert!(best[1] > 0.0);
+}
+
+#[test]
+fn weights_get_additive_boxes_and_auto_runs_the_thesis_es() {
+    let (truth, traj) = data();
+    for seed in 0..8 {
+        let scene = with_unknown_boxes(&truth, 10.0, seed);
+        for (t, u) in truth.types.iter().zip(&scene.types) {
+            assert_eq!(u.value("gain"), t.value("gain"), "the gain stays known");
+            for (w, b) in t
+                .w_len()
+                .iter()
+                .chain(t.w_rate())
+                .zip(u.w_len().iter().chain(u.w_rate()))
+            {
+                let (w, Param::Unknown(b)) = (w.value(), b) else {
+                    panic!("{}: a weight stays known", t.name)
+                };
+                assert!(b.min < w && w < b.max, "{w} outside [{}, {}]", b.min, b.max);
+                assert!((b.max - b.min - (4.0 * w.abs() + 2.0)).abs() < 1e-9);
+                // Off-centre: a strategy must not find the truth by starting in the middle.
+                assert!((0.5 * (b.min + b.max) - w).abs() > 1e-3);
+            }
+        }
+    }
+    let problem =
+        Problem::new(&with_unknown_boxes(&truth, 10.0, 0), &traj, CostKind::Short).unwrap();
+    let (_, ran) = make_strategy(StrategyName::Auto, &problem, &StrategyOptions::default());
+    assert_eq!(ran, "thesis");
 }
