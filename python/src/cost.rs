@@ -274,8 +274,8 @@ impl Objective {
 pub fn param_names(scene: &CoreScene) -> Vec<String> {
     let mut names = Vec::with_capacity(scene.param_layout().len);
     for t in &scene.types {
-        for (p, _) in t.kind.param_specs() {
-            names.push(format!("types.{}.{p}", t.name));
+        for k in 0..t.params.len() {
+            names.push(format!("types.{}.{}", t.name, t.param_name(k)));
         }
     }
     names.extend((0..scene.particles.len()).map(|i| format!("particles[{i}].mass")));

@@ -149,6 +149,46 @@ pub fn simulate(scene: &Scene, frames: usize) -> Vec<Vec<V>> {
                         f[j] = sub(f[j], add(fi, fk));
                     }
                 }
+                LinkKind::Muscle => {
+                    // SPEC §2.4: spring + G tanh(Σ w_len e + w_rate s - θ) u, the neuron seeing
+                    // the listed links, else every other muscle link in file order.
+                    let (i, j) = (ps[0], ps[1]);
+                    let mut fi = spring(
+                        x[i],
+                        x[j],
+                        v[i],
+                        v[j],
+                        p("stiffness"),
+                        p("rest_length"),
+                        p("damping"),
+                    );
+                    let seen: Vec<usize> = match link.observes.as_ref().or(ty.observes.as_ref()) {
+                        Some(list) => list.clone(),
+                        None => (0..scene.links.len())
+                            .filter(|&k| {
+                                let other = &scene.links[k];
+                                !std::ptr::eq(other, link)
+                                    && scene.types[other.type_index].kind == LinkKind::Muscle
+                            })
+                            .collect(),
+                    };
+                    let weight = |k: usize| ty.params[k].value();
+                    let m = seen.len();
+                    let mut h = 0.0;
+                    for (k, &o) in seen.iter().enumerate() {
+                        let ol = &scene.links[o];
+                        let (a, b) = (ol.particles[0], ol.particles[1]);
+                        let (u, l) = unit(sub(x[b], x[a]));
+                        let l0 = scene.types[ol.type_index].value("rest_length").unwrap();
+                        let rate = dot(sub(v[b], v[a]), u);
+                        h += weight(5 + k) * (l - l0) + weight(5 + m + k) * rate;
+                    }
+                    let out = (h - p("threshold")).tanh();
+                    let (u, _) = unit(sub(x[j], x[i]));
+                    fi = add(fi, scale(u, p("gain") * out));
+                    f[i] = add(f[i], fi);
+                    f[j] = sub(f[j], fi);
+                }
                 other => panic!("reference: a listed link of kind {other}"),
             }
         }

@@ -226,7 +226,7 @@ fn types(scene: &Scene) -> Vec<Value> {
                 "count": links.clone().count(),
             });
             match ty.kind {
-                LinkKind::Spring | LinkKind::Damper => {
+                LinkKind::Spring | LinkKind::Damper | LinkKind::Muscle => {
                     let seg: Vec<usize> = links.flat_map(|l| l.particles.clone()).collect();
                     v["segments"] = json!(seg);
                 }

@@ -19,10 +19,13 @@ pub enum LinkKind {
     Angle,
     /// Spring between every pair of particles of one or two groups closer than `range`.
     Conditional,
+    /// Binary local-control muscle (thesis §5.5): a spring plus `G · out · u`, where a neuron's
+    /// `out = tanh(Σ w_len e + w_rate s - θ)` observes the other muscle links (SPEC §2.4).
+    Muscle,
 }
 
 impl LinkKind {
-    pub const ALL: [LinkKind; 7] = [
+    pub const ALL: [LinkKind; 8] = [
         LinkKind::Spring,
         LinkKind::Damper,
         LinkKind::Anchor,
@@ -30,6 +33,7 @@ impl LinkKind {
         LinkKind::NonlinearDrag,
         LinkKind::Angle,
         LinkKind::Conditional,
+        LinkKind::Muscle,
     ];
 
     /// The name used in scene files.
@@ -42,6 +46,7 @@ impl LinkKind {
             LinkKind::NonlinearDrag => "nonlinear_drag",
             LinkKind::Angle => "angle",
             LinkKind::Conditional => "conditional",
+            LinkKind::Muscle => "muscle",
         }
     }
 
@@ -52,7 +57,7 @@ impl LinkKind {
     /// Number of particles a link instance names (0 for `conditional`: pairs are found).
     pub fn arity(self) -> usize {
         match self {
-            LinkKind::Spring | LinkKind::Damper => 2,
+            LinkKind::Spring | LinkKind::Damper | LinkKind::Muscle => 2,
             LinkKind::Anchor | LinkKind::Drag | LinkKind::NonlinearDrag => 1,
             LinkKind::Angle => 3,
             LinkKind::Conditional => 0,
@@ -61,7 +66,10 @@ impl LinkKind {
 
     /// Scalar parameters of the kind, in parameter-vector order, with their default when the
     /// scene omits them (`None`: required). Units: stiffness N/m (angle: N·m, on a cosine),
-    /// lengths m, damping N·s/m, speeds m/s.
+    /// lengths m, damping N·s/m, speeds m/s, muscle gain N, threshold dimensionless.
+    ///
+    /// A `muscle` type's parameter list is longer than its specs: the five scalars are followed
+    /// by its neural weights (see [`crate::LinkType::w_len`]).
     pub fn param_specs(self) -> &'static [(&'static str, Option<f64>)] {
         match self {
             LinkKind::Spring => &[
@@ -84,6 +92,13 @@ impl LinkKind {
                 ("damping", Some(0.0)),
                 ("range", None),
             ],
+            LinkKind::Muscle => &[
+                ("stiffness", None),
+                ("rest_length", None),
+                ("damping", Some(0.0)),
+                ("gain", Some(1.0)),
+                ("threshold", Some(0.0)),
+            ],
         }
     }
 
@@ -102,6 +117,7 @@ impl LinkKind {
             LinkKind::Spring => &["max_elongation"],
             LinkKind::Anchor => &["point"],
             LinkKind::Conditional => &["groups"],
+            LinkKind::Muscle => &["w_len", "w_rate", "observes"],
             _ => &[],
         }
     }

@@ -1,4 +1,12 @@
 //! Catalogue entries (thesis `.cat`): a link type shared by all its instances.
+//!
+//! **Muscle weights** (SPEC §2.4, thesis eq 5.5) belong to the type, like every other
+//! parameter: all instances of a muscle type share one neuron design, so identification sees
+//! each weight once. A muscle type with M weights per input lists, in `params`, its five
+//! scalars (`stiffness, rest_length, damping, gain, threshold`), then `w_len[0..M]`, then
+//! `w_rate[0..M]`; weight k applies to the k-th link its instance observes. Every instance of
+//! the type must observe exactly M links. The thesis' muscle experiment (§6.2) has one type
+//! per muscle, so per-type weights are also per-muscle weights there.
 
 use crate::{LinkKind, Param};
 
@@ -17,6 +25,9 @@ pub struct LinkType {
     pub point: Option<[f64; 3]>,
     /// Particle groups whose pairs a conditional type links (one or two names).
     pub groups: Vec<String>,
+    /// Muscles only: the link indices every instance of the type observes, in weight order
+    /// (overridden by a link's own `observes`). Default: every other muscle link, file order.
+    pub observes: Option<Vec<usize>>,
 }
 
 impl LinkType {
@@ -33,6 +44,63 @@ impl LinkType {
             max_elongation: None,
             point: None,
             groups: Vec::new(),
+            observes: None,
+        }
+    }
+
+    /// Sets a muscle's weights (builder style): `w_len` in N/m-free units of 1/m, `w_rate` in
+    /// s/m (the neuron's input is dimensionless). Panics unless the kind is `muscle` and both
+    /// have the same length: this is for code that builds scenes.
+    pub fn with_weights(mut self, w_len: &[Param], w_rate: &[Param]) -> Self {
+        assert_eq!(self.kind, LinkKind::Muscle, "only muscles have weights");
+        assert_eq!(
+            w_len.len(),
+            w_rate.len(),
+            "w_len and w_rate differ in length"
+        );
+        self.params.truncate(self.kind.param_specs().len());
+        self.params.extend_from_slice(w_len);
+        self.params.extend_from_slice(w_rate);
+        self
+    }
+
+    /// Number of weights per input (M): the observed links of each instance. 0 for other kinds.
+    pub fn num_weights(&self) -> usize {
+        if self.kind == LinkKind::Muscle {
+            self.params
+                .len()
+                .saturating_sub(self.kind.param_specs().len())
+                / 2
+        } else {
+            0
+        }
+    }
+
+    /// A muscle's elongation weights (1/m), one per observed link; empty for other kinds.
+    pub fn w_len(&self) -> &[Param] {
+        let (s, m) = (self.kind.param_specs().len(), self.num_weights());
+        &self.params[s.min(self.params.len())..][..m]
+    }
+
+    /// A muscle's rate weights (s/m), one per observed link; empty for other kinds.
+    pub fn w_rate(&self) -> &[Param] {
+        let (s, m) = (self.kind.param_specs().len(), self.num_weights());
+        &self.params[(s + m).min(self.params.len())..][..m]
+    }
+
+    /// Name of parameter `k` of the type's list: a spec name, or `w_len[i]` / `w_rate[i]`.
+    pub fn param_name(&self, k: usize) -> String {
+        let specs = self.kind.param_specs();
+        match specs.get(k) {
+            Some((n, _)) => (*n).to_string(),
+            None => {
+                let (w, m) = (k - specs.len(), self.num_weights().max(1));
+                if w < m {
+                    format!("w_len[{w}]")
+                } else {
+                    format!("w_rate[{}]", w - m)
+                }
+            }
         }
     }
 
@@ -64,4 +132,6 @@ pub struct Link {
     pub particles: Vec<usize>,
     /// Anchor point of this instance (anchors only), overriding the type's.
     pub point: Option<[f64; 3]>,
+    /// Muscles only: link indices this instance observes (overrides the type's `observes`).
+    pub observes: Option<Vec<usize>>,
 }

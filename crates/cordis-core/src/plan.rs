@@ -7,8 +7,9 @@ use crate::error::Result;
 use crate::forces::conditional::Part;
 use crate::forces::{
     anchor::AnchorPass, angle::AnglePass, conditional::ConditionalPass, damper::DamperPass,
-    drag::DragPass, grid::Grid, nonlinear_drag::NonlinearDragPass, provot::ProvotLink,
-    provot::ProvotPass, runs_by_type, spring::SpringPass,
+    drag::DragPass, grid::Grid, muscle::MuscleBuf, muscle::MusclePass,
+    nonlinear_drag::NonlinearDragPass, provot::ProvotLink, provot::ProvotPass, runs_by_type,
+    spring::SpringPass,
 };
 use crate::{LinkKind, ParamLayout, Scene, Vec3};
 
@@ -30,6 +31,7 @@ pub struct Plan {
     pub drags: DragPass,
     pub nonlinear_drags: NonlinearDragPass,
     pub angles: AnglePass,
+    pub muscles: MusclePass,
     pub conditionals: Vec<ConditionalPass>,
     pub provot: ProvotPass,
     /// Some pass reads velocities (a damper, a drag, or a damping that is not known to be 0).
@@ -68,6 +70,8 @@ pub struct Scratch {
     pub f2: Vec<Vec3>,
     /// Per conditional pass: its grid is ready (split steps build grids before the halves).
     pub ready: Vec<bool>,
+    /// Every muscle's elongation, rate and direction, read by the neurons.
+    pub muscles: MuscleBuf,
 }
 
 impl Plan {
@@ -82,6 +86,7 @@ impl Plan {
         let mut drag_items = Vec::new();
         let mut nl_items = Vec::new();
         let mut angle_items = Vec::new();
+        let mut muscle_items = Vec::new();
         let mut provot = ProvotPass::default();
         let mut needs_velocity = false;
         let damping_matters = |t: usize| {
@@ -89,7 +94,7 @@ impl Plan {
                 .param("damping")
                 .is_some_and(|z| !z.is_known_zero())
         };
-        for l in &scene.links {
+        for (li, l) in scene.links.iter().enumerate() {
             let t = l.type_index;
             let ty = &scene.types[t];
             let ps: Vec<u32> = l.particles.iter().map(|&i| i as u32).collect();
@@ -127,6 +132,12 @@ impl Plan {
                     needs_velocity = true;
                 }
                 LinkKind::Angle => angle_items.push((t, [ps[0], ps[1], ps[2]])),
+                LinkKind::Muscle => {
+                    muscle_items.push((t, ([ps[0], ps[1]], li)));
+                    // Rates feed the damping and the neurons' rate weights.
+                    needs_velocity |=
+                        damping_matters(t) || ty.w_rate().iter().any(|w| !w.is_known_zero());
+                }
                 LinkKind::Conditional => unreachable!("validated: conditional types have no links"),
             }
         }
@@ -146,6 +157,7 @@ impl Plan {
         let nonlinear_drags = NonlinearDragPass { runs, particles };
         let (runs, triples) = runs_by_type(&angle_items, off);
         let angles = AnglePass { runs, triples };
+        let muscles = muscle_pass(scene, &muscle_items, off);
 
         let members = |g: &str| -> Vec<u32> {
             (0..scene.particles.len() as u32)
@@ -197,6 +209,7 @@ impl Plan {
             drags,
             nonlinear_drags,
             angles,
+            muscles,
             conditionals,
             provot,
             needs_velocity,
@@ -249,6 +262,7 @@ impl Plan {
                 Vec::new()
             },
             ready: vec![false; self.conditionals.len()],
+            muscles: MuscleBuf::new(self.muscles.len()),
         }
     }
 
@@ -260,6 +274,7 @@ impl Plan {
             + self.drags.particles.len()
             + self.nonlinear_drags.particles.len()
             + self.angles.triples.len()
+            + self.muscles.len()
     }
 
     /// Velocities `v(n) = (x(n) - x(n-1)) / dt` into `scratch.v`, when some pass reads them.
@@ -272,8 +287,17 @@ impl Plan {
         }
     }
 
-    /// `f = F(x, v)`: the sum of every pass's link forces.
-    pub fn forces(&self, p: &[f64], x: &[Vec3], v: &[Vec3], f: &mut [Vec3], grids: &mut [Grid]) {
+    /// `f = F(x, v)`: the sum of every pass's link forces. `grids` and `muscles` are scratch
+    /// ([`Scratch::grids`], [`Scratch::muscles`]).
+    pub fn forces(
+        &self,
+        p: &[f64],
+        x: &[Vec3],
+        v: &[Vec3],
+        f: &mut [Vec3],
+        grids: &mut [Grid],
+        muscles: &mut MuscleBuf,
+    ) {
         f.fill(Vec3::zeros());
         self.springs.accumulate(p, x, v, f);
         self.dampers.accumulate(p, v, f);
@@ -281,6 +305,7 @@ impl Plan {
         self.drags.accumulate(p, v, f);
         self.nonlinear_drags.accumulate(p, v, f);
         self.angles.accumulate(p, x, f);
+        self.muscles.accumulate(p, x, v, f, muscles);
         for (c, grid) in self.conditionals.iter().zip(grids) {
             c.accumulate(p, x, v, f, grid);
         }
@@ -291,7 +316,7 @@ impl Plan {
         for ((c, grid), ready) in self.conditionals.iter().zip(&mut s.grids).zip(&mut s.ready) {
             *ready = c.prepare(p, x, grid);
         }
-        let (grids, ready, v) = (&s.grids, &s.ready, &s.v);
+        let (grids, ready, v, mb) = (&s.grids, &s.ready, &s.v, &mut s.muscles);
         let conditional_half = |f: &mut [Vec3], index: usize| {
             let part = Part { index, count: 2 };
             for ((c, grid), &ok) in self.conditionals.iter().zip(grids).zip(ready) {
@@ -310,6 +335,7 @@ impl Plan {
                 self.drags.accumulate(p, v, f);
                 self.nonlinear_drags.accumulate(p, v, f);
                 self.angles.accumulate(p, x, f);
+                self.muscles.accumulate(p, x, v, f, mb);
                 conditional_half(f, 0);
             },
             || {
@@ -335,7 +361,7 @@ impl Plan {
     ) -> Option<usize> {
         self.velocities(x, x_prev, &mut s.v);
         match &self.split {
-            None => self.forces(p, x, &s.v, &mut s.f, &mut s.grids),
+            None => self.forces(p, x, &s.v, &mut s.f, &mut s.grids, &mut s.muscles),
             Some(split) => self.forces_split(split, p, x, s),
         }
         let bad = self.integrate(p, x, x_prev, &s.f);
@@ -368,6 +394,33 @@ impl Plan {
         } else {
             (0..self.n).find(|&i| !x_prev[i].iter().all(|c| c.abs() <= RUNAWAY))
         }
+    }
+}
+
+/// The muscle pass: instances grouped by type, each one's observed links (link indices) turned
+/// into positions in the pass.
+fn muscle_pass(scene: &Scene, items: &[(usize, ([u32; 2], usize))], off: &[usize]) -> MusclePass {
+    let (runs, members) = runs_by_type(items, off);
+    let mut at_link = vec![u32::MAX; scene.links.len()];
+    for (m, &(_, li)) in members.iter().enumerate() {
+        at_link[li] = m as u32;
+    }
+    let mut observed = Vec::new();
+    let mut start = vec![0u32];
+    for &(_, li) in &members {
+        observed.extend(scene.observed_links(li).into_iter().map(|k| at_link[k]));
+        start.push(observed.len() as u32);
+    }
+    let weights = runs
+        .iter()
+        .map(|r| scene.types[scene.links[members[r.start].1].type_index].num_weights())
+        .collect();
+    MusclePass {
+        runs,
+        weights,
+        pairs: members.iter().map(|m| m.0).collect(),
+        observed,
+        start,
     }
 }
 

@@ -54,6 +54,7 @@ impl Scene {
             type_index,
             particles: particles.to_vec(),
             point: None,
+            observes: None,
         });
         self.links.len() - 1
     }
@@ -102,7 +103,20 @@ impl Scene {
                 return Err(CordisError::scene(at, "the name is used twice"));
             }
             let specs = t.kind.param_specs();
-            if t.params.len() != specs.len() {
+            let extra = t.params.len().wrapping_sub(specs.len());
+            if t.kind == LinkKind::Muscle && t.params.len() >= specs.len() && extra % 2 != 0 {
+                return Err(CordisError::scene(
+                    format!("{at}.w_rate"),
+                    format!(
+                        "w_len has {} weight(s), w_rate {}: they must match",
+                        extra.div_ceil(2),
+                        extra / 2
+                    ),
+                ));
+            }
+            if t.params.len() != specs.len()
+                && !(t.kind == LinkKind::Muscle && t.params.len() > specs.len())
+            {
                 return Err(CordisError::scene(
                     at,
                     format!(
@@ -117,9 +131,20 @@ impl Scene {
                 let sign = match *name {
                     "rest_cos" => Sign::UnitInterval,
                     "range" => Sign::Positive,
+                    "threshold" => Sign::Any,
                     _ => Sign::NonNegative,
                 };
                 check_param(&format!("{at}.{name}"), p, sign)?;
+            }
+            // Neural weights may have either sign (excitation or inhibition).
+            for (k, p) in t.params.iter().enumerate().skip(specs.len()) {
+                check_param(&format!("{at}.{}", t.param_name(k)), p, Sign::Any)?;
+            }
+            if t.observes.is_some() && t.kind != LinkKind::Muscle {
+                return Err(CordisError::scene(
+                    format!("{at}.observes"),
+                    "only muscle types have it",
+                ));
             }
             if let Some(tau) = t.max_elongation {
                 if t.kind != LinkKind::Spring {
@@ -209,6 +234,78 @@ impl Scene {
                 }
                 check_finite3(&format!("{at}.point"), point)?;
             }
+            if t.kind == LinkKind::Muscle {
+                self.check_observes(li, &at)?;
+            } else if l.observes.is_some() {
+                return Err(CordisError::scene(
+                    format!("{at}.observes"),
+                    "only muscle links have it",
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The links muscle link `li` observes, in weight order (SPEC §2.4): its own `observes`,
+    /// else its type's, else every other muscle link in file order.
+    pub fn observed_links(&self, li: usize) -> Vec<usize> {
+        let l = &self.links[li];
+        let listed = l.observes.as_ref().or(self
+            .types
+            .get(l.type_index)
+            .and_then(|t| t.observes.as_ref()));
+        match listed {
+            Some(list) => list.clone(),
+            None => (0..self.links.len())
+                .filter(|&k| k != li && self.is_muscle_link(k))
+                .collect(),
+        }
+    }
+
+    fn is_muscle_link(&self, k: usize) -> bool {
+        self.links
+            .get(k)
+            .and_then(|l| self.types.get(l.type_index))
+            .is_some_and(|t| t.kind == LinkKind::Muscle)
+    }
+
+    /// A muscle link observes as many links as its type has weights, each an other muscle link.
+    fn check_observes(&self, li: usize, at: &str) -> Result<()> {
+        let l = &self.links[li];
+        let t = &self.types[l.type_index];
+        let place = if l.observes.is_some() {
+            format!("{at}.observes")
+        } else if t.observes.is_some() {
+            format!("types.{}.observes", t.name)
+        } else {
+            at.to_string()
+        };
+        let seen = self.observed_links(li);
+        if seen.len() != t.num_weights() {
+            return Err(CordisError::scene(
+                place,
+                format!(
+                    "observes {} muscle link(s) but type `{}` has {} weight(s) per input \
+                     (w_len, w_rate)",
+                    seen.len(),
+                    t.name,
+                    t.num_weights()
+                ),
+            ));
+        }
+        for (k, &o) in seen.iter().enumerate() {
+            if o == li {
+                return Err(CordisError::scene(
+                    format!("{place}[{k}]"),
+                    "a muscle does not observe itself (thesis §5.5)",
+                ));
+            }
+            if !self.is_muscle_link(o) {
+                return Err(CordisError::scene(
+                    format!("{place}[{k}]"),
+                    format!("link {o} is not a muscle link"),
+                ));
+            }
         }
         Ok(())
     }
@@ -219,6 +316,7 @@ enum Sign {
     Positive,
     NonNegative,
     UnitInterval,
+    Any,
 }
 
 fn check_value(place: &str, v: f64, sign: Sign) -> Result<()> {
@@ -227,6 +325,7 @@ fn check_value(place: &str, v: f64, sign: Sign) -> Result<()> {
             Sign::Positive => v > 0.0,
             Sign::NonNegative => v >= 0.0,
             Sign::UnitInterval => (-1.0..=1.0).contains(&v),
+            Sign::Any => true,
         };
     if ok {
         return Ok(());
@@ -235,6 +334,7 @@ fn check_value(place: &str, v: f64, sign: Sign) -> Result<()> {
         Sign::Positive => "a positive number",
         Sign::NonNegative => "a non-negative number",
         Sign::UnitInterval => "a number in [-1, 1]",
+        Sign::Any => "a finite number",
     };
     Err(CordisError::scene(
         place,

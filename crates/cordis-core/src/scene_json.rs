@@ -103,6 +103,14 @@ impl Scene {
             if !t.groups.is_empty() {
                 o.insert("groups".into(), t.groups.clone().into());
             }
+            if t.kind == LinkKind::Muscle {
+                let ws = |w: &[Param]| Value::Array(w.iter().map(param_json).collect());
+                o.insert("w_len".into(), ws(t.w_len()));
+                o.insert("w_rate".into(), ws(t.w_rate()));
+            }
+            if let Some(obs) = &t.observes {
+                o.insert("observes".into(), obs.clone().into());
+            }
             types.insert(t.name.clone(), Value::Object(o));
         }
         root.insert("types".into(), Value::Object(types));
@@ -115,6 +123,9 @@ impl Scene {
                 o.insert("particles".into(), l.particles.clone().into());
                 if let Some(point) = &l.point {
                     o.insert("point".into(), vec3(point));
+                }
+                if let Some(obs) = &l.observes {
+                    o.insert("observes".into(), obs.clone().into());
                 }
                 Value::Object(o)
             })
@@ -318,6 +329,7 @@ fn read_scene(v: &Value) -> Result<Scene> {
         }
         scene.particles.push(p);
     }
+    let mut weights_given = Vec::new();
     if let Some(types) = root.get("types") {
         let Value::Object(types) = types else {
             return Err(err(
@@ -326,7 +338,9 @@ fn read_scene(v: &Value) -> Result<Scene> {
             ));
         };
         for (name, tv) in types {
-            scene.types.push(read_type(name, tv)?);
+            let (t, has_weights) = read_type(name, tv)?;
+            scene.types.push(t);
+            weights_given.push(has_weights);
         }
     }
     if let Some(links) = root.get("links") {
@@ -338,7 +352,7 @@ fn read_scene(v: &Value) -> Result<Scene> {
         };
         for (i, lv) in links.iter().enumerate() {
             let at = format!("links[{i}]");
-            let o = as_object(lv, &at, &["type", "particles", "point"])?;
+            let o = as_object(lv, &at, &["type", "particles", "point", "observes"])?;
             let tname = string(
                 o.get("type").ok_or_else(|| err(&at, "missing `type`"))?,
                 &join(&at, "type"),
@@ -371,17 +385,65 @@ fn read_scene(v: &Value) -> Result<Scene> {
                 .get("point")
                 .map(|p| vector3(p, &join(&at, "point")))
                 .transpose()?;
+            let observes = o
+                .get("observes")
+                .map(|v| indices(v, &join(&at, "observes")))
+                .transpose()?;
             scene.links.push(Link {
                 type_index,
                 particles,
                 point,
+                observes,
             });
         }
+    }
+    // A muscle type without weights gets zero weights, as many as its first instance observes
+    // (a plain spring until identification gives them values).
+    for (t, given) in weights_given.into_iter().enumerate() {
+        if given || scene.types[t].kind != LinkKind::Muscle {
+            continue;
+        }
+        let m = (0..scene.links.len())
+            .find(|&li| scene.links[li].type_index == t)
+            .map_or(0, |li| scene.observed_links(li).len());
+        let zeros = vec![Param::Known(0.0); m];
+        scene.types[t] = scene.types[t].clone().with_weights(&zeros, &zeros);
     }
     Ok(scene)
 }
 
-fn read_type(name: &str, v: &Value) -> Result<LinkType> {
+/// An array of link indices.
+fn indices(v: &Value, place: &str) -> Result<Vec<usize>> {
+    match v {
+        Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .map(|(k, x)| index(x, &format!("{place}[{k}]")))
+            .collect(),
+        other => Err(err(
+            place,
+            format!("expected an array of link indices, got {}", kind_of(other)),
+        )),
+    }
+}
+
+/// An array of parameters (numbers or `{"min", "max"[, "init"]}` unknowns).
+fn params(v: &Value, place: &str) -> Result<Vec<Param>> {
+    match v {
+        Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .map(|(k, x)| param(x, &format!("{place}[{k}]")))
+            .collect(),
+        other => Err(err(
+            place,
+            format!("expected an array of weights, got {}", kind_of(other)),
+        )),
+    }
+}
+
+/// A type, and whether it listed muscle weights.
+fn read_type(name: &str, v: &Value) -> Result<(LinkType, bool)> {
     let at = format!("types.{name}");
     let Value::Object(o) = v else {
         return Err(err(&at, format!("expected an object, got {}", kind_of(v))));
@@ -437,5 +499,33 @@ fn read_type(name: &str, v: &Value) -> Result<LinkType> {
             None => return Err(err(&at, "a conditional needs `groups`")),
         };
     }
-    Ok(t)
+    let mut has_weights = false;
+    if kind == LinkKind::Muscle {
+        let (wl, wr) = (o.get("w_len"), o.get("w_rate"));
+        if let (Some(wl), Some(wr)) = (wl, wr) {
+            let wl = params(wl, &join(&at, "w_len"))?;
+            let wr = params(wr, &join(&at, "w_rate"))?;
+            if wl.len() != wr.len() {
+                return Err(err(
+                    &join(&at, "w_rate"),
+                    format!(
+                        "has {} weight(s) but w_len has {}: one of each per observed link",
+                        wr.len(),
+                        wl.len()
+                    ),
+                ));
+            }
+            t = t.with_weights(&wl, &wr);
+            has_weights = true;
+        } else if wl.is_some() || wr.is_some() {
+            return Err(err(
+                &at,
+                "a muscle lists both `w_len` and `w_rate`, or neither",
+            ));
+        }
+        if let Some(obs) = o.get("observes") {
+            t.observes = Some(indices(obs, &join(&at, "observes"))?);
+        }
+    }
+    Ok((t, has_weights))
 }

@@ -328,6 +328,7 @@ fn build_scene(
             type_index,
             particles: l.particles.clone(),
             point: None,
+            observes: None,
         });
     }
     scene.validate()?;

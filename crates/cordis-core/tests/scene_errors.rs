@@ -171,7 +171,7 @@ fn unknown_key_in_a_link() {
     scene_error(
         &with("/links/2/weight", json!(1.0)),
         "links[2].weight",
-        "unknown key `weight` (expected one of: type, particles, point)",
+        "unknown key `weight` (expected one of: type, particles, point, observes)",
     );
 }
 

@@ -179,17 +179,34 @@ pub fn add_noise(traj: &Trajectory, sigma: f64, seed: u64) -> Trajectory {
 /// A copy of `scene` whose positive link-type parameters are unknown, each in a box `width`
 /// times wide (max/min = width) that holds the scene's value at a pseudo-random place drawn
 /// from `seed` (not at the centre: a strategy must not find the truth by starting in the
-/// middle). Zero-valued parameters (an absent damping) stay known. The input is the truth.
+/// middle). Zero-valued parameters (an absent damping) stay known. A muscle's weights (and a
+/// non-zero threshold) get additive boxes `4|v| + 2` wide, since they may be negative or 0;
+/// its gain stays known. The input is the truth.
 pub fn with_unknown_boxes(scene: &cordis_core::Scene, width: f64, seed: u64) -> cordis_core::Scene {
     use cordis_core::{Bounds, Param};
     let mut out = scene.clone();
     let mut r = rng::stream(seed, u64::MAX - 1, 0);
     let lw = width.max(1.0).ln();
     for t in &mut out.types {
-        for (k, p) in t.params.iter_mut().enumerate() {
+        let names: Vec<String> = (0..t.params.len()).map(|k| t.param_name(k)).collect();
+        for (p, name) in t.params.iter_mut().zip(&names) {
             let Param::Known(v) = *p else { continue };
-            let rest_cos = t.kind.param_specs()[k].0 == "rest_cos";
-            if v <= 0.0 || rest_cos {
+            // A neuron's weights and threshold have either sign and may be 0 (an absent
+            // connection, thesis §6.2): an additive box 2(2|v| + 1) wide holds v off-centre. Its
+            // gain stays known: it sets the scale of the weights, which would otherwise trade
+            // off against it.
+            let neural = name.starts_with("w_") || (name == "threshold" && v != 0.0);
+            if neural {
+                let u = 0.1 + 0.8 * rng::uniform(&mut r);
+                let half = 2.0 * v.abs() + 1.0;
+                *p = Param::Unknown(Bounds {
+                    min: v - 2.0 * half * u,
+                    max: v + 2.0 * half * (1.0 - u),
+                    init: None,
+                });
+                continue;
+            }
+            if v <= 0.0 || name == "rest_cos" || name == "gain" || name == "threshold" {
                 continue;
             }
             let u = 0.1 + 0.8 * rng::uniform(&mut r);

@@ -20,6 +20,8 @@ pub enum Role {
     /// v_max of a nonlinear drag.
     Speed,
     Mass,
+    /// A muscle neuron's gain, threshold or weight (SPEC §2.4): any sign for the last two.
+    Neural,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -89,14 +91,17 @@ impl ParameterSpace {
         let layout = scene.param_layout();
         let mut unknowns = Vec::new();
         for (t, ty) in scene.types.iter().enumerate() {
-            for (k, ((pname, _), p)) in ty.kind.param_specs().iter().zip(&ty.params).enumerate() {
+            for (k, p) in ty.params.iter().enumerate() {
                 if let Param::Unknown(b) = p {
-                    let role = match *pname {
+                    let pname = ty.param_name(k);
+                    let role = match pname.as_str() {
                         "stiffness" => Role::Stiffness,
                         "rest_length" => Role::RestLength,
                         "rest_cos" => Role::RestCos,
                         "range" => Role::Range,
                         "v_max" => Role::Speed,
+                        "gain" | "threshold" => Role::Neural,
+                        w if w.starts_with("w_") => Role::Neural,
                         _ => Role::Damping, // damping, z1, z2
                     };
                     unknowns.push(Unknown {

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{cloth, fluid, naive_cost, noisy, perturbed, zoo, Naive};
+use common::{cloth, fluid, muscles, naive_cost, noisy, perturbed, zoo, Naive};
 use cordis_core::Scene;
 use cordis_es::cost::{CostKind, Objective};
 
@@ -100,6 +100,17 @@ fn springs_dampers_anchors_drags_angles_nonlinear_drag() {
         check(&s, 30, 0.0, &all_kinds(30, 20, 25), 25);
         check(&s, 30, 1e-5, &all_kinds(30, 20, 3), 3);
     }
+}
+
+#[test]
+fn muscles_with_neurons_spring_and_drag() {
+    let s = muscles();
+    check(&s, 30, 0.0, &all_kinds(30, 20, 25), 25);
+    check(&s, 30, 1e-5, &all_kinds(30, 20, 3), 3);
+    // The linear precomputation refuses muscles: the neuron's tanh is nonlinear.
+    let traj = s.simulate(30).unwrap();
+    let obj = Objective::new(&s, &traj, CostKind::Short).unwrap();
+    assert!(obj.linear().is_none());
 }
 
 #[test]

@@ -9,19 +9,21 @@
 mod cloth;
 mod fluid;
 mod horse;
+mod muscle;
 mod random;
 mod rigid;
 
 pub use cloth::{cloth, CLOTH_FRAMES};
 pub use fluid::{fluid, FLUID_FRAMES};
 pub use horse::{horse, HORSE_FRAMES};
+pub use muscle::{muscle, MUSCLE_FRAMES, MUSCLE_GAIN};
 pub use random::random_network;
 pub use rigid::{rigid, RIGID_FRAMES};
 
 use crate::Scene;
 
 /// Names accepted by [`by_name`], in the order the thesis presents them.
-pub const NAMES: &[&str] = &["rigid", "cloth", "fluid", "horse"];
+pub const NAMES: &[&str] = &["rigid", "cloth", "fluid", "horse", "muscle"];
 
 /// The example of that name at its default size, or `None` for a name not in [`NAMES`].
 pub fn by_name(name: &str) -> Option<Scene> {
@@ -30,6 +32,7 @@ pub fn by_name(name: &str) -> Option<Scene> {
         "cloth" => Some(cloth(32, 32)),
         "fluid" => Some(fluid(80, 48)),
         "horse" => Some(horse()),
+        "muscle" => Some(muscle()),
         _ => None,
     }
 }
@@ -42,6 +45,7 @@ pub fn default_frames(name: &str) -> usize {
         "cloth" => CLOTH_FRAMES,
         "fluid" => FLUID_FRAMES,
         "horse" => HORSE_FRAMES,
+        "muscle" => MUSCLE_FRAMES,
         _ => 0,
     }
 }

@@ -8,6 +8,7 @@ pub mod conditional;
 pub mod damper;
 pub mod drag;
 pub mod grid;
+pub mod muscle;
 pub mod nonlinear_drag;
 pub mod provot;
 pub mod spring;

@@ -8,7 +8,8 @@
 //!       spring, anchor, conditional: (K, K·l0, Z)      N/m, N, N·s/m
 //!       damper, drag:                (Z)               N·s/m
 //!       angle:                       (K, K·c0)         N·m, N·m
-//!       (nonlinear_drag types without links contribute nothing)
+//!       (nonlinear_drag types without links contribute nothing; a muscle type makes the
+//!       cost nonlinear through its neuron's tanh, so muscle scenes take the generic path)
 //!     then, when the scene has gravity: (g_x, g_y, g_z)  m/s²
 //! ```
 //!
@@ -126,6 +127,8 @@ impl LinearShortCost {
                     ),
                 ],
                 LinkKind::NonlinearDrag => &[], // no links (checked above): no effect
+                // A neuron's tanh makes the muscle force nonlinear in its weights.
+                LinkKind::Muscle => return None,
                 _ => return None,
             };
             theta_at[o] = entries.len();

@@ -23,7 +23,14 @@ impl Objective {
         for ((v, a), b) in core.v.iter_mut().zip(&s.x).zip(&s.x_prev) {
             *v = (a - b) / dt;
         }
-        plan.forces(p, &s.x, &core.v, &mut core.f, &mut core.grids);
+        plan.forces(
+            p,
+            &s.x,
+            &core.v,
+            &mut core.f,
+            &mut core.grids,
+            &mut core.muscles,
+        );
         let mut at = 0;
         for h in &self.hidden {
             let len = h.state_len();

@@ -159,6 +159,12 @@ pub(crate) fn generic_cols(scene: &Scene) -> Result<Vec<Col>, String> {
             LinkKind::Damper | LinkKind::Drag => cols.push(Col::Z(t)),
             LinkKind::NonlinearDrag => cols.extend([Col::Z(t), Col::Z2(t)]),
             LinkKind::Angle => cols.extend([Col::K(t), Col::KRest(t)]),
+            LinkKind::Muscle => {
+                return Err(format!(
+                    "types.{}: a muscle's neuron (tanh) makes the short cost nonlinear",
+                    ty.name
+                ))
+            }
             #[allow(unreachable_patterns)]
             other => {
                 return Err(format!(

@@ -233,6 +233,47 @@ impl Gauss {
 
 /// `traj` with Gaussian noise of standard deviation `sigma` (m) on every coordinate of every
 /// free particle (fixed particles stay exact).
+/// A free 2-D triangle of three muscles (two types, weights of both signs, threshold, damping)
+/// and a spring to a fourth particle, under drag: the neurons act on every particle.
+pub fn muscles() -> Scene {
+    let mut s = Scene::new(0.01);
+    s.add_particle(Particle::new(1.0, [0.0, 0.0, 0.0]).with_vel([-0.2, 0.1, 0.0]));
+    s.add_particle(Particle::new(0.8, [1.0, 0.1, 0.0]));
+    s.add_particle(Particle::new(1.2, [0.4, 0.9, 0.0]).with_vel([0.1, 0.3, 0.0]));
+    s.add_particle(Particle::new(0.6, [1.5, 0.8, 0.0]));
+    let w = |v: &[f64]| v.iter().map(|&x| Param::Known(x)).collect::<Vec<_>>();
+    s.add_type(
+        LinkType::new("m", LinkKind::Muscle)
+            .with("stiffness", 30.0)
+            .with("rest_length", 0.9)
+            .with("damping", 0.4)
+            .with("gain", 2.0)
+            .with("threshold", 0.1)
+            .with_weights(&w(&[1.5, -2.0]), &w(&[-0.8, 0.6])),
+    );
+    s.add_type(
+        LinkType::new("n", LinkKind::Muscle)
+            .with("stiffness", 45.0)
+            .with("rest_length", 1.1)
+            .with("gain", 1.5)
+            .with_weights(&w(&[-1.2, 0.7]), &w(&[0.5, 0.9])),
+    );
+    s.add_type(
+        LinkType::new("s", LinkKind::Spring)
+            .with("stiffness", 20.0)
+            .with("rest_length", 0.8),
+    );
+    s.add_type(LinkType::new("air", LinkKind::Drag).with("damping", 0.05));
+    s.add_link("m", &[0, 1]);
+    s.add_link("s", &[1, 3]);
+    s.add_link("n", &[1, 2]);
+    s.add_link("m", &[2, 0]);
+    for i in 0..4 {
+        s.add_link("air", &[i]);
+    }
+    s
+}
+
 pub fn noisy(scene: &Scene, traj: &Trajectory, sigma: f64, seed: u64) -> Trajectory {
     let mut g = Gauss::new(seed);
     let n = traj.particles();
@@ -253,10 +294,12 @@ pub fn perturbed(scene: &Scene, f: f64, seed: u64) -> Vec<f64> {
     let mut g = Gauss::new(seed);
     let mut p = Vec::new();
     for t in &scene.types {
-        for ((name, _), q) in t.kind.param_specs().iter().zip(&t.params) {
+        for (k, q) in t.params.iter().enumerate() {
+            let name = t.param_name(k);
+            let name = name.as_str();
             let v = q.value();
             let scaled = v * (1.0 + f * (2.0 * g.uniform() - 1.0));
-            p.push(match *name {
+            p.push(match name {
                 "range" => v,
                 "rest_cos" => scaled.clamp(-1.0, 1.0),
                 _ => scaled,
@@ -277,7 +320,7 @@ fn offsets(scene: &Scene) -> (Vec<usize>, usize, usize) {
     let mut off = Vec::new();
     for t in &scene.types {
         off.push(at);
-        at += t.kind.param_specs().len();
+        at += t.params.len();
     }
     (off, at, at + scene.particles.len())
 }
@@ -347,6 +390,37 @@ pub fn naive_forces(scene: &Scene, p: &[f64], x: &[V], v: &[V]) -> Vec<V> {
                     f[k] = add(f[k], mul(dcb, g));
                     f[j] = sub(f[j], mul(add(dca, dcb), g));
                 }
+            }
+            LinkKind::Muscle => {
+                // SPEC §2.4: q = [K, l0, Z, G, θ, w_len[0..m], w_rate[0..m]]; the neuron sees
+                // the listed links, else every other muscle link in file order.
+                let (i, j) = (ps[0], ps[1]);
+                let me = l as *const _;
+                let seen: Vec<usize> = match l.observes.as_ref().or(t.observes.as_ref()) {
+                    Some(list) => list.clone(),
+                    None => (0..scene.links.len())
+                        .filter(|&k| {
+                            !std::ptr::eq(&scene.links[k], me)
+                                && scene.types[scene.links[k].type_index].kind == LinkKind::Muscle
+                        })
+                        .collect(),
+                };
+                let m = seen.len();
+                let mut h = -q[4];
+                for (k, &o) in seen.iter().enumerate() {
+                    let ol = &scene.links[o];
+                    let (a, b) = (ol.particles[0], ol.particles[1]);
+                    let (u, len) = unit(sub(x[b], x[a]));
+                    let l0 = p[off[ol.type_index] + 1];
+                    h += q[5 + k] * (len - l0) + q[5 + m + k] * dot(sub(v[b], v[a]), u);
+                }
+                let (u, _) = unit(sub(x[j], x[i]));
+                let fi = add(
+                    spring(x[i], x[j], v[i], v[j], q[0], q[1], q[2]),
+                    mul(u, q[3] * h.tanh()),
+                );
+                f[i] = add(f[i], fi);
+                f[j] = sub(f[j], fi);
             }
             other => panic!("naive: links of kind {other} are not listed"),
         }
