@@ -56,8 +56,8 @@ pub(crate) fn spring_run<const DAMPED: bool>(
         for n in 0..block.len() {
             let l = (d[0][n] * d[0][n] + d[1][n] * d[1][n] + d[2][n] * d[2][n]).sqrt();
             let inv = if l >= MIN_LENGTH { 1.0 / l } else { 0.0 };
-            for c in 0..3 {
-                d[c][n] *= inv;
+            for dc in d.iter_mut() {
+                dc[n] *= inv;
             }
             let mut m = k * (l - l0);
             if DAMPED {
