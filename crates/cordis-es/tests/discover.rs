@@ -34,6 +34,10 @@ fn run(truth: &Scene, traj: &Trajectory, noise: f64) -> Discovery {
     let opt = DiscoverOptions {
         total_mass: Some(free_total(truth)),
         noise_level: noise,
+        threshold_scale: std::env::var("TSCALE")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(1.0),
         ..DiscoverOptions::default()
     };
     discover(traj, truth.dt, &opt).unwrap()
@@ -92,6 +96,94 @@ fn noiseless_networks_are_recovered_exactly() {
 }
 
 #[test]
+fn noisy_networks_keep_most_links_and_few_extras() {
+    for (seed, masses, types) in [
+        (6, 10, 3),
+        (11, 24, 8),
+        (13, 17, 4),
+        (32, 24, 5),
+        (34, 17, 4),
+    ] {
+        let truth = random_network(seed, masses, types);
+        let traj = truth.simulate(FRAMES).unwrap();
+        let sigma = 1e-4 * traj.scale();
+        let d = run(&truth, &add_noise(&traj, sigma, seed), sigma);
+        let (want, got) = (link_set(&truth), link_set(&d.scene));
+        let found = want.intersection(&got).count() as f64 / want.len() as f64;
+        let extra = got.difference(&want).count() as f64 / want.len() as f64;
+        assert!(
+            found >= 0.95 && extra <= 0.05,
+            "seed {seed}: found {found}, extra {extra}"
+        );
+        assert!(d.links.iter().all(|l| l.score >= l.threshold));
+    }
+}
+
+#[test]
+fn a_wide_radius_only_adds_candidates() {
+    // Nearly every pair a candidate (~19 per particle, twice the links): the same answer.
+    let truth = random_network(21, 20, 5);
+    let traj = truth.simulate(FRAMES).unwrap();
+    let opt = DiscoverOptions {
+        total_mass: Some(free_total(&truth)),
+        max_range: Some(1.6),
+        ..DiscoverOptions::default()
+    };
+    let d = discover(&traj, truth.dt, &opt).unwrap();
+    assert!(d.candidates >= 180, "{} candidates", d.candidates);
+    assert_eq!(link_set(&truth), link_set(&d.scene));
+    assert_eq!(d.scene.types.len(), 5);
+}
+
+#[test]
+fn bad_input_is_an_error_not_a_panic() {
+    let truth = random_network(1, 10, 3);
+    let traj = truth.simulate(50).unwrap();
+    let none = DiscoverOptions::default();
+    assert!(discover(&traj, 0.005, &none)
+        .unwrap_err()
+        .to_string()
+        .contains("masses"));
+    let opt = DiscoverOptions {
+        total_mass: Some(5.0),
+        ..DiscoverOptions::default()
+    };
+    assert!(discover(&traj, -1.0, &opt).is_err());
+    assert!(discover(&traj, f64::NAN, &opt).is_err());
+    let short = truth.simulate(4).unwrap();
+    assert!(discover(&short, 0.005, &opt).is_err());
+    let wrong = DiscoverOptions {
+        masses: Some(vec![1.0; 3]),
+        ..DiscoverOptions::default()
+    };
+    assert!(discover(&traj, 0.005, &wrong)
+        .unwrap_err()
+        .to_string()
+        .contains("masses"));
+    let tiny = DiscoverOptions {
+        max_range: Some(1e-6),
+        ..opt
+    };
+    assert!(discover(&traj, 0.005, &tiny).is_err());
+}
+
+#[test]
+fn given_masses_are_kept() {
+    let truth = random_network(3, 12, 3);
+    let traj = truth.simulate(FRAMES).unwrap();
+    let masses: Vec<f64> = truth.particles.iter().map(|p| p.mass.value()).collect();
+    let opt = DiscoverOptions {
+        masses: Some(masses.clone()),
+        ..DiscoverOptions::default()
+    };
+    let d = discover(&traj, truth.dt, &opt).unwrap();
+    assert_eq!(link_set(&truth), link_set(&d.scene));
+    for (p, m) in d.scene.particles.iter().zip(&masses) {
+        assert_eq!(p.mass.value(), *m);
+    }
+}
+
+#[test]
 #[ignore]
 fn survey() {
     let noise: f64 = std::env::var("NOISE")
@@ -102,7 +194,11 @@ fn survey() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(FRAMES);
-    for seed in 1..=12u64 {
+    let first: u64 = std::env::var("FIRST")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1);
+    for seed in first..first + 12 {
         let masses = 10 + (seed as usize * 7) % 21;
         let types = 3 + (seed as usize) % 6;
         let truth = random_network(seed, masses, types);
@@ -129,8 +225,8 @@ fn survey() {
             .map(|l| l.score / l.threshold)
             .fold(f64::INFINITY, f64::min);
         println!(
-            "seed {seed} n {masses} types {types}/{}: links {} cand {} missing {missing} extra {extra} near {worst_miss:.3e} weakest {weakest:.3e} rmse {:.2e} {:.2}s",
-            d.scene.types.len(), want.len(), d.candidates, d.rmse, t0.elapsed().as_secs_f64()
+            "seed {seed} n {masses} types {types}/{}: links {} cand {} missing {missing} extra {extra} near {worst_miss:.3e} weakest {weakest:.3e} rmse {:.2e} {:.2}s {:?}",
+            d.scene.types.len(), want.len(), d.candidates, d.rmse, t0.elapsed().as_secs_f64(), d.notes.first()
         );
     }
 }
