@@ -230,3 +230,45 @@ fn survey() {
         );
     }
 }
+
+/// Time and peak memory against the number of candidates: `N=1000 cargo test --release
+/// --test discover scaling -- --ignored --nocapture` (one size per process, for the peak).
+#[test]
+#[ignore]
+fn scaling() {
+    let n: usize = std::env::var("N")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(200);
+    let frames: usize = std::env::var("FRAMES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(200);
+    let truth = random_network(7, n, 5);
+    let traj = truth.simulate(frames).unwrap();
+    let rss = || {
+        std::fs::read_to_string("/proc/self/status")
+            .ok()
+            .and_then(|s| {
+                s.lines()
+                    .find(|l| l.starts_with("VmHWM"))
+                    .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
+            })
+            .unwrap_or(0.0)
+            / 1024.0
+    };
+    let before = rss();
+    let t0 = std::time::Instant::now();
+    let d = run(&truth, &traj, 0.0);
+    let (want, got) = (link_set(&truth), link_set(&d.scene));
+    println!(
+        "N {n} frames {frames} candidates {} links {} exact {} types {} time {:.2}s peak MB {:.0} (before {:.0})",
+        d.candidates,
+        want.len(),
+        want == got,
+        d.scene.types.len(),
+        t0.elapsed().as_secs_f64(),
+        rss(),
+        before
+    );
+}

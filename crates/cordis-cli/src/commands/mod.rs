@@ -1,4 +1,5 @@
 pub mod cost;
+pub mod discover;
 pub mod example;
 pub mod identify;
 pub mod import;

@@ -25,6 +25,10 @@ use crate::problem::Problem;
 use crate::strategies::{exact::ExactReport, least_squares};
 use cluster::Estimate;
 
+/// Above this many types the catalogue refit (dense in 3 × types) is skipped: the per-link
+/// estimates are kept and a note says so.
+pub const MAX_REFIT_TYPES: usize = 100;
+
 /// The BIC threshold's factor on smoothed (noisy) data.
 pub const SMOOTHED_THRESHOLD: f64 = 0.25;
 
@@ -400,7 +404,16 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
     if opt.masses.is_none() {
         problem = problem.with_total_mass(opt.total_mass.unwrap_or(1.0))?;
     }
-    let (final_scene, cost, solver) = match least_squares::solve(&problem) {
+    let refit = if cl.centres.len() <= MAX_REFIT_TYPES {
+        least_squares::solve(&problem)
+    } else {
+        Err(format!(
+            "{} types: above {MAX_REFIT_TYPES}, the links are unlikely to be springs of a few \
+             types (other link kinds?)",
+            cl.centres.len()
+        ))
+    };
+    let (final_scene, cost, solver) = match refit {
         Ok(sol) => (
             problem.space.scene_with(&scene, &sol.genome),
             sol.cost,
