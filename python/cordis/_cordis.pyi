@@ -29,6 +29,9 @@ __all__ = [
     "cost",
     "IdentifyResult",
     "identify",
+    "DiscoverResult",
+    "discover",
+    "random_network",
     "_cli_main",
 ]
 
