@@ -25,9 +25,10 @@ use crate::problem::Problem;
 use crate::strategies::{exact::ExactReport, least_squares};
 use cluster::Estimate;
 
-/// Above this many types the catalogue refit (dense in 3 × types) is skipped: the per-link
+/// Above this many types the catalogue refit is skipped (its design is dense in 3 × types per
+/// particle: memory ~ particles × (3 × types)²): the per-link
 /// estimates are kept and a note says so.
-pub const MAX_REFIT_TYPES: usize = 100;
+pub const MAX_REFIT_TYPES: usize = 32;
 
 /// The BIC threshold's factor on smoothed (noisy) data.
 pub const SMOOTHED_THRESHOLD: f64 = 0.25;
