@@ -92,6 +92,13 @@ fn noiseless_networks_are_recovered_exactly() {
             }
         }
         assert_eq!(d.scene.types.len(), types, "{tag}: number of types");
+        for (a, b) in truth.gravity.iter().zip(&d.scene.gravity) {
+            assert!(
+                (a - b).abs() <= 1e-6,
+                "{tag}: gravity {:?}",
+                d.scene.gravity
+            );
+        }
     }
 }
 
