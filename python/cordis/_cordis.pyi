@@ -1,7 +1,7 @@
 """Type stubs of the compiled extension ``cordis._cordis`` (re-exported by ``cordis``)."""
 
 import os
-from typing import Any, Callable, Dict, List, Mapping, Optional, Tuple, Union, final
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union, final
 
 import numpy as np
 import numpy.typing as npt
@@ -29,6 +29,9 @@ __all__ = [
     "cost",
     "IdentifyResult",
     "identify",
+    "DiscoverResult",
+    "discover",
+    "random_network",
     "_cli_main",
 ]
 
@@ -315,6 +318,58 @@ def identify(
     >>> res.param_error_pct < 1.0
     True
     """
+
+@final
+class DiscoverResult:
+    """What :func:`discover` found."""
+
+    @property
+    def scene(self) -> Scene:
+        """The proposed scene (every value known; initial state from the first frames)."""
+    @property
+    def links(self) -> List[Dict[str, Any]]:
+        """Per link of ``scene``: ``particles``, ``type``, own ``stiffness``/``rest_length``/
+        ``damping`` and their ``…_se``, ``score`` (Wald statistic) and ``threshold``."""
+    @property
+    def near_misses(self) -> List[Dict[str, Any]]:
+        """Rejected candidates closest to the threshold: ``particles``, ``score``, ``threshold``."""
+    @property
+    def radius(self) -> float:
+        """Candidate radius, m."""
+    @property
+    def candidates(self) -> int:
+        """Number of candidate pairs."""
+    @property
+    def cost(self) -> float:
+        """Short cost of the proposed scene on the trajectory, m²."""
+    @property
+    def rmse(self) -> float:
+        """RMS one-step prediction error of the proposed scene, m."""
+    @property
+    def solver(self) -> Dict[str, Any]:
+        """The exact solver's report of the catalogue refit."""
+    @property
+    def notes(self) -> List[str]:
+        """How the answer was reached."""
+
+def discover(
+    traj: _ArrayLike,
+    dt: float,
+    total_mass: Optional[float] = None,
+    masses: Optional[Sequence[float]] = None,
+    max_range: Optional[float] = None,
+    noise_level: float = 0.0,
+    threshold_scale: float = 1.0,
+    type_tolerance: float = 1e-3,
+) -> DiscoverResult:
+    """Proposes a spring network (links, masses, gravity, types) from positions alone
+    (GIL released). Give ``total_mass`` (kg, moving particles) or every particle's ``masses``.
+
+    >>> res = cordis.discover(traj, truth.dt, total_mass=12.3)  # doctest: +SKIP
+    """
+
+def random_network(seed: int, masses: int, types: int) -> Scene:
+    """A seed-generated random spring network (particle 0 fixed, gravity, random velocities)."""
 
 def _cli_main(argv: List[str], /) -> int:
     """Runs the ``cordis`` command line (``argv[0]`` is the program name)."""

@@ -7,12 +7,13 @@
 //!
 //! Modules: `scene.rs` (core `Scene`), `trajectory.rs` (`cordis_core::io`), `examples.rs`
 //! (`cordis_core::examples`), `cost.rs` (`cordis_es::cost`), `identify.rs` (`cordis_es::problem`,
-//! `identify`, `executor`), `cli.rs` (`cordis_cli`), `errors.rs` (both error enums).
+//! `identify`, `executor`), `discover.rs` (`cordis_es::discover`), `cli.rs` (`cordis_cli`), `errors.rs` (both error enums).
 
 use pyo3::prelude::*;
 
 pub mod cli;
 pub mod cost;
+pub mod discover;
 pub mod errors;
 pub mod examples;
 pub mod identify;
@@ -29,6 +30,7 @@ fn _cordis(m: &Bound<'_, PyModule>) -> PyResult<()> {
     examples::register(m)?;
     cost::register(m)?;
     identify::register(m)?;
+    discover::register(m)?;
     cli::register(m)?;
     Ok(())
 }

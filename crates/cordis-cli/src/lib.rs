@@ -38,6 +38,11 @@ enum Command {
         after_help = "Example:\n  cordis cost rigid.json --trajectory rigid.csv --cost short"
     )]
     Cost(commands::cost::Args),
+    /// Propose a spring network (links, masses, types) from positions alone (issue 10).
+    #[command(
+        after_help = "Example:\n  cordis simulate net.json --frames 300 --out net.csv\n  cordis discover --trajectory net.csv --dt 0.005 --total-mass 20 --out found.json --scores scores.json"
+    )]
+    Discover(Box<commands::discover::Args>),
     /// Write a shipped example scene as JSON.
     #[command(after_help = "Example:\n  cordis example cloth --out cloth.json")]
     Example(commands::example::Args),
@@ -76,6 +81,7 @@ where
         Command::Simulate(a) => commands::simulate::run(a),
         Command::Identify(a) => commands::identify::run(*a),
         Command::Cost(a) => commands::cost::run(a),
+        Command::Discover(a) => commands::discover::run(*a),
         Command::Example(a) => commands::example::run(a),
         Command::Import(a) => commands::import::run(a),
         Command::Render(a) => commands::render::run(a),

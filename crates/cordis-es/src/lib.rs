@@ -6,6 +6,7 @@
 
 pub mod cost;
 pub mod descent;
+pub mod discover;
 pub mod error;
 pub mod executor;
 pub mod identify;

@@ -1,6 +1,7 @@
 pub mod bench;
 pub mod check;
 pub mod cost;
+pub mod discover;
 pub mod example;
 pub mod identify;
 pub mod import;

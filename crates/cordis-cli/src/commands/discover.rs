@@ -1,0 +1,135 @@
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{anyhow, bail, Context, Result};
+use cordis_es::discover::{discover, DiscoverOptions};
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Observed trajectory (.csv, .npy or .tra): positions only.
+    #[arg(long, short = 't')]
+    trajectory: PathBuf,
+    /// Time step, s (default: the trajectory's own, when its format records one).
+    #[arg(long)]
+    dt: Option<f64>,
+    /// Total mass of the moving particles, kg (masses and stiffnesses share one scale).
+    #[arg(long, conflicts_with = "masses")]
+    total_mass: Option<f64>,
+    /// Every particle's mass, kg: a file of numbers (one per particle, separated by spaces,
+    /// commas or newlines; a JSON array also reads).
+    #[arg(long)]
+    masses: Option<PathBuf>,
+    /// Candidate pairs are those closer than this in the first frame, m (default: 2.2 × the
+    /// median nearest-neighbour distance).
+    #[arg(long)]
+    max_range: Option<f64>,
+    /// Standard deviation of the position noise, m (0: noiseless; > 0 smooths first).
+    #[arg(long, default_value_t = 0.0)]
+    noise_level: f64,
+    /// Multiplies the selection threshold (lower keeps more links).
+    #[arg(long, default_value_t = 1.0)]
+    threshold_scale: f64,
+    /// Relative tolerance under which two links are of one type.
+    #[arg(long, default_value_t = 1e-3)]
+    type_tolerance: f64,
+    /// Where to write the proposed scene (JSON; stdout when absent).
+    #[arg(long, short = 'o')]
+    out: Option<PathBuf>,
+    /// Where to write the per-link scores and the near misses (JSON).
+    #[arg(long)]
+    scores: Option<PathBuf>,
+    /// No summary on stderr.
+    #[arg(long, short = 'q')]
+    quiet: bool,
+}
+
+fn read_masses(path: &PathBuf) -> Result<Vec<f64>> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
+    text.split(|c: char| c.is_whitespace() || c == ',' || c == '[' || c == ']')
+        .filter(|s| !s.is_empty())
+        .enumerate()
+        .map(|(k, s)| {
+            s.parse::<f64>()
+                .map_err(|_| anyhow!("{}: value {k} `{s}` is not a number", path.display()))
+        })
+        .collect()
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let traj = cordis_core::io::read_trajectory(&a.trajectory)?;
+    let dt = match (a.dt, traj.dt) {
+        (Some(dt), _) => dt,
+        (None, Some(dt)) => dt,
+        (None, None) => bail!(
+            "{}: the file records no time step: give --dt",
+            a.trajectory.display()
+        ),
+    };
+    if a.total_mass.is_none() && a.masses.is_none() {
+        bail!("--total-mass or --masses: masses and stiffnesses are only determined up to a common scale");
+    }
+    let masses = a.masses.as_ref().map(read_masses).transpose()?;
+    let opt = DiscoverOptions {
+        total_mass: a.total_mass,
+        masses,
+        max_range: a.max_range,
+        noise_level: a.noise_level,
+        threshold_scale: a.threshold_scale,
+        type_tolerance: a.type_tolerance,
+    };
+    let start = Instant::now();
+    let d = discover(&traj, dt, &opt)?;
+    let seconds = start.elapsed().as_secs_f64();
+    super::write_scene(&d.scene, a.out.as_deref())?;
+    let scores = serde_json::json!({
+        "radius": d.radius,
+        "candidates": d.candidates,
+        "rounds": d.rounds,
+        "cost": d.cost,
+        "rmse": d.rmse,
+        "links": d.links,
+        "near_misses": d.near_misses,
+        "solver": d.solver,
+        "notes": d.notes,
+        "seconds": seconds,
+    });
+    if let Some(path) = &a.scores {
+        let text = serde_json::to_string_pretty(&scores)?;
+        cordis_core::io::write_atomic(path, text.as_bytes())?;
+    }
+    if !a.quiet {
+        eprintln!(
+            "{} particles, {} candidate pairs (radius {:.4} m) -> {} links of {} types in {:.2} s; short-cost rmse {:.3e} m",
+            d.scene.num_particles(),
+            d.candidates,
+            d.radius,
+            d.scene.links.len(),
+            d.scene.types.len(),
+            seconds,
+            d.rmse
+        );
+        let weakest = d
+            .links
+            .iter()
+            .min_by(|x, y| (x.score / x.threshold).total_cmp(&(y.score / y.threshold)));
+        if let Some(l) = weakest {
+            eprintln!(
+                "weakest link {:?}: score {:.3e} (threshold {:.3e})",
+                l.particles, l.score, l.threshold
+            );
+        }
+        if let Some(m) = d.near_misses.first() {
+            eprintln!(
+                "strongest rejected pair {:?}: score {:.3e} (threshold {:.3e})",
+                m.particles, m.score, m.threshold
+            );
+        }
+        for n in &d.notes {
+            eprintln!("note: {n}");
+        }
+        for w in d.solver.warnings() {
+            eprintln!("warning: {w}");
+        }
+    }
+    Ok(())
+}

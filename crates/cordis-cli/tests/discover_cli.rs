@@ -1,0 +1,70 @@
+//! `cordis discover` end to end: a generated network's trajectory file in, its scene out.
+
+use std::collections::HashSet;
+
+use cordis_core::examples::random_network;
+use cordis_core::Scene;
+
+fn pairs(scene: &Scene) -> HashSet<[usize; 2]> {
+    scene
+        .links
+        .iter()
+        .map(|l| {
+            let (a, b) = (l.particles[0], l.particles[1]);
+            [a.min(b), a.max(b)]
+        })
+        .collect()
+}
+
+#[test]
+fn discover_writes_the_generating_network_and_its_scores() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = random_network(4, 12, 3);
+    let traj = truth.simulate(300).unwrap();
+    let csv = dir.path().join("net.csv");
+    cordis_core::io::write_trajectory(&csv, &traj).unwrap();
+    let total: f64 = truth
+        .particles
+        .iter()
+        .filter(|p| !p.fixed)
+        .map(|p| p.mass.value())
+        .sum();
+    let (out, scores) = (
+        dir.path().join("found.json"),
+        dir.path().join("scores.json"),
+    );
+    let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    let code = cordis_cli::run([
+        "cordis".to_string(),
+        "discover".into(),
+        "--trajectory".into(),
+        s(&csv),
+        "--dt".into(),
+        truth.dt.to_string(),
+        "--total-mass".into(),
+        total.to_string(),
+        "--out".into(),
+        s(&out),
+        "--scores".into(),
+        s(&scores),
+        "-q".into(),
+    ]);
+    assert_eq!(code, 0);
+    let found = Scene::from_json_path(&out).unwrap();
+    assert_eq!(pairs(&found), pairs(&truth));
+    assert_eq!(found.types.len(), 3);
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&scores).unwrap()).unwrap();
+    assert_eq!(v["links"].as_array().unwrap().len(), truth.links.len());
+
+    // No mass scale: a usage error (exit 2), no panic.
+    let code = cordis_cli::run([
+        "cordis",
+        "discover",
+        "--trajectory",
+        &s(&csv),
+        "--dt",
+        "0.005",
+    ]);
+    assert_ne!(code, 0);
+}

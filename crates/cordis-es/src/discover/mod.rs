@@ -1,0 +1,637 @@
+//! Structure discovery (issue 10): from positions alone, propose a spring network — which
+//! particle pairs are linked, each link's stiffness, rest length and damping, the masses (under
+//! a known total, or given), gravity, and a catalogue of types grouping equal links.
+//!
+//! Stages (one module each): [`candidates`] (fixed particles; pairs closer than a radius, grid),
+//! [`select`] (per particle, the equation of motion as a least-squares system over all its
+//! candidate pairs; group-sparse backward selection with a BIC threshold on each pair's Wald
+//! statistic), masses (ratios of one link's estimates at its two ends, solved on the link graph
+//! in log space, scaled to the total), per-link parameters, [`cluster`] (types), then a
+//! catalogue-level refit with the exact least-squares solver
+//! ([`crate::strategies::least_squares`]) on the short cost. See `docs/discover.md`.
+
+pub mod candidates;
+pub mod cluster;
+pub mod select;
+pub mod smooth;
+
+use cordis_core::{Bounds, LinkKind, LinkType, Param, Particle, Scene, Trajectory, Vec3};
+use nalgebra::{Matrix3, Vector3};
+use serde::Serialize;
+
+use crate::cost::CostKind;
+use crate::error::CostError;
+use crate::problem::Problem;
+use crate::strategies::{exact::ExactReport, least_squares};
+use cluster::Estimate;
+
+/// Above this many types the catalogue refit is skipped (its design is dense in 3 × types per
+/// particle: memory ~ particles × (3 × types)²): the per-link
+/// estimates are kept and a note says so.
+pub const MAX_REFIT_TYPES: usize = 32;
+
+/// The BIC threshold's factor on smoothed (noisy) data.
+pub const SMOOTHED_THRESHOLD: f64 = 0.25;
+
+/// What [`discover`] is told besides the trajectory.
+#[derive(Clone, Debug)]
+pub struct DiscoverOptions {
+    /// Total mass of the free (moving) particles, kg. One of this and `masses` is required.
+    pub total_mass: Option<f64>,
+    /// Every particle's mass, kg (fixed particles' values are kept as given).
+    pub masses: Option<Vec<f64>>,
+    /// Candidate pairs are those closer than this in the first frame, m (default
+    /// [`candidates::RADIUS_PER_NEAREST`] × the median nearest-neighbour distance).
+    pub max_range: Option<f64>,
+    /// Standard deviation of the position noise, m (0: noiseless). Sets the tolerance under
+    /// which a particle counts as fixed.
+    pub noise_level: f64,
+    /// Multiplies the selection threshold (1: BIC).
+    pub threshold_scale: f64,
+    /// Relative tolerance under which two links' parameters are taken as equal (one type).
+    pub type_tolerance: f64,
+}
+
+impl Default for DiscoverOptions {
+    fn default() -> Self {
+        DiscoverOptions {
+            total_mass: None,
+            masses: None,
+            max_range: None,
+            noise_level: 0.0,
+            threshold_scale: 1.0,
+            type_tolerance: 1e-3,
+        }
+    }
+}
+
+/// How sure the discovery is of one link.
+#[derive(Clone, Debug, Serialize)]
+pub struct LinkScore {
+    pub particles: [usize; 2],
+    /// Its type in the proposed catalogue.
+    #[serde(rename = "type")]
+    pub type_name: String,
+    /// This link's own estimates before the catalogue refit: K (N/m), l0 (m), Z (N·s/m).
+    pub stiffness: f64,
+    pub rest_length: f64,
+    pub damping: f64,
+    /// Standard errors of the three (same units).
+    pub stiffness_se: f64,
+    pub rest_length_se: f64,
+    pub damping_se: f64,
+    /// Wald statistic of the link (cost increase when removed over the noise floor, summed
+    /// over its free ends); kept when above `threshold`.
+    pub score: f64,
+    pub threshold: f64,
+}
+
+/// A candidate that was not kept, with how close it came.
+#[derive(Clone, Debug, Serialize)]
+pub struct NearMiss {
+    pub particles: [usize; 2],
+    pub score: f64,
+    pub threshold: f64,
+}
+
+/// The answer of [`discover`].
+#[derive(Clone, Debug)]
+pub struct Discovery {
+    /// The proposed scene: every value known, initial state from the first frames.
+    pub scene: Scene,
+    /// Per link of `scene.links` (same order).
+    pub links: Vec<LinkScore>,
+    /// The candidates closest to being kept (highest score over threshold first), up to 20.
+    pub near_misses: Vec<NearMiss>,
+    /// Candidate radius used, m.
+    pub radius: f64,
+    pub candidates: usize,
+    /// Rounds of the backward selection.
+    pub rounds: usize,
+    /// Short cost of the proposed scene on the trajectory, m², and its rmse, m.
+    pub cost: f64,
+    pub rmse: f64,
+    /// The exact solver's report of the catalogue refit.
+    pub solver: ExactReport,
+    pub notes: Vec<String>,
+}
+
+fn bad(place: &str, msg: impl Into<String>) -> CostError {
+    CostError::mismatch(place, msg)
+}
+
+/// Discovers a spring network from a trajectory sampled every `dt` seconds (module docs).
+pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Discovery, CostError> {
+    let (frames, n) = (traj.frames(), traj.particles());
+    if !(dt > 0.0 && dt.is_finite()) {
+        return Err(bad(
+            "dt",
+            format!("must be a positive number of seconds, got {dt}"),
+        ));
+    }
+    if frames < 8 {
+        return Err(bad(
+            "trajectory",
+            format!("has {frames} frames, discovery needs at least 8"),
+        ));
+    }
+    if n < 2 {
+        return Err(bad("trajectory", "needs at least 2 particles"));
+    }
+    match (&opt.total_mass, &opt.masses) {
+        (Some(m), _) if !(*m > 0.0 && m.is_finite()) => {
+            return Err(bad(
+                "total_mass",
+                format!("must be a positive number of kg, got {m}"),
+            ))
+        }
+        (_, Some(ms)) if ms.len() != n => {
+            return Err(bad(
+                "masses",
+                format!("has {} values, the trajectory {n} particles", ms.len()),
+            ))
+        }
+        (_, Some(ms)) => {
+            if let Some(k) = ms.iter().position(|m| !(*m > 0.0 && m.is_finite())) {
+                return Err(bad(
+                    &format!("masses[{k}]"),
+                    "must be a positive number of kg",
+                ));
+            }
+        }
+        (None, None) => {
+            return Err(bad(
+                "masses",
+                "masses and stiffnesses are only determined up to a common scale: give the total \
+                 mass of the moving particles or every mass",
+            ))
+        }
+        _ => {}
+    }
+    if !(opt.noise_level >= 0.0 && opt.noise_level.is_finite()) {
+        return Err(bad("noise_level", "must be a non-negative number of m"));
+    }
+    let scale = traj.scale().max(f64::MIN_POSITIVE);
+    let mut notes = Vec::new();
+
+    // Stage 1: fixed particles and candidates.
+    let fixed = candidates::fixed_particles(traj, (3.0 * opt.noise_level).max(1e-12 * scale));
+    let free: Vec<bool> = fixed.iter().map(|f| !f).collect();
+    if !free.iter().any(|&f| f) {
+        return Err(bad("trajectory", "no particle moves: nothing to discover"));
+    }
+    let smoothed;
+    let mut smoothed_with = None;
+    let traj = if opt.noise_level > 0.0 {
+        match smooth::smooth(traj, &fixed, opt.noise_level) {
+            Some((s, h)) => {
+                notes.push(format!(
+                    "noisy positions: cubic Savitzky-Golay filter over {} frames ({h} frames \
+                     dropped at each end)",
+                    2 * h + 1
+                ));
+                smoothed = s;
+                smoothed_with = Some(h);
+                &smoothed
+            }
+            None => traj,
+        }
+    } else {
+        traj
+    };
+    let x0: Vec<Vec3> = (0..n).map(|i| traj.pos(0, i)).collect();
+    let radius = match opt.max_range {
+        Some(r) if r > 0.0 && r.is_finite() => r,
+        Some(r) => {
+            return Err(bad(
+                "max_range",
+                format!("must be a positive number of m, got {r}"),
+            ))
+        }
+        None => candidates::default_radius(&x0)
+            .ok_or_else(|| bad("trajectory", "the particles of the first frame coincide"))?,
+    };
+    let cands = candidates::pairs_within(&x0, &fixed, radius);
+    let pairs: Vec<[usize; 2]> = cands.iter().map(|(p, _)| *p).collect();
+    if pairs.is_empty() {
+        return Err(bad(
+            "max_range",
+            format!("no pair of particles is closer than {radius} m"),
+        ));
+    }
+
+    // Stages 2–3: local systems and selection.
+    let locals = select::build(traj, dt, &free, &pairs);
+    let floor = select::rounding_floor(traj, dt);
+    // Calibrated on generated networks at noise 1e-4 of their size (docs/discover.md): after
+    // smoothing, plain BIC misses weak links and never keeps a spurious one; a quarter of it
+    // keeps every link with ≤ 4% extra.
+    let scale = if smoothed_with.is_some() {
+        SMOOTHED_THRESHOLD
+    } else {
+        1.0
+    };
+    let sel = select::select(&locals, pairs.len(), opt.threshold_scale * scale, floor);
+    let kept: Vec<usize> = (0..pairs.len()).filter(|&p| sel.active[p]).collect();
+    if kept.is_empty() {
+        return Err(bad(
+            "trajectory",
+            "no candidate pair explains the motion (no link found)",
+        ));
+    }
+    // Where each kept pair sits in the locals.
+    let mut at: Vec<Vec<(usize, usize)>> = vec![Vec::new(); pairs.len()];
+    for (l, loc) in locals.iter().enumerate() {
+        for (q, &p) in loc.pairs.iter().enumerate() {
+            if sel.active[p] {
+                at[p].push((l, q));
+            }
+        }
+    }
+
+    // Stage 4: masses.
+    let masses = match &opt.masses {
+        Some(ms) => ms.clone(),
+        None => {
+            let (m, groups) = masses_from_ratios(
+                &locals,
+                &sel.fits,
+                &kept,
+                &pairs,
+                &at,
+                &free,
+                opt.total_mass.unwrap_or(1.0),
+            )?;
+            if groups > 1 {
+                notes.push(format!(
+                    "the links split the moving particles into {groups} groups without a link \
+                     between two moving particles: their mass ratios come only from the \
+                     catalogue refit (shared types)"
+                ));
+            }
+            m
+        }
+    };
+
+    // Per-link θ (inverse-variance mean of its ends' estimates) and gravity.
+    let mut estimates = Vec::with_capacity(kept.len());
+    for &p in &kept {
+        let (mut sw, mut swx) = (Vector3::zeros(), Vector3::zeros());
+        for &(l, q) in &at[p] {
+            let m = masses[locals[l].particle];
+            let f = &sel.fits[l];
+            let b = f.beta[q] * m;
+            for c in 0..3 {
+                let var = (f.cov[q][(c, c)] * m * m)
+                    .max((1e-13 * b[c]).powi(2))
+                    .max(1e-300);
+                sw[c] += 1.0 / var;
+                swx[c] += b[c] / var;
+            }
+        }
+        let th = swx.component_div(&sw);
+        let var = sw.map(|w| 1.0 / w);
+        let k = th[0];
+        let l0 = th[1] / k;
+        estimates.push(Estimate {
+            value: [k, l0, th[2]],
+            se: [
+                var[0].sqrt(),
+                ((var[1] + l0 * l0 * var[0]).sqrt() / k.abs()).min(f64::MAX),
+                var[2].sqrt(),
+            ],
+        });
+    }
+    let mut g = Vector3::zeros();
+    let mut wsum = 0.0;
+    for (l, f) in sel.fits.iter().enumerate() {
+        let w = masses[locals[l].particle].powi(2) / f.sigma2.max(f64::MIN_POSITIVE);
+        g += f.gravity * w;
+        wsum += w;
+    }
+    g /= wsum;
+    // Gravity smaller than its own noise is taken as none.
+    let g_scale = sel
+        .fits
+        .iter()
+        .map(|f| f.gravity.norm())
+        .fold(0.0, f64::max);
+    if g.norm() <= 1e-9 * g_scale.max(1e-300) {
+        g = Vector3::zeros();
+    }
+
+    // Stage 5: types.
+    let cl = cluster::cluster(&estimates, opt.type_tolerance);
+    let z_floor = estimates.iter().map(|e| e.value[2].abs()).sum::<f64>() / estimates.len() as f64;
+
+    // Stage 6: the scene, refitted at catalogue level by the exact solver.
+    let mut scene = Scene::new(dt);
+    scene.gravity = [g.x, g.y, g.z];
+    for i in 0..n {
+        let pos = traj.pos(0, i);
+        // x(-1) by quadratic extrapolation of frames 0–2.
+        let xm1 = traj.pos(0, i) * 3.0 - traj.pos(1, i) * 3.0 + traj.pos(2, i);
+        let vel = (pos - xm1) / dt;
+        let m = masses[i];
+        let mass = if fixed[i] || opt.masses.is_some() {
+            Param::Known(m)
+        } else {
+            Param::Unknown(Bounds {
+                min: m / 10.0,
+                max: m * 10.0,
+                init: Some(m),
+            })
+        };
+        let mut particle = Particle::new(m, [pos.x, pos.y, pos.z]);
+        particle.mass = mass;
+        if fixed[i] {
+            particle = particle.fixed();
+        } else {
+            particle = particle.with_vel([vel.x, vel.y, vel.z]);
+        }
+        scene.add_particle(particle);
+    }
+    // Boxes a decade either side; a non-positive estimate (noise) gets the box of the
+    // catalogue's typical value, which the exact solver may still clamp onto.
+    let typical = |c: usize| {
+        let v: Vec<f64> = cl
+            .centres
+            .iter()
+            .map(|e| e.value[c])
+            .filter(|v| *v > 0.0)
+            .collect();
+        if v.is_empty() {
+            1.0
+        } else {
+            v.iter().sum::<f64>() / v.len() as f64
+        }
+    };
+    let (k_typ, l_typ, z_typ) = (typical(0), typical(1), typical(2));
+    let width = |v: f64, reference: f64| -> Param {
+        let v = if v > 0.0 && v.is_finite() {
+            v
+        } else {
+            reference
+        };
+        Param::Unknown(Bounds {
+            min: v / 10.0,
+            max: v * 10.0,
+            init: Some(v),
+        })
+    };
+    for (t, c) in cl.centres.iter().enumerate() {
+        let [k, l0, z] = c.value;
+        let z_zero = z.abs() <= cluster::SIGMAS * c.se[2] + 1e-6 * z_floor;
+        scene.add_type(
+            LinkType::new(format!("t{t}"), LinkKind::Spring)
+                .with("stiffness", width(k, k_typ))
+                .with("rest_length", width(l0, l_typ))
+                .with(
+                    "damping",
+                    if z_zero || z <= 0.0 {
+                        Param::Known(0.0)
+                    } else {
+                        width(z, z_typ)
+                    },
+                ),
+        );
+    }
+    for (e, &p) in kept.iter().enumerate() {
+        scene.add_link(&format!("t{}", cl.of[e]), &pairs[p]);
+    }
+    scene.validate()?;
+    let traj_dt = traj.clone().with_dt(dt);
+    let mut problem = Problem::new(&scene, &traj_dt, CostKind::Short)?;
+    if opt.masses.is_none() {
+        problem = problem.with_total_mass(opt.total_mass.unwrap_or(1.0))?;
+    }
+    let refit = if cl.centres.len() <= MAX_REFIT_TYPES {
+        least_squares::solve(&problem)
+    } else {
+        Err(format!(
+            "{} types: above {MAX_REFIT_TYPES}, the links are unlikely to be springs of a few \
+             types (other link kinds?)",
+            cl.centres.len()
+        ))
+    };
+    let (final_scene, cost, solver) = match refit {
+        Ok(sol) => (
+            problem.space.scene_with(&scene, &sol.genome),
+            sol.cost,
+            sol.report,
+        ),
+        Err(e) => {
+            notes.push(format!(
+                "catalogue refit failed ({e}); kept the per-link estimates"
+            ));
+            let mut s = scene.clone();
+            let p = s.param_values();
+            s.set_param_values(&p);
+            let genome = problem.space.genome_of(&p);
+            let mut sc = problem.scratch();
+            let mut local = vec![0.0; n];
+            let c = problem.evaluate(&genome, &mut sc, &mut local);
+            (
+                problem.space.scene_with(&scene, &genome),
+                c,
+                ExactReport::default(),
+            )
+        }
+    };
+    let rmse = problem.rmse(cost);
+
+    let links = kept
+        .iter()
+        .enumerate()
+        .map(|(e, &p)| {
+            let est = &estimates[e];
+            LinkScore {
+                particles: pairs[p],
+                type_name: format!("t{}", cl.of[e]),
+                stiffness: est.value[0],
+                rest_length: est.value[1],
+                damping: est.value[2],
+                stiffness_se: est.se[0],
+                rest_length_se: est.se[1],
+                damping_se: est.se[2],
+                score: sel.score[p],
+                threshold: sel.threshold[p],
+            }
+        })
+        .collect();
+    let mut near: Vec<NearMiss> = (0..pairs.len())
+        .filter(|&p| !sel.active[p])
+        .map(|p| NearMiss {
+            particles: pairs[p],
+            score: sel.score[p],
+            threshold: sel.threshold[p],
+        })
+        .collect();
+    near.sort_by(|a, b| (b.score / b.threshold).total_cmp(&(a.score / a.threshold)));
+    near.truncate(20);
+    notes.push(format!(
+        "{} candidate pairs within {radius:.6} m, {} links kept after {} rounds, {} types",
+        pairs.len(),
+        kept.len(),
+        sel.rounds,
+        cl.centres.len()
+    ));
+    Ok(Discovery {
+        scene: final_scene,
+        links,
+        near_misses: near,
+        radius,
+        candidates: pairs.len(),
+        rounds: sel.rounds,
+        cost,
+        rmse,
+        solver,
+        notes,
+    })
+}
+
+/// Masses from the ratio of each link's estimates at its two free ends
+/// (`β_i = θ/m_i`, `β_j = θ/m_j`, so `m_j/m_i = β_i/β_j`): weighted least squares of
+/// `log m_j - log m_i = log ρ` on the link graph (conjugate gradients, Jacobi-preconditioned:
+/// linear in the links per iteration), then scaled to the total. Fixed particles get mass 1.
+fn masses_from_ratios(
+    locals: &[select::Local],
+    fits: &[select::Fit],
+    kept: &[usize],
+    pairs: &[[usize; 2]],
+    at: &[Vec<(usize, usize)>],
+    free: &[bool],
+    total: f64,
+) -> Result<(Vec<f64>, usize), CostError> {
+    let n = free.len();
+    // Edges (i, j, log ρ, weight).
+    let mut edges = Vec::new();
+    for &p in kept {
+        if at[p].len() != 2 {
+            continue;
+        }
+        let (li, qi) = at[p][0];
+        let (lj, qj) = at[p][1];
+        let (bi, bj) = (fits[li].beta[qi], fits[lj].beta[qj]);
+        let (ci, cj) = (fits[li].cov[qi], fits[lj].cov[qj]);
+        // Weighted by the inverse of the summed variances (diagonal), floored at rounding.
+        let mut w = Matrix3::zeros();
+        for c in 0..3 {
+            let floor = (1e-13 * bi[c].abs().max(bj[c].abs())).powi(2).max(1e-300);
+            w[(c, c)] = 1.0 / (ci[(c, c)] + cj[(c, c)]).max(floor);
+        }
+        let den = (bj.transpose() * w * bj)[0];
+        let rho = (bj.transpose() * w * bi)[0] / den;
+        if !(rho > 0.0 && rho.is_finite()) {
+            continue;
+        }
+        let var_log = 1.0 / (den * rho * rho);
+        let (i, j) = (locals[li].particle, locals[lj].particle);
+        debug_assert!(pairs[p].contains(&i) && pairs[p].contains(&j));
+        edges.push((i, j, rho.ln(), 1.0 / var_log.max(1e-300)));
+    }
+    // Weights spanning more than 1e8 only slow the solve: on consistent data any weights give
+    // the same answer, on noisy data the weakest edges barely matter.
+    let wmax = edges.iter().map(|e| e.3).fold(0.0, f64::max);
+    for e in &mut edges {
+        e.3 = e.3.max(1e-8 * wmax);
+    }
+    // Connected components of the free particles.
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn find(p: &mut [usize], mut x: usize) -> usize {
+        while p[x] != x {
+            p[x] = p[p[x]];
+            x = p[x];
+        }
+        x
+    }
+    for &(i, j, _, _) in &edges {
+        let (a, b) = (find(&mut parent, i), find(&mut parent, j));
+        parent[a] = b;
+    }
+    let roots: std::collections::HashSet<usize> = (0..n)
+        .filter(|&i| free[i])
+        .map(|i| find(&mut parent, i))
+        .collect();
+    let groups = roots.len();
+    // (i ← j) x_j - x_i = r: Laplacian L x = Bᵀ W r, solved by preconditioned CG.
+    let mut diag = vec![0.0; n];
+    let mut rhs = vec![0.0; n];
+    for &(i, j, r, w) in &edges {
+        diag[i] += w;
+        diag[j] += w;
+        rhs[j] += w * r;
+        rhs[i] -= w * r;
+    }
+    let apply = |x: &[f64], out: &mut [f64]| {
+        out.iter_mut().for_each(|v| *v = 0.0);
+        for &(i, j, _, w) in &edges {
+            let d = w * (x[j] - x[i]);
+            out[j] += d;
+            out[i] -= d;
+        }
+    };
+    let pre = |r: &[f64], out: &mut [f64]| {
+        for k in 0..n {
+            out[k] = if diag[k] > 0.0 { r[k] / diag[k] } else { 0.0 };
+        }
+    };
+    let mut x = vec![0.0; n];
+    let mut r = rhs.clone();
+    let mut z = vec![0.0; n];
+    pre(&r, &mut z);
+    let mut d = z.clone();
+    let mut rz: f64 = r.iter().zip(&z).map(|(a, b)| a * b).sum();
+    let r0 = rhs.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let mut q = vec![0.0; n];
+    for _ in 0..(20 * n + 100) {
+        let rn = r.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if rn <= 1e-15 * r0 || rn == 0.0 {
+            break;
+        }
+        apply(&d, &mut q);
+        let dq: f64 = d.iter().zip(&q).map(|(a, b)| a * b).sum();
+        if dq.is_nan() || dq <= 0.0 {
+            break;
+        }
+        let alpha = rz / dq;
+        for k in 0..n {
+            x[k] += alpha * d[k];
+            r[k] -= alpha * q[k];
+        }
+        pre(&r, &mut z);
+        let rz2: f64 = r.iter().zip(&z).map(|(a, b)| a * b).sum();
+        let beta = rz2 / rz;
+        rz = rz2;
+        for k in 0..n {
+            d[k] = z[k] + beta * d[k];
+        }
+    }
+    // Each group of particles joined by links is centred on its own (log) mean: between
+    // groups the ratios are unknown here (the catalogue refit, whose types are shared, can
+    // still find them).
+    let mut sum: std::collections::HashMap<usize, (f64, f64)> = Default::default();
+    for i in (0..n).filter(|&i| free[i]) {
+        let e = sum.entry(find(&mut parent, i)).or_default();
+        e.0 += x[i];
+        e.1 += 1.0;
+    }
+    let mut m: Vec<f64> = (0..n)
+        .map(|i| {
+            if free[i] {
+                let (s, c) = sum[&find(&mut parent, i)];
+                (x[i] - s / c).exp()
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let s: f64 = (0..n).filter(|&i| free[i]).map(|i| m[i]).sum();
+    for i in (0..n).filter(|&i| free[i]) {
+        m[i] *= total / s;
+    }
+    if m.iter().any(|v| !v.is_finite()) {
+        return Err(bad("masses", "the mass ratios are not finite"));
+    }
+    Ok((m, groups))
+}

@@ -1,0 +1,281 @@
+//! Structure discovery on generated networks (issue 10): the exact link set, masses, link
+//! parameters and number of types from noiseless motion; most links from noisy motion.
+
+use std::collections::{HashMap, HashSet};
+
+use cordis_core::examples::random_network;
+use cordis_core::{Scene, Trajectory};
+use cordis_es::discover::{discover, DiscoverOptions, Discovery};
+use cordis_es::identify::add_noise;
+
+const FRAMES: usize = 300;
+
+fn link_set(scene: &Scene) -> HashSet<[usize; 2]> {
+    scene
+        .links
+        .iter()
+        .map(|l| {
+            let (a, b) = (l.particles[0], l.particles[1]);
+            [a.min(b), a.max(b)]
+        })
+        .collect()
+}
+
+fn free_total(scene: &Scene) -> f64 {
+    scene
+        .particles
+        .iter()
+        .filter(|p| !p.fixed)
+        .map(|p| p.mass.value())
+        .sum()
+}
+
+fn run(truth: &Scene, traj: &Trajectory, noise: f64) -> Discovery {
+    let opt = DiscoverOptions {
+        total_mass: Some(free_total(truth)),
+        noise_level: noise,
+        threshold_scale: std::env::var("TSCALE")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(1.0),
+        ..DiscoverOptions::default()
+    };
+    discover(traj, truth.dt, &opt).unwrap()
+}
+
+/// Every link's (K, l0, Z) in the truth and in the discovery, by particle pair.
+fn params_by_pair(scene: &Scene) -> HashMap<[usize; 2], [f64; 3]> {
+    scene
+        .links
+        .iter()
+        .map(|l| {
+            let (a, b) = (l.particles[0], l.particles[1]);
+            let ty = &scene.types[l.type_index];
+            let v = |k: usize| ty.params[k].value();
+            ([a.min(b), a.max(b)], [v(0), v(1), v(2)])
+        })
+        .collect()
+}
+
+#[test]
+fn noiseless_networks_are_recovered_exactly() {
+    for (seed, masses, types) in [(1, 10, 3), (2, 18, 5), (3, 30, 8), (4, 24, 6), (5, 14, 4)] {
+        let truth = random_network(seed, masses, types);
+        let traj = truth.simulate(FRAMES).unwrap();
+        let d = run(&truth, &traj, 0.0);
+        let tag = format!("seed {seed} ({masses} masses, {types} types)");
+        let (want, got) = (link_set(&truth), link_set(&d.scene));
+        let missing: Vec<_> = want.difference(&got).collect();
+        let extra: Vec<_> = got.difference(&want).collect();
+        assert!(
+            missing.is_empty() && extra.is_empty(),
+            "{tag}: missing {missing:?}, extra {extra:?}"
+        );
+        for (i, (p, q)) in truth.particles.iter().zip(&d.scene.particles).enumerate() {
+            assert_eq!(p.fixed, q.fixed, "{tag}: particle {i} fixed");
+            if !p.fixed {
+                let (a, b) = (p.mass.value(), q.mass.value());
+                assert!((a - b).abs() <= 1e-3 * a, "{tag}: mass {i}: {b} vs {a}");
+            }
+        }
+        let (tp, dp) = (params_by_pair(&truth), params_by_pair(&d.scene));
+        for (pair, t) in &tp {
+            let g = dp[pair];
+            for c in 0..3 {
+                let tol = 1e-3 * t[c].abs() + if t[c] == 0.0 { 1e-9 } else { 0.0 };
+                assert!(
+                    (t[c] - g[c]).abs() <= tol,
+                    "{tag}: link {pair:?} param {c}: {} vs {}",
+                    g[c],
+                    t[c]
+                );
+            }
+        }
+        assert_eq!(d.scene.types.len(), types, "{tag}: number of types");
+        for (a, b) in truth.gravity.iter().zip(&d.scene.gravity) {
+            assert!(
+                (a - b).abs() <= 1e-6,
+                "{tag}: gravity {:?}",
+                d.scene.gravity
+            );
+        }
+    }
+}
+
+#[test]
+fn noisy_networks_keep_most_links_and_few_extras() {
+    for (seed, masses, types) in [
+        (6, 10, 3),
+        (11, 24, 8),
+        (13, 17, 4),
+        (32, 24, 5),
+        (34, 17, 4),
+    ] {
+        let truth = random_network(seed, masses, types);
+        let traj = truth.simulate(FRAMES).unwrap();
+        let sigma = 1e-4 * traj.scale();
+        let d = run(&truth, &add_noise(&traj, sigma, seed), sigma);
+        let (want, got) = (link_set(&truth), link_set(&d.scene));
+        let found = want.intersection(&got).count() as f64 / want.len() as f64;
+        let extra = got.difference(&want).count() as f64 / want.len() as f64;
+        assert!(
+            found >= 0.95 && extra <= 0.05,
+            "seed {seed}: found {found}, extra {extra}"
+        );
+        assert!(d.links.iter().all(|l| l.score >= l.threshold));
+    }
+}
+
+#[test]
+fn a_wide_radius_only_adds_candidates() {
+    // Nearly every pair a candidate (~19 per particle, twice the links): the same answer.
+    let truth = random_network(21, 20, 5);
+    let traj = truth.simulate(FRAMES).unwrap();
+    let opt = DiscoverOptions {
+        total_mass: Some(free_total(&truth)),
+        max_range: Some(1.6),
+        ..DiscoverOptions::default()
+    };
+    let d = discover(&traj, truth.dt, &opt).unwrap();
+    assert!(d.candidates >= 180, "{} candidates", d.candidates);
+    assert_eq!(link_set(&truth), link_set(&d.scene));
+    assert_eq!(d.scene.types.len(), 5);
+}
+
+#[test]
+fn bad_input_is_an_error_not_a_panic() {
+    let truth = random_network(1, 10, 3);
+    let traj = truth.simulate(50).unwrap();
+    let none = DiscoverOptions::default();
+    assert!(discover(&traj, 0.005, &none)
+        .unwrap_err()
+        .to_string()
+        .contains("masses"));
+    let opt = DiscoverOptions {
+        total_mass: Some(5.0),
+        ..DiscoverOptions::default()
+    };
+    assert!(discover(&traj, -1.0, &opt).is_err());
+    assert!(discover(&traj, f64::NAN, &opt).is_err());
+    let short = truth.simulate(4).unwrap();
+    assert!(discover(&short, 0.005, &opt).is_err());
+    let wrong = DiscoverOptions {
+        masses: Some(vec![1.0; 3]),
+        ..DiscoverOptions::default()
+    };
+    assert!(discover(&traj, 0.005, &wrong)
+        .unwrap_err()
+        .to_string()
+        .contains("masses"));
+    let tiny = DiscoverOptions {
+        max_range: Some(1e-6),
+        ..opt
+    };
+    assert!(discover(&traj, 0.005, &tiny).is_err());
+}
+
+#[test]
+fn given_masses_are_kept() {
+    let truth = random_network(3, 12, 3);
+    let traj = truth.simulate(FRAMES).unwrap();
+    let masses: Vec<f64> = truth.particles.iter().map(|p| p.mass.value()).collect();
+    let opt = DiscoverOptions {
+        masses: Some(masses.clone()),
+        ..DiscoverOptions::default()
+    };
+    let d = discover(&traj, truth.dt, &opt).unwrap();
+    assert_eq!(link_set(&truth), link_set(&d.scene));
+    for (p, m) in d.scene.particles.iter().zip(&masses) {
+        assert_eq!(p.mass.value(), *m);
+    }
+}
+
+#[test]
+#[ignore]
+fn survey() {
+    let noise: f64 = std::env::var("NOISE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0.0);
+    let frames: usize = std::env::var("FRAMES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(FRAMES);
+    let first: u64 = std::env::var("FIRST")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1);
+    for seed in first..first + 12 {
+        let masses = 10 + (seed as usize * 7) % 21;
+        let types = 3 + (seed as usize) % 6;
+        let truth = random_network(seed, masses, types);
+        let traj = truth.simulate(frames).unwrap();
+        let sigma = noise * traj.scale();
+        let obs = if noise > 0.0 {
+            add_noise(&traj, sigma, seed)
+        } else {
+            traj.clone()
+        };
+        let t0 = std::time::Instant::now();
+        let d = run(&truth, &obs, sigma);
+        let (want, got) = (link_set(&truth), link_set(&d.scene));
+        let missing = want.difference(&got).count();
+        let extra = got.difference(&want).count();
+        let worst_miss = d
+            .near_misses
+            .first()
+            .map(|m| m.score / m.threshold)
+            .unwrap_or(0.0);
+        let weakest = d
+            .links
+            .iter()
+            .map(|l| l.score / l.threshold)
+            .fold(f64::INFINITY, f64::min);
+        println!(
+            "seed {seed} n {masses} types {types}/{}: links {} cand {} missing {missing} extra {extra} near {worst_miss:.3e} weakest {weakest:.3e} rmse {:.2e} {:.2}s {:?}",
+            d.scene.types.len(), want.len(), d.candidates, d.rmse, t0.elapsed().as_secs_f64(), d.notes.first()
+        );
+    }
+}
+
+/// Time and peak memory against the number of candidates: `N=1000 cargo test --release
+/// --test discover scaling -- --ignored --nocapture` (one size per process, for the peak).
+#[test]
+#[ignore]
+fn scaling() {
+    let n: usize = std::env::var("N")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(200);
+    let frames: usize = std::env::var("FRAMES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(200);
+    let truth = random_network(7, n, 5);
+    let traj = truth.simulate(frames).unwrap();
+    let rss = || {
+        std::fs::read_to_string("/proc/self/status")
+            .ok()
+            .and_then(|s| {
+                s.lines()
+                    .find(|l| l.starts_with("VmHWM"))
+                    .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
+            })
+            .unwrap_or(0.0)
+            / 1024.0
+    };
+    let before = rss();
+    let t0 = std::time::Instant::now();
+    let d = run(&truth, &traj, 0.0);
+    let (want, got) = (link_set(&truth), link_set(&d.scene));
+    println!(
+        "N {n} frames {frames} candidates {} links {} exact {} types {} time {:.2}s peak MB {:.0} (before {:.0})",
+        d.candidates,
+        want.len(),
+        want == got,
+        d.scene.types.len(),
+        t0.elapsed().as_secs_f64(),
+        rss(),
+        before
+    );
+}

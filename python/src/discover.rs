@@ -1,0 +1,129 @@
+//! Structure discovery (`cordis_es::discover`): `cordis.discover(traj, dt, total_mass=…)`
+//! proposes a spring network — links, masses, gravity, a catalogue of types — from positions
+//! alone, with a score per link.
+
+use cordis_es::discover::{discover as core_discover, DiscoverOptions, Discovery};
+use pyo3::prelude::*;
+
+use crate::errors::cost_to_py;
+use crate::scene::Scene;
+use crate::trajectory::{check_dt, traj_from_py};
+
+/// What `cordis.discover` found.
+#[pyclass(frozen, module = "cordis", name = "DiscoverResult")]
+pub struct DiscoverResult {
+    /// The proposed scene (every value known; initial state from the first frames).
+    #[pyo3(get)]
+    scene: Py<Scene>,
+    /// Per link of `scene` (same order): `particles`, `type`, this link's own `stiffness`,
+    /// `rest_length`, `damping` and their standard errors (`…_se`), and its `score` (Wald
+    /// statistic: cost increase when removed over the noise floor) and `threshold`.
+    #[pyo3(get)]
+    links: Py<PyAny>,
+    /// The rejected candidates closest to the threshold: `particles`, `score`, `threshold`.
+    #[pyo3(get)]
+    near_misses: Py<PyAny>,
+    /// Candidate radius, m.
+    #[pyo3(get)]
+    radius: f64,
+    /// Number of candidate pairs.
+    #[pyo3(get)]
+    candidates: usize,
+    /// Short cost of the proposed scene on the trajectory (m²) and its rmse (m).
+    #[pyo3(get)]
+    cost: f64,
+    #[pyo3(get)]
+    rmse: f64,
+    /// The exact solver's report of the catalogue refit (dict).
+    #[pyo3(get)]
+    solver: Py<PyAny>,
+    /// How the answer was reached.
+    #[pyo3(get)]
+    notes: Vec<String>,
+}
+
+#[pymethods]
+impl DiscoverResult {
+    fn __repr__(&self, py: Python<'_>) -> String {
+        let s = self.scene.borrow(py);
+        let core = s.core();
+        format!(
+            "DiscoverResult({} particles, {} links of {} types from {} candidates, rmse={:.3e} m)",
+            core.num_particles(),
+            core.links.len(),
+            core.types.len(),
+            self.candidates,
+            self.rmse
+        )
+    }
+}
+
+fn to_py(py: Python<'_>, d: Discovery) -> PyResult<DiscoverResult> {
+    let json =
+        |v: serde_json::Value| -> PyResult<Py<PyAny>> { Ok(crate::json::to_py(py, &v)?.unbind()) };
+    Ok(DiscoverResult {
+        links: json(serde_json::to_value(&d.links).unwrap_or_default())?,
+        near_misses: json(serde_json::to_value(&d.near_misses).unwrap_or_default())?,
+        solver: json(serde_json::to_value(&d.solver).unwrap_or_default())?,
+        scene: Py::new(py, Scene::from_core(d.scene))?,
+        radius: d.radius,
+        candidates: d.candidates,
+        cost: d.cost,
+        rmse: d.rmse,
+        notes: d.notes,
+    })
+}
+
+/// Proposes a spring network from positions alone: `traj` `(T, N, 3)` (m) sampled every `dt`
+/// s. Give `total_mass` (kg, of the moving particles) or every particle's `masses`: masses and
+/// stiffnesses share one scale. `max_range` (m) bounds the candidate pairs (default 2.2 × the
+/// median nearest-neighbour distance); `noise_level` (m) > 0 smooths the positions first;
+/// `threshold_scale` multiplies the selection threshold; `type_tolerance` is the relative
+/// tolerance under which two links are of one type. See docs/discover.md.
+///
+/// >>> truth = cordis.random_network(1, 12, 3)
+/// >>> traj = truth.simulate(300)
+/// >>> res = cordis.discover(traj, truth.dt, total_mass=12.3)   # doctest: +SKIP
+#[pyfunction]
+#[pyo3(signature = (traj, dt, total_mass = None, masses = None, max_range = None, noise_level = 0.0, threshold_scale = 1.0, type_tolerance = 1e-3))]
+#[allow(clippy::too_many_arguments)]
+pub fn discover(
+    py: Python<'_>,
+    traj: &Bound<'_, PyAny>,
+    dt: f64,
+    total_mass: Option<f64>,
+    masses: Option<Vec<f64>>,
+    max_range: Option<f64>,
+    noise_level: f64,
+    threshold_scale: f64,
+    type_tolerance: f64,
+) -> PyResult<DiscoverResult> {
+    let dt = check_dt(dt, "dt")?;
+    let traj = traj_from_py(traj, "traj")?;
+    let opt = DiscoverOptions {
+        total_mass,
+        masses,
+        max_range,
+        noise_level,
+        threshold_scale,
+        type_tolerance,
+    };
+    let d = py
+        .detach(|| core_discover(&traj, dt, &opt))
+        .map_err(cost_to_py)?;
+    to_py(py, d)
+}
+
+/// A seed-generated random spring network of `masses` particles and `types` spring types
+/// (cordis_core::examples::random_network): particle 0 fixed, gravity, random velocities.
+#[pyfunction]
+pub fn random_network(seed: u64, masses: usize, types: usize) -> Scene {
+    Scene::from_core(cordis_core::examples::random_network(seed, masses, types))
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<DiscoverResult>()?;
+    m.add_function(wrap_pyfunction!(discover, m)?)?;
+    m.add_function(wrap_pyfunction!(random_network, m)?)?;
+    Ok(())
+}
