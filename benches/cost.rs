@@ -3,9 +3,14 @@
 //! precomputed linear path. Throughput is in link evaluations (links × predicted frames). The
 //! generic path runs with and without its precomputed spring geometry.
 //!
+//! A second group runs every cost kind on every shipped example (rigid, cloth 32×32, fluid,
+//! horse) on the generic path, plus the precomputed path where the scene allows it, single
+//! evaluation and a batch of 16 on 2 threads. `cordis bench cost` prints the same measurements
+//! as JSON lines.
+//!
 //! `cargo bench --bench cost` (add `-- --quick` for a short run).
 
-use cordis_core::{LinkKind, LinkType, Particle, Scene};
+use cordis_core::{examples, LinkKind, LinkType, Particle, Scene};
 use cordis_es::cost::{CostKind, Objective};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 
@@ -100,9 +105,49 @@ fn bench_cost(c: &mut Criterion) {
     g.finish();
 }
 
+fn bench_examples(c: &mut Criterion) {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    for (name, frames) in [("rigid", 100), ("cloth", 100), ("fluid", 20), ("horse", 53)] {
+        let scene = examples::by_name(name).unwrap();
+        let traj = scene.simulate(frames).unwrap();
+        let p = scene.param_values();
+        for kind in ["short", "horizon:5", "long", "harmonic"] {
+            let mut obj = Objective::new(&scene, &traj, kind.parse().unwrap()).unwrap();
+            let mut paths = vec![("generic", false)];
+            if obj.uses_linear(&p) {
+                paths.push(("precomputed", true));
+            }
+            let mut g = c.benchmark_group(format!("cost/{name}/{kind}"));
+            g.sample_size(10);
+            for (path, linear) in paths {
+                obj.set_linear(linear);
+                let mut s = obj.scratch();
+                let mut per = vec![0.0; obj.particles()];
+                g.throughput(Throughput::Elements(obj.link_evaluations().max(1) as u64));
+                g.bench_function(format!("{path}, single"), |b| {
+                    b.iter(|| obj.evaluate(&p, &mut s, &mut per).unwrap())
+                });
+                let k = 16;
+                let pop: Vec<f64> = (0..k).flat_map(|_| p.iter().copied()).collect();
+                let mut out = vec![0.0; k];
+                g.throughput(Throughput::Elements(
+                    (k * obj.link_evaluations().max(1)) as u64,
+                ));
+                g.bench_function(format!("{path}, batch of 16 on 2 threads"), |b| {
+                    b.iter(|| pool.install(|| obj.evaluate_batch(&pop, &mut out).unwrap()))
+                });
+            }
+            g.finish();
+        }
+    }
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(20);
-    targets = bench_cost
+    targets = bench_cost, bench_examples
 }
 criterion_main!(benches);
