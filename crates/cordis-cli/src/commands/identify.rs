@@ -61,6 +61,10 @@ pub struct Args {
     /// Thesis strategy: generations between descents (0: never).
     #[arg(long, default_value_t = 100)]
     descent_every: u64,
+    /// Parameters to keep at their starting value (thesis `.lock`): a `NAME.lock` file, or
+    /// comma-separated names such as `types.rib.stiffness,particles[3].mass`.
+    #[arg(long)]
+    lock: Option<String>,
     /// Write a checkpoint here (every 50 generations and at the end).
     #[arg(long)]
     checkpoint: Option<PathBuf>,
@@ -127,6 +131,23 @@ pub fn run(a: Args) -> Result<()> {
         traj = add_noise(&traj, noise, a.seed);
     }
     let mut problem = Problem::new(&scene, &traj, kind)?;
+    if let Some(lock) = &a.lock {
+        let (names, from_file) = lock_names(lock)?;
+        let known: Vec<&str> = problem
+            .space
+            .unknowns
+            .iter()
+            .map(|u| u.name.as_str())
+            .collect();
+        // A .lock file may lock what the scene already knows; a name given by hand must exist.
+        if let Some(bad) = names
+            .iter()
+            .find(|n| !from_file && !known.contains(&n.as_str()))
+        {
+            bail!("--lock: `{bad}` is not an unknown of {}", a.scene.display());
+        }
+        problem.space.lock(&names);
+    }
     if let Some(t) = &a.truth {
         problem = problem.with_truth(&Scene::from_json_path(t)?)?;
     }
@@ -282,6 +303,30 @@ pub fn run(a: Args) -> Result<()> {
     }
     println!("{summary}");
     Ok(())
+}
+
+/// The unknowns named by `--lock`: a thesis `.lock` file (its `x` flags mark l0 — or the rest
+/// cosine —, K and Z of a type as known) or a comma-separated list of names.
+fn lock_names(lock: &str) -> Result<(Vec<String>, bool)> {
+    if lock.ends_with(".lock") {
+        let text = std::fs::read_to_string(lock).with_context(|| lock.to_string())?;
+        let mut names = Vec::new();
+        for t in cordis_core::thesis::parse_lock(lock, &text)? {
+            let params: &[&str] = match t.family.kind() {
+                cordis_core::LinkKind::Angle => &["rest_cos", "stiffness", "damping"],
+                _ => &["rest_length", "stiffness", "damping"],
+            };
+            for (flag, p) in t.locked.iter().zip(params) {
+                if *flag {
+                    names.push(format!("types.{}.{p}", t.type_name()));
+                }
+            }
+        }
+        Ok((names, true))
+    } else {
+        let names = lock.split(',').map(|s| s.trim().to_string());
+        Ok((names.filter(|s| !s.is_empty()).collect(), false))
+    }
 }
 
 /// Convergence log, CSV or JSON lines by extension, flushed every row.

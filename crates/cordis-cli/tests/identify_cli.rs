@@ -1,0 +1,80 @@
+//! `cordis identify` end to end: example → simulate → identify, the JSON summary, `--lock`.
+
+use std::process::{Command, Output};
+
+fn cordis(dir: &std::path::Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_cordis"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("cordis runs")
+}
+
+fn summary(out: &Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    serde_json::from_str(text.lines().last().expect("a summary line")).expect("JSON")
+}
+
+#[test]
+fn identify_recovers_rigid_and_honours_lock() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    assert!(cordis(d, &["example", "rigid", "--out", "truth.json"])
+        .status
+        .success());
+    assert!(cordis(
+        d,
+        &[
+            "simulate",
+            "truth.json",
+            "--frames",
+            "100",
+            "--out",
+            "t.csv"
+        ]
+    )
+    .status
+    .success());
+    assert!(
+        cordis(d, &["example", "rigid", "--unknowns", "--out", "u.json"])
+            .status
+            .success()
+    );
+    let base = [
+        "identify",
+        "u.json",
+        "--trajectory",
+        "t.csv",
+        "--truth",
+        "truth.json",
+        "-q",
+    ];
+    let s = summary(&cordis(d, &base));
+    assert_eq!(s["strategy"], "least-squares");
+    assert!(s["param_error_pct"].as_f64().unwrap() < 1e-6, "{s}");
+
+    // A locked unknown keeps its starting value (its box's geometric middle).
+    let mut args = base.to_vec();
+    args.extend(["--lock", "types.brace.stiffness", "--out", "locked.json"]);
+    let s = summary(&cordis(d, &args));
+    assert!(s["param_error_pct"].as_f64().unwrap() > 1e-3, "{s}");
+    let unknown: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("u.json")).unwrap()).unwrap();
+    let b = &unknown["types"]["brace"]["stiffness"];
+    let middle = (b["min"].as_f64().unwrap() * b["max"].as_f64().unwrap()).sqrt();
+    let locked: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("locked.json")).unwrap()).unwrap();
+    let got = locked["types"]["brace"]["stiffness"].as_f64().unwrap();
+    assert!((got - middle).abs() <= 1e-12 * middle, "{got} vs {middle}");
+
+    let mut bad = base.to_vec();
+    bad.extend(["--lock", "types.nope.stiffness"]);
+    let out = cordis(d, &bad);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("types.nope.stiffness"));
+}
