@@ -12,3 +12,5 @@ echo "== cargo test --release"
 cargo test --release
 echo "== python package + pytest"
 bash scripts/python-test.sh
+echo "== HTML viewer in headless Chromium (skipped without chromium)"
+bash tests/viewer/screenshot.sh
