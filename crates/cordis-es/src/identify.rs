@@ -11,11 +11,10 @@ use crate::rng;
 use crate::strategies::annealing::{Annealing, AnnealingConfig};
 use crate::strategies::cmaes::{Cmaes, CmaesConfig};
 use crate::strategies::exact;
-use crate::strategies::hybrid::Hybrid;
-use crate::strategies::least_squares::LeastSquares;
 use crate::strategies::parisian::{Parisian, ParisianConfig};
 use crate::strategies::self_adaptive::{SelfAdaptive, SelfAdaptiveConfig};
 use crate::strategies::thesis::{Thesis, ThesisConfig};
+use crate::strategies::{hybrid, least_squares};
 use crate::strategy::Strategy;
 
 /// `--strategy` values.
@@ -92,8 +91,8 @@ pub fn make_strategy(
         other => other,
     };
     match name {
-        StrategyName::LeastSquares => (Box::new(LeastSquares::new()), "least-squares"),
-        StrategyName::Hybrid => (Box::new(Hybrid::new()), "hybrid"),
+        StrategyName::LeastSquares => (Box::new(least_squares::strategy()), "least-squares"),
+        StrategyName::Hybrid => (Box::new(hybrid::strategy()), "hybrid"),
         StrategyName::Auto | StrategyName::Thesis => {
             let mut c = ThesisConfig {
                 population: options.population,

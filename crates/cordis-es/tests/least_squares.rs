@@ -11,7 +11,7 @@ use cordis_es::identify::{
     add_noise, make_strategy, with_unknown_boxes, StrategyName, StrategyOptions,
 };
 use cordis_es::problem::Problem;
-use cordis_es::strategies::least_squares::{self, LeastSquares};
+use cordis_es::strategies::least_squares;
 use cordis_es::strategy::Strategy;
 
 /// Mean error (%) and seconds of the whole process (objective construction + solve).
@@ -207,7 +207,7 @@ fn free_masses_without_a_total_is_an_error() {
     let e = least_squares::solve(&problem).unwrap_err();
     assert!(e.contains("total mass"), "{e}");
     // As a strategy: the start point, with the error in the report.
-    let mut s = LeastSquares::new();
+    let mut s = least_squares::strategy();
     s.init(&problem, 0);
     assert!(s
         .report()

@@ -45,7 +45,7 @@ use serde::{Deserialize, Serialize};
 use crate::cost::{CostKind, LinearShortCost, Objective, ThetaEntry};
 use crate::problem::Problem;
 use crate::space::Role;
-use crate::strategy::lossless;
+use crate::strategy::{bits, lossless, GenerationStats, Strategy};
 
 /// Singular values below this fraction of the largest (column-scaled design) are taken as
 /// zero. Measured on noiseless data, a never-stretched type gives ~1e-15 and the shipped
@@ -983,4 +983,113 @@ pub(crate) fn solve_linear(
         push_unique(&mut report.undetermined, name);
     }
     Ok((genome, cost))
+}
+
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+struct OneShotState {
+    #[serde(with = "bits")]
+    genome: Vec<f64>,
+    #[serde(with = "lossless")]
+    cost: f64,
+    report: ExactReport,
+}
+
+/// A strategy that solves once, in generation 0, and is then finished: `least-squares` and
+/// `hybrid` are this with their own solve.
+pub struct OneShot {
+    name: &'static str,
+    solve: fn(&Problem) -> Result<Solution, String>,
+    state: OneShotState,
+}
+
+impl OneShot {
+    pub fn new(name: &'static str, solve: fn(&Problem) -> Result<Solution, String>) -> Self {
+        OneShot {
+            name,
+            solve,
+            state: OneShotState::default(),
+        }
+    }
+
+    /// Condition number, undetermined and clamped unknowns, notes, error.
+    pub fn report(&self) -> &ExactReport {
+        &self.state.report
+    }
+}
+
+/// The starting point, scored: the answer of a failed solve.
+fn fallback(problem: &Problem, error: String) -> (Vec<f64>, f64, ExactReport) {
+    let genome = problem.space.genome_of(&problem.space.base);
+    let mut s = problem.scratch();
+    let mut local = vec![0.0; problem.num_particles];
+    let cost = problem.evaluate(&genome, &mut s, &mut local);
+    let report = ExactReport {
+        condition: f64::INFINITY,
+        error: Some(error),
+        ..ExactReport::default()
+    };
+    (genome, cost, report)
+}
+
+impl Strategy for OneShot {
+    fn name(&self) -> &'static str {
+        self.name
+    }
+
+    fn init(&mut self, problem: &Problem, _seed: u64) {
+        self.state = match (self.solve)(problem) {
+            Ok(s) => OneShotState {
+                genome: s.genome,
+                cost: s.cost,
+                report: s.report,
+            },
+            Err(e) => {
+                let (genome, cost, report) = fallback(problem, e);
+                OneShotState {
+                    genome,
+                    cost,
+                    report,
+                }
+            }
+        };
+    }
+
+    fn next_generation(&mut self, _problem: &Problem, _seed: u64, _generation: u64) {}
+
+    fn finished(&self) -> bool {
+        true
+    }
+
+    fn best(&self) -> (&[f64], f64) {
+        (&self.state.genome, self.state.cost)
+    }
+
+    fn stats(&self) -> GenerationStats {
+        GenerationStats {
+            best_cost: self.state.cost,
+            mean_cost: self.state.cost,
+            mean_mutability: 0.0,
+        }
+    }
+
+    fn save_state(&self) -> serde_json::Value {
+        serde_json::to_value(&self.state).unwrap_or_default()
+    }
+
+    fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String> {
+        let s: OneShotState = serde_json::from_value(state.clone()).map_err(|e| e.to_string())?;
+        if s.genome.len() != problem.dim() {
+            return Err(format!(
+                "state has {} unknowns, the problem {}",
+                s.genome.len(),
+                problem.dim()
+            ));
+        }
+        self.state = s;
+        Ok(())
+    }
+
+    fn report(&self) -> serde_json::Value {
+        serde_json::to_value(&self.state.report).unwrap_or_default()
+    }
 }

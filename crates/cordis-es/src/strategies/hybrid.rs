@@ -22,13 +22,10 @@ use std::collections::HashMap;
 
 use cordis_core::forces::grid::Grid;
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 
-use super::exact::{self, ExactReport, Solution, Spec, Weighting};
-use super::least_squares::fallback;
+use super::exact::{self, ExactReport, OneShot, Solution, Spec, Weighting};
 use crate::problem::Problem;
 use crate::space::Role;
-use crate::strategy::{bits, lossless, GenerationStats, Strategy};
 
 /// Most coordinate-descent cycles over the nonlinear unknowns.
 pub const MAX_CYCLES: usize = 6;
@@ -228,90 +225,7 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
     })
 }
 
-#[derive(Clone, Debug, Default, Serialize, Deserialize)]
-struct State {
-    #[serde(with = "bits")]
-    genome: Vec<f64>,
-    #[serde(with = "lossless")]
-    cost: f64,
-    report: ExactReport,
-}
-
 /// The `hybrid` strategy: everything happens in generation 0.
-#[derive(Default)]
-pub struct Hybrid {
-    state: State,
-}
-
-impl Hybrid {
-    pub fn new() -> Self {
-        Self::default()
-    }
-
-    pub fn report(&self) -> &ExactReport {
-        &self.state.report
-    }
-}
-
-impl Strategy for Hybrid {
-    fn name(&self) -> &'static str {
-        "hybrid"
-    }
-
-    fn init(&mut self, problem: &Problem, _seed: u64) {
-        self.state = match solve(problem) {
-            Ok(s) => State {
-                genome: s.genome,
-                cost: s.cost,
-                report: s.report,
-            },
-            Err(e) => {
-                let (genome, cost, report) = fallback(problem, e);
-                State {
-                    genome,
-                    cost,
-                    report,
-                }
-            }
-        };
-    }
-
-    fn next_generation(&mut self, _problem: &Problem, _seed: u64, _generation: u64) {}
-
-    fn finished(&self) -> bool {
-        true
-    }
-
-    fn best(&self) -> (&[f64], f64) {
-        (&self.state.genome, self.state.cost)
-    }
-
-    fn stats(&self) -> GenerationStats {
-        GenerationStats {
-            best_cost: self.state.cost,
-            mean_cost: self.state.cost,
-            mean_mutability: 0.0,
-        }
-    }
-
-    fn save_state(&self) -> serde_json::Value {
-        serde_json::to_value(&self.state).unwrap_or_default()
-    }
-
-    fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String> {
-        let s: State = serde_json::from_value(state.clone()).map_err(|e| e.to_string())?;
-        if s.genome.len() != problem.dim() {
-            return Err(format!(
-                "state has {} unknowns, the problem {}",
-                s.genome.len(),
-                problem.dim()
-            ));
-        }
-        self.state = s;
-        Ok(())
-    }
-
-    fn report(&self) -> serde_json::Value {
-        serde_json::to_value(&self.state.report).unwrap_or_default()
-    }
+pub fn strategy() -> OneShot {
+    OneShot::new("hybrid", solve)
 }
