@@ -176,13 +176,7 @@ pub fn run(a: Args) -> Result<()> {
     };
     let (mut strategy, ran) = make_strategy(a.strategy, &problem, &options);
     check_strategy(ran, &problem).map_err(|e| anyhow::anyhow!("{}: {e}", a.scene.display()))?;
-    // An exact solver is done after generation 0.
-    let exact = ran == "least-squares" || ran == "hybrid";
-    let generations = if exact {
-        Some(a.generations.unwrap_or(0))
-    } else {
-        generations
-    };
+    // An exact solver is done after generation 0: the run loop stops it as `converged`.
     let config = RunConfig {
         seed: a.seed,
         stop: StopRules {
