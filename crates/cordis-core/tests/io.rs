@@ -1039,3 +1039,15 @@ fn thesis_files_in_latin1_read() {
     let m = thesis::import(&dir.path().join("exemple"), 0.01).unwrap();
     assert_eq!(m.scene.links.len(), 3);
 }
+
+#[test]
+fn write_atomic_writes_through_devices_instead_of_replacing_them() {
+    // Renaming a temporary over /dev/null would replace the device with a regular file.
+    let null = std::path::Path::new("/dev/null");
+    if std::fs::metadata(null).is_ok_and(|m| !m.is_file()) {
+        cordis_core::io::write_atomic(null, b"discarded").unwrap();
+        let meta = std::fs::metadata(null).unwrap();
+        assert!(!meta.is_file(), "/dev/null must still be a device");
+        assert_eq!(std::fs::read(null).unwrap().len(), 0);
+    }
+}

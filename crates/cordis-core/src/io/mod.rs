@@ -88,6 +88,13 @@ pub fn write_trajectory(path: &Path, traj: &Trajectory) -> Result<()> {
 /// one file system), flushed to disk, then renamed over `path`.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
+    // A path that exists and is not a regular file (`/dev/null`, `/dev/stdout`, a FIFO) is
+    // written in place: renaming a temporary over it would replace the device itself.
+    if let Ok(meta) = std::fs::metadata(path) {
+        if !meta.is_file() && !meta.is_dir() {
+            return std::fs::write(path, bytes).map_err(|e| CordisError::io(path, e));
+        }
+    }
     let file_name = path
         .file_name()
         .ok_or_else(|| CordisError::format(path.display().to_string(), "not a file name"))?;
