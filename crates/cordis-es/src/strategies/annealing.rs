@@ -21,7 +21,9 @@
 use serde::{Deserialize, Serialize};
 
 use super::cmaes::mean_finite;
-use super::common::{boxes, evaluate_genomes, from_unit, reflect, start_genome, to_unit};
+use super::common::{
+    boxes, evaluate_genomes, from_unit, load_checked, reflect, start_genome, to_unit, NO_STATS,
+};
 use crate::problem::Problem;
 use crate::rng;
 use crate::strategy::{bits, lossless, GenerationStats, Strategy};
@@ -260,11 +262,7 @@ impl Strategy for Annealing {
 
     fn stats(&self) -> GenerationStats {
         let Some(s) = &self.state else {
-            return GenerationStats {
-                best_cost: f64::INFINITY,
-                mean_cost: f64::INFINITY,
-                mean_mutability: 0.0,
-            };
+            return NO_STATS;
         };
         let width = if self.boxes.is_empty() {
             0.0
@@ -290,14 +288,10 @@ impl Strategy for Annealing {
 
     fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String> {
         self.boxes = boxes(problem);
-        let s: Option<State> = serde_json::from_value(state.clone()).map_err(|e| e.to_string())?;
-        match &s {
-            Some(st)
-                if st.best_genome.len() == problem.dim()
-                    && st.chains.iter().all(|c| c.x.len() == problem.dim()) => {}
-            _ => return Err("annealing state does not match the problem".into()),
-        }
-        self.state = s;
+        self.state = load_checked("annealing", state, |st: &State| {
+            st.best_genome.len() == problem.dim()
+                && st.chains.iter().all(|c| c.x.len() == problem.dim())
+        })?;
         Ok(())
     }
 }

@@ -25,7 +25,9 @@
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 use serde::{Deserialize, Serialize};
 
-use super::common::{boxes, evaluate_genomes, from_unit, start_genome, to_unit};
+use super::common::{
+    boxes, evaluate_genomes, from_unit, load_checked, start_genome, to_unit, NO_STATS,
+};
 use crate::problem::Problem;
 use crate::rng;
 use crate::strategy::{bits, lossless, GenerationStats, Strategy};
@@ -541,11 +543,7 @@ impl Strategy for Cmaes {
 
     fn stats(&self) -> GenerationStats {
         let Some(s) = &self.state else {
-            return GenerationStats {
-                best_cost: f64::INFINITY,
-                mean_cost: f64::INFINITY,
-                mean_mutability: 0.0,
-            };
+            return NO_STATS;
         };
         let sd = s.ipop.run().coordinate_sd();
         let mutability = if sd.is_empty() {
@@ -570,12 +568,9 @@ impl Strategy for Cmaes {
 
     fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String> {
         self.boxes = boxes(problem);
-        let s: Option<State> = serde_json::from_value(state.clone()).map_err(|e| e.to_string())?;
-        match &s {
-            Some(st) if st.best_genome.len() == problem.dim() => {}
-            _ => return Err("cmaes state does not match the problem".into()),
-        }
-        self.state = s;
+        self.state = load_checked("cmaes", state, |st: &State| {
+            st.best_genome.len() == problem.dim()
+        })?;
         Ok(())
     }
 }

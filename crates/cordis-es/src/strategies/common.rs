@@ -4,6 +4,7 @@
 use rayon::prelude::*;
 
 use crate::problem::Problem;
+use crate::strategy::GenerationStats;
 
 /// Global costs of `genomes` (internal coordinates), evaluated in parallel. Each evaluation is
 /// a pure function of its genome, so the result does not depend on the thread count.
@@ -89,6 +90,27 @@ pub(crate) fn to_unit(boxes: &[(f64, f64)], z: &[f64]) -> Vec<f64> {
             }
         })
         .collect()
+}
+
+/// The statistics of a strategy that has no population yet.
+pub(crate) const NO_STATS: GenerationStats = GenerationStats {
+    best_cost: f64::INFINITY,
+    mean_cost: f64::INFINITY,
+    mean_mutability: 0.0,
+};
+
+/// A checkpointed `Option<State>` read back and checked against the problem by `fits`; the
+/// error names the strategy.
+pub(crate) fn load_checked<S: serde::de::DeserializeOwned>(
+    name: &str,
+    state: &serde_json::Value,
+    fits: impl FnOnce(&S) -> bool,
+) -> Result<Option<S>, String> {
+    let s: Option<S> = serde_json::from_value(state.clone()).map_err(|e| e.to_string())?;
+    match &s {
+        Some(st) if fits(st) => Ok(s),
+        _ => Err(format!("{name} state does not match the problem")),
+    }
 }
 
 #[cfg(test)]

@@ -27,7 +27,9 @@
 use serde::{Deserialize, Serialize};
 
 use super::cmaes::mean_finite;
-use super::common::{boxes, evaluate_genomes, from_unit, start_genome, to_unit};
+use super::common::{
+    boxes, evaluate_genomes, from_unit, load_checked, start_genome, to_unit, NO_STATS,
+};
 use super::self_adaptive::{Individual, Recombination, SaEs, SelfAdaptiveConfig};
 use crate::problem::Problem;
 use crate::space::Role;
@@ -354,11 +356,7 @@ impl Strategy for Parisian {
 
     fn stats(&self) -> GenerationStats {
         let Some(s) = &self.state else {
-            return GenerationStats {
-                best_cost: f64::INFINITY,
-                mean_cost: f64::INFINITY,
-                mean_mutability: 0.0,
-            };
+            return NO_STATS;
         };
         let (mut sum, mut k) = (0.0, 0usize);
         for (sub, g) in s.subs.iter().zip(&self.groups) {
@@ -382,15 +380,11 @@ impl Strategy for Parisian {
 
     fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String> {
         self.setup(problem);
-        let s: Option<State> = serde_json::from_value(state.clone()).map_err(|e| e.to_string())?;
-        match &s {
-            Some(st)
-                if st.best_genome.len() == problem.dim()
-                    && st.whole.len() == problem.dim()
-                    && st.subs.len() == self.groups.len() => {}
-            _ => return Err("parisian state does not match the problem".into()),
-        }
-        self.state = s;
+        self.state = load_checked("parisian", state, |st: &State| {
+            st.best_genome.len() == problem.dim()
+                && st.whole.len() == problem.dim()
+                && st.subs.len() == self.groups.len()
+        })?;
         Ok(())
     }
 }

@@ -28,7 +28,9 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::cmaes::mean_finite;
-use super::common::{boxes, evaluate_genomes, from_unit, reflect, start_genome, to_unit};
+use super::common::{
+    boxes, evaluate_genomes, from_unit, load_checked, reflect, start_genome, to_unit, NO_STATS,
+};
 use crate::problem::Problem;
 use crate::rng::{self, Rng};
 use crate::strategy::{bits, lossless, GenerationStats, Strategy};
@@ -369,11 +371,7 @@ impl Strategy for SelfAdaptive {
 
     fn stats(&self) -> GenerationStats {
         let Some(s) = &self.state else {
-            return GenerationStats {
-                best_cost: f64::INFINITY,
-                mean_cost: f64::INFINITY,
-                mean_mutability: 0.0,
-            };
+            return NO_STATS;
         };
         let (mut sum, mut k) = (0.0, 0usize);
         for p in s.es.parents() {
@@ -395,12 +393,9 @@ impl Strategy for SelfAdaptive {
 
     fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String> {
         self.boxes = boxes(problem);
-        let s: Option<State> = serde_json::from_value(state.clone()).map_err(|e| e.to_string())?;
-        match &s {
-            Some(st) if st.best_genome.len() == problem.dim() && !st.es.parents.is_empty() => {}
-            _ => return Err("self-adaptive state does not match the problem".into()),
-        }
-        self.state = s;
+        self.state = load_checked("self-adaptive", state, |st: &State| {
+            st.best_genome.len() == problem.dim() && !st.es.parents.is_empty()
+        })?;
         Ok(())
     }
 }
