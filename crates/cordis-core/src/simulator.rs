@@ -12,6 +12,8 @@ pub struct Simulator {
     x: Vec<Vec3>,
     x_prev: Vec<Vec3>,
     scratch: Scratch,
+    /// x(n-1) kept by [`Simulator::step`] to undo a diverged step (the step overwrites it).
+    undo: Vec<Vec3>,
     /// Index n of the current frame x(n).
     frame: usize,
 }
@@ -34,6 +36,7 @@ impl Simulator {
             x: plan.x0.clone(),
             x_prev: plan.x_minus1.clone(),
             scratch: plan.scratch(),
+            undo: plan.x0.clone(),
             plan,
             params,
             frame: 0,
@@ -57,10 +60,12 @@ impl Simulator {
     /// Advances one step; a non-finite or runaway position is an error naming the frame and
     /// particle (the state is then left as it was).
     pub fn step(&mut self) -> Result<()> {
-        let (x_save, xp_save) = (self.x.clone(), self.x_prev.clone());
+        // A step leaves x(n) in `x_prev` and overwrites x(n-1): keep only that one (no
+        // allocation), and undo by swapping back.
+        self.undo.copy_from_slice(&self.x_prev);
         if let Some(i) = self.step_unchecked() {
-            self.x = x_save;
-            self.x_prev = xp_save;
+            std::mem::swap(&mut self.x, &mut self.x_prev);
+            self.x_prev.copy_from_slice(&self.undo);
             self.frame -= 1;
             return Err(diverged(self.frame + 1, i));
         }
