@@ -1,7 +1,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 use cordis_core::Scene;
 use cordis_es::cost::{CostKind, Objective};
 
@@ -23,15 +23,7 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     let scene = Scene::from_json_path(&a.scene)?;
     let traj = cordis_core::io::read_trajectory(&a.trajectory)?;
-    if let Some(dt) = traj.dt {
-        if (dt - scene.dt).abs() > 1e-12 * scene.dt {
-            bail!(
-                "{}: trajectory dt {dt} differs from the scene's dt {}",
-                a.trajectory.display(),
-                scene.dt
-            );
-        }
-    }
+    super::check_dt(&scene, traj.dt, &a.trajectory)?;
     let kind: CostKind = a.cost.parse().map_err(|e| anyhow::anyhow!("--cost: {e}"))?;
     let start = Instant::now();
     let objective = Objective::new(&scene, &traj, kind)?;

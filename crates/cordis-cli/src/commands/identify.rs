@@ -103,14 +103,7 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     let mut traj = cordis_core::io::read_trajectory(&a.trajectory)?;
-    if let (Some(dt), Some(tdt)) = (a.dt.or(traj.dt), Some(scene.dt)) {
-        if (dt - tdt).abs() > 1e-12 * tdt {
-            bail!(
-                "{}: trajectory dt {dt} differs from the scene's dt {tdt}",
-                a.trajectory.display()
-            );
-        }
-    }
+    super::check_dt(&scene, a.dt.or(traj.dt), &a.trajectory)?;
     let kind: CostKind = a.cost.parse().map_err(|e| anyhow::anyhow!("--cost: {e}"))?;
     let gene = match &a.param_gene {
         Some(p) => {

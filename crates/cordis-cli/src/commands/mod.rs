@@ -13,6 +13,21 @@ use std::path::Path;
 use anyhow::Result;
 use cordis_core::Scene;
 
+/// Refuses a trajectory whose time step (from its file, or `--dt`) is not the scene's: the
+/// costs predict with the scene's dt.
+pub fn check_dt(scene: &Scene, traj_dt: Option<f64>, traj_path: &Path) -> Result<()> {
+    if let Some(dt) = traj_dt {
+        if (dt - scene.dt).abs() > 1e-12 * scene.dt {
+            anyhow::bail!(
+                "{}: trajectory dt {dt} differs from the scene's dt {}",
+                traj_path.display(),
+                scene.dt
+            );
+        }
+    }
+    Ok(())
+}
+
 /// Writes a scene as JSON (atomically) or to stdout when no path is given.
 pub fn write_scene(scene: &Scene, out: Option<&Path>) -> Result<()> {
     let text = scene.to_json_string();
