@@ -12,6 +12,7 @@ mod horse;
 mod muscle;
 mod random;
 mod rigid;
+mod tadpole;
 
 pub use cloth::{cloth, CLOTH_FRAMES};
 pub use fluid::{fluid, FLUID_FRAMES};
@@ -19,11 +20,14 @@ pub use horse::{horse, HORSE_FRAMES};
 pub use muscle::{muscle, MUSCLE_FRAMES, MUSCLE_GAIN};
 pub use random::random_network;
 pub use rigid::{rigid, RIGID_FRAMES};
+pub use tadpole::{
+    tadpole, tadpole_vmax_bracket, tadpole_with, TADPOLE_BODY_LENGTH, TADPOLE_FRAMES,
+};
 
 use crate::Scene;
 
 /// Names accepted by [`by_name`], in the order the thesis presents them.
-pub const NAMES: &[&str] = &["rigid", "cloth", "fluid", "horse", "muscle"];
+pub const NAMES: &[&str] = &["rigid", "cloth", "fluid", "horse", "muscle", "tadpole"];
 
 /// The example of that name at its default size, or `None` for a name not in [`NAMES`].
 pub fn by_name(name: &str) -> Option<Scene> {
@@ -33,6 +37,7 @@ pub fn by_name(name: &str) -> Option<Scene> {
         "fluid" => Some(fluid(80, 48)),
         "horse" => Some(horse()),
         "muscle" => Some(muscle()),
+        "tadpole" => Some(tadpole()),
         _ => None,
     }
 }
@@ -46,6 +51,7 @@ pub fn default_frames(name: &str) -> usize {
         "fluid" => FLUID_FRAMES,
         "horse" => HORSE_FRAMES,
         "muscle" => MUSCLE_FRAMES,
+        "tadpole" => TADPOLE_FRAMES,
         _ => 0,
     }
 }
