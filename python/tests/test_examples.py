@@ -6,7 +6,7 @@ import cordis
 
 
 def test_examples_are_the_shipped_names():
-    assert cordis.EXAMPLES == ("rigid", "cloth", "fluid", "horse", "muscle", "tadpole")
+    assert cordis.EXAMPLES == ("rigid", "cloth", "fluid", "horse", "muscle", "tadpole", "frog")
 
 
 @pytest.mark.parametrize("name", cordis.EXAMPLES)
@@ -44,7 +44,7 @@ def test_width_sets_the_box_ratio():
 
 
 def test_unknown_name_lists_the_names():
-    with pytest.raises(ValueError, match="unknown example `tadpol`.*rigid, cloth, fluid, horse, muscle, tadpole"):
+    with pytest.raises(ValueError, match="unknown example `tadpol`.*rigid, cloth, fluid, horse, muscle, tadpole, frog"):
         cordis.example("tadpol")
 
 

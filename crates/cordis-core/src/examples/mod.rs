@@ -8,6 +8,7 @@
 
 mod cloth;
 mod fluid;
+mod frog;
 mod horse;
 mod muscle;
 mod random;
@@ -16,6 +17,7 @@ mod tadpole;
 
 pub use cloth::{cloth, CLOTH_FRAMES};
 pub use fluid::{fluid, FLUID_FRAMES};
+pub use frog::{frog, frog_heading, frog_with, FROG_FRAMES};
 pub use horse::{horse, HORSE_FRAMES};
 pub use muscle::{muscle, MUSCLE_FRAMES, MUSCLE_GAIN};
 pub use random::random_network;
@@ -27,7 +29,9 @@ pub use tadpole::{
 use crate::Scene;
 
 /// Names accepted by [`by_name`], in the order the thesis presents them.
-pub const NAMES: &[&str] = &["rigid", "cloth", "fluid", "horse", "muscle", "tadpole"];
+pub const NAMES: &[&str] = &[
+    "rigid", "cloth", "fluid", "horse", "muscle", "tadpole", "frog",
+];
 
 /// The example of that name at its default size, or `None` for a name not in [`NAMES`].
 pub fn by_name(name: &str) -> Option<Scene> {
@@ -38,6 +42,7 @@ pub fn by_name(name: &str) -> Option<Scene> {
         "horse" => Some(horse()),
         "muscle" => Some(muscle()),
         "tadpole" => Some(tadpole()),
+        "frog" => Some(frog()),
         _ => None,
     }
 }
@@ -52,6 +57,7 @@ pub fn default_frames(name: &str) -> usize {
         "horse" => HORSE_FRAMES,
         "muscle" => MUSCLE_FRAMES,
         "tadpole" => TADPOLE_FRAMES,
+        "frog" => FROG_FRAMES,
         _ => 0,
     }
 }
