@@ -37,8 +37,12 @@ pub fn run(a: Args) -> Result<()> {
     };
     super::write_scene(&scene, a.out.as_deref())?;
     if let Some(out) = &a.out {
+        let couplings = match scene.couplings.len() {
+            0 => String::new(),
+            n => format!(", {n} couplings"),
+        };
         eprintln!(
-            "wrote {} ({} particles, {} types, {} links; simulate {} frames)",
+            "wrote {} ({} particles, {} types, {} links{couplings}; simulate {} frames)",
             out.display(),
             scene.num_particles(),
             scene.types.len(),
