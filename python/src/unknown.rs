@@ -15,7 +15,7 @@ use pyo3::types::{PyBool, PyDict, PyFloat, PyMapping, PyTuple};
 /// >>> scene.types["rib"]["stiffness"]
 /// Unknown(1.0, 1000.0)
 #[pyclass(frozen, eq, module = "cordis", name = "Unknown")]
-#[derive(Clone, Copy, PartialEq)]
+#[derive(Clone, PartialEq)]
 pub struct Unknown {
     bounds: Bounds,
 }

@@ -59,7 +59,7 @@ fn every_subcommand_prints_one_json_object_per_line() {
     let v = one_object(d, &["example", "rigid", "--out", "rigid.json"]);
     assert_eq!(v["out"], "rigid.json");
     assert_eq!(v["particles"], 15);
-    let truth = Scene::from_json_path(&d.join("rigid.json")).unwrap();
+    let truth = Scene::from_json_path(d.join("rigid.json")).unwrap();
     let v = one_object(d, &["example", "rigid"]);
     assert_eq!(Scene::from_json_value(&v["scene"]).unwrap(), truth);
     assert_eq!(v["out"], Value::Null);
@@ -122,7 +122,7 @@ fn every_subcommand_prints_one_json_object_per_line() {
             "tri.csv",
         ],
     );
-    let imported = Scene::from_json_path(&d.join("tri.json")).unwrap();
+    let imported = Scene::from_json_path(d.join("tri.json")).unwrap();
     assert_eq!(v["particles"], imported.num_particles());
     assert!(d.join("tri.csv").exists());
 
