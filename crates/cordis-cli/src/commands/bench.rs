@@ -2,6 +2,7 @@
 //! readable table on stderr. One file per mode under `bench/`.
 
 mod cost;
+mod pareto;
 mod stability;
 
 use anyhow::Result;
@@ -19,11 +20,15 @@ pub enum Mode {
     /// The stability bound against measured limits, long undamped runs, large scenes and
     /// extreme values.
     Stability(stability::Args),
+    /// Every identification strategy on every shipped example at several budgets: run time,
+    /// evaluations, cost and parameter error, and the speed-up over the thesis' strategy.
+    Pareto(pareto::Args),
 }
 
 pub fn run(a: Args) -> Result<()> {
     match a.mode {
         Mode::Cost(a) => cost::run(a),
         Mode::Stability(a) => stability::run(a),
+        Mode::Pareto(a) => pareto::run(a),
     }
 }
