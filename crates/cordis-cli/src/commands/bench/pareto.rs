@@ -219,7 +219,7 @@ pub fn run(a: Args) -> Result<()> {
     if budgets[0] == 0 {
         bail!("--budgets: a budget is a positive number of evaluations");
     }
-    if !(a.time_limit > 0.0) {
+    if a.time_limit.is_nan() || a.time_limit <= 0.0 {
         bail!("--time-limit: must be a positive number of seconds");
     }
     let strategies: Vec<(String, StrategyName)> = a
