@@ -181,14 +181,22 @@ def main():
     ap.add_argument("--out", default="pareto.jsonl", help="JSON-lines output")
     ap.add_argument("--plot", help="error against run time, one panel per scene (.png/.svg)")
     ap.add_argument("--no-pycma", action="store_true", help="only the CLI bench")
+    ap.add_argument("--reuse", nargs=2, metavar=("FILE", "DIR"),
+                    help="skip the CLI bench: add pycma to the records FILE of an earlier "
+                         "`cordis bench pareto --out FILE --data DIR`")
     ap.add_argument("bench_args", nargs="*", help="arguments of `cordis bench pareto` (after --)")
     a = ap.parse_args()
-    with tempfile.TemporaryDirectory(prefix="cordis-pareto-") as data:
-        cmd = [a.cordis, "bench", "pareto", "--out", a.out, "--data", data, *a.bench_args]
-        print("$", " ".join(cmd), flush=True)
-        subprocess.run(cmd, check=True)
-        with open(a.out) as fh:
+    with tempfile.TemporaryDirectory(prefix="cordis-pareto-") as tmp:
+        if a.reuse:
+            source, data = a.reuse
+        else:
+            source, data = a.out, tmp
+            cmd = [a.cordis, "bench", "pareto", "--out", a.out, "--data", data, *a.bench_args]
+            print("$", " ".join(cmd), flush=True)
+            subprocess.run(cmd, check=True)
+        with open(source) as fh:
             records = [json.loads(line) for line in fh if line.strip()]
+        records = [r for r in records if r.get("strategy") != "pycma"]
         if not a.no_pycma:
             print("\npycma (default population, cordis.Objective as the cost):")
             print(f"{'scene':<7} {'budget':>10} {'evals':>10} {'seconds':>9} {'cost':>11} "

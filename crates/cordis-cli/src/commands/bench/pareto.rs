@@ -379,17 +379,15 @@ fn reach(result: &RunResult, target_pct: f64) -> Option<&HistoryRow> {
 }
 
 /// The `thesis` strategy's time to the target against the best other strategy's, as a
-/// `speedup` record; `None` when either was not run or no other strategy reached it.
+/// `speedup` record (`best` null when no other strategy got there); `None` when the thesis
+/// strategy was not run.
 fn speedup(scene: &str, target_pct: f64, reaches: &[(String, Option<f64>, f64)]) -> Option<Value> {
     let (_, thesis_reach, thesis_run) = reaches.iter().find(|(n, _, _)| n == "thesis")?;
-    let (best, best_seconds, _) = reaches
+    let best = reaches
         .iter()
-        .filter(|(n, r, _)| n != "thesis" && r.is_some())
-        .min_by(|a, b| {
-            a.1.unwrap_or(f64::INFINITY)
-                .total_cmp(&b.1.unwrap_or(f64::INFINITY))
-        })?;
-    let best_seconds = best_seconds.expect("filtered on reached");
+        .filter_map(|(n, r, _)| Some((n, (*r)?)))
+        .filter(|(n, _)| *n != "thesis")
+        .min_by(|a, b| a.1.total_cmp(&b.1));
     let (thesis_seconds, lower_bound) = match thesis_reach {
         Some(t) => (*t, false),
         None => (*thesis_run, true),
@@ -397,8 +395,8 @@ fn speedup(scene: &str, target_pct: f64, reaches: &[(String, Option<f64>, f64)])
     Some(json!({
         "bench": "pareto", "record": "speedup", "scene": scene, "target_pct": target_pct,
         "thesis_seconds": thesis_seconds, "thesis_lower_bound": lower_bound,
-        "best": best, "best_seconds": best_seconds,
-        "ratio": thesis_seconds / best_seconds.max(1e-9),
+        "best": best.map(|b| b.0), "best_seconds": best.map(|b| b.1),
+        "ratio": best.map(|b| thesis_seconds / b.1.max(1e-9)),
     }))
 }
 
@@ -418,17 +416,30 @@ fn print_speedups(speedups: &[Value]) {
         } else {
             ""
         };
+        let (best, best_seconds, ratio) = match s["ratio"].as_f64() {
+            Some(r) => (
+                s["best"].as_str().unwrap_or(""),
+                format!("{:.4}", s["best_seconds"].as_f64().unwrap_or(f64::NAN)),
+                if r < 10.0 {
+                    format!("{lb}{r:.2}×")
+                } else {
+                    format!("{lb}{r:.0}×")
+                },
+            ),
+            None => ("none reached", "-".to_string(), "-".to_string()),
+        };
+        let thesis = format!(
+            "{lb}{:.3}",
+            s["thesis_seconds"].as_f64().unwrap_or(f64::NAN)
+        );
         println!(
-            "{:<7} {:>9} {:>13} {:<14} {:>10.4} {:>10}",
+            "{:<7} {:>9} {:>13} {:<14} {:>10} {:>10}",
             s["scene"].as_str().unwrap_or(""),
             s["target_pct"],
-            format!(
-                "{lb}{:.3}",
-                s["thesis_seconds"].as_f64().unwrap_or(f64::NAN)
-            ),
-            s["best"].as_str().unwrap_or(""),
-            s["best_seconds"].as_f64().unwrap_or(f64::NAN),
-            format!("{lb}{:.0}×", s["ratio"].as_f64().unwrap_or(f64::NAN)),
+            thesis,
+            best,
+            best_seconds,
+            ratio,
         );
     }
 }
