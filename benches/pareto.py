@@ -154,6 +154,8 @@ def plot(records, path):
     import cordis.plot
 
     scenes = [r for r in records if r["record"] == "scene"]
+    # One marker and colour per strategy across the panels.
+    order = list(dict.fromkeys(r["strategy"] for r in records if r["record"] == "point"))
     cols = min(3, len(scenes))
     rows = -(-len(scenes) // cols)
     fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.2 * rows), squeeze=False,
@@ -164,7 +166,7 @@ def plot(records, path):
         if not pts:
             ax.set_visible(False)
             continue
-        cordis.plot.pareto(pts, ax=ax)
+        cordis.plot.pareto(pts, ax=ax, strategies=order)
         ax.axhline(s["target_pct"], color="black", lw=0.8, ls="--")
         ax.set_title(f"{s['scene']} ({s['unknowns']} unknowns; dashed: thesis' error "
                      f"{s['target_pct']:g} %)", fontsize="medium")

@@ -209,7 +209,8 @@ pub fn bench_scene(name: &str, seed: u64) -> Result<BenchScene> {
     })
 }
 
-pub fn run(a: Args) -> Result<()> {
+pub fn run(a: Args, output: super::super::Output) -> Result<()> {
+    let out = Report(output);
     let mut budgets = a.budgets.clone();
     budgets.sort_unstable();
     budgets.dedup();
@@ -248,19 +249,22 @@ pub fn run(a: Args) -> Result<()> {
         .context("--threads")?;
     let mut lines: Vec<Value> = Vec::new();
     let mut speedups = Vec::new();
-    println!(
+    out.table(format!(
         "{:<7} {:<14} {:>10} {:>10} {:>9} {:>11} {:>12}  stop",
         "scene", "strategy", "budget", "evals", "seconds", "cost", "error %"
-    );
+    ));
     for s in &scenes {
         let n_unknowns = Problem::new(&s.unknown, &s.traj, CostKind::Short)?.dim();
-        lines.push(json!({
-            "bench": "pareto", "record": "scene", "scene": s.name,
-            "particles": s.truth.num_particles(), "frames": s.traj.frames(),
-            "unknowns": n_unknowns, "target_pct": s.target_pct,
-            "target_source": s.target_source, "setup": s.setup, "seed": a.seed,
-            "threads": a.threads, "budgets": budgets, "time_limit": a.time_limit,
-        }));
+        out.record(
+            &mut lines,
+            json!({
+                "bench": "pareto", "record": "scene", "scene": s.name,
+                "particles": s.truth.num_particles(), "frames": s.traj.frames(),
+                "unknowns": n_unknowns, "target_pct": s.target_pct,
+                "target_source": s.target_source, "setup": s.setup, "seed": a.seed,
+                "threads": a.threads, "budgets": budgets, "time_limit": a.time_limit,
+            }),
+        );
         let mut reaches: Vec<(String, Option<f64>, f64)> = Vec::new();
         for (label, name) in &strategies {
             let setup_start = Instant::now();
@@ -273,11 +277,17 @@ pub fn run(a: Args) -> Result<()> {
             };
             let (mut strategy, ran) = make_strategy(*name, &problem, &options);
             if let Err(reason) = check_strategy(ran, &problem) {
-                println!("{:<7} {:<14} not applicable: {reason}", s.name, label);
-                lines.push(json!({
-                    "bench": "pareto", "record": "not_applicable", "scene": s.name,
-                    "strategy": label, "reason": reason,
-                }));
+                out.table(format!(
+                    "{:<7} {:<14} not applicable: {reason}",
+                    s.name, label
+                ));
+                out.record(
+                    &mut lines,
+                    json!({
+                        "bench": "pareto", "record": "not_applicable", "scene": s.name,
+                        "strategy": label, "reason": reason,
+                    }),
+                );
                 continue;
             }
             let setup = setup_start.elapsed().as_secs_f64();
@@ -300,7 +310,7 @@ pub fn run(a: Args) -> Result<()> {
                 } else {
                     String::new()
                 };
-                println!(
+                out.table(format!(
                     "{:<7} {:<14} {:>10} {:>10} {:>9.3} {:>11.3e} {:>12}  {}",
                     s.name,
                     label,
@@ -312,36 +322,44 @@ pub fn run(a: Args) -> Result<()> {
                         .map(|e| format!("{e:.3e}"))
                         .unwrap_or_default(),
                     stop
+                ));
+                out.record(
+                    &mut lines,
+                    json!({
+                        "bench": "pareto", "record": "point", "scene": s.name, "strategy": label,
+                        "budget": budget, "evals": row.evals, "generations": row.generation,
+                        "seconds": setup + row.seconds, "cost": finite(row.best_cost),
+                        "param_error_pct": row.param_error_pct.and_then(finite),
+                        "stopped_by": budget.is_none().then(|| json!(result.stopped_by)),
+                    }),
                 );
-                lines.push(json!({
-                    "bench": "pareto", "record": "point", "scene": s.name, "strategy": label,
-                    "budget": budget, "evals": row.evals, "generations": row.generation,
-                    "seconds": setup + row.seconds, "cost": finite(row.best_cost),
-                    "param_error_pct": row.param_error_pct.and_then(finite),
-                    "stopped_by": budget.is_none().then(|| json!(result.stopped_by)),
-                }));
             }
             let reach = reach(&result, s.target_pct);
             let run_seconds = setup + result.seconds;
-            lines.push(json!({
-                "bench": "pareto", "record": "reach", "scene": s.name, "strategy": label,
-                "target_pct": s.target_pct,
-                "seconds": reach.map(|r| setup + r.seconds),
-                "evals": reach.map(|r| r.evals),
-                "run_seconds": run_seconds, "run_evals": result.evals,
-            }));
+            out.record(
+                &mut lines,
+                json!({
+                    "bench": "pareto", "record": "reach", "scene": s.name, "strategy": label,
+                    "target_pct": s.target_pct,
+                    "seconds": reach.map(|r| setup + r.seconds),
+                    "evals": reach.map(|r| r.evals),
+                    "run_seconds": run_seconds, "run_evals": result.evals,
+                }),
+            );
             reaches.push((label.clone(), reach.map(|r| setup + r.seconds), run_seconds));
         }
         if let Some(sp) = speedup(&s.name, s.target_pct, &reaches) {
             speedups.push(sp.clone());
-            lines.push(sp);
+            out.record(&mut lines, sp);
         }
         // Written after every scene: a long bench leaves what it has measured.
         write_lines(&a.out, &lines)?;
     }
     write_lines(&a.out, &lines)?;
-    print_speedups(&speedups);
-    eprintln!("wrote {} ({} records)", a.out.display(), lines.len());
+    print_speedups(&out, &speedups);
+    if out.0.human() {
+        eprintln!("wrote {} ({} records)", a.out.display(), lines.len());
+    }
     Ok(())
 }
 
@@ -400,16 +418,18 @@ fn speedup(scene: &str, target_pct: f64, reaches: &[(String, Option<f64>, f64)])
     }))
 }
 
-fn print_speedups(speedups: &[Value]) {
+fn print_speedups(out: &Report, speedups: &[Value]) {
     if speedups.is_empty() {
         return;
     }
-    println!();
-    println!("time to the thesis' error (best individual's mean parameter error ≤ target):");
-    println!(
+    out.table(String::new());
+    out.table(format!(
+        "time to the thesis' error (best individual's mean parameter error ≤ target):"
+    ));
+    out.table(format!(
         "{:<7} {:>9} {:>13} {:<14} {:>10} {:>10}",
         "scene", "target %", "thesis (s)", "best", "best (s)", "ratio"
-    );
+    ));
     for s in speedups {
         let lb = if s["thesis_lower_bound"].as_bool() == Some(true) {
             ">"
@@ -432,7 +452,7 @@ fn print_speedups(speedups: &[Value]) {
             "{lb}{:.3}",
             s["thesis_seconds"].as_f64().unwrap_or(f64::NAN)
         );
-        println!(
+        out.table(format!(
             "{:<7} {:>9} {:>13} {:<14} {:>10} {:>10}",
             s["scene"].as_str().unwrap_or(""),
             s["target_pct"],
@@ -440,7 +460,28 @@ fn print_speedups(speedups: &[Value]) {
             best,
             best_seconds,
             ratio,
-        );
+        ));
+    }
+}
+
+/// Where the tables and records go: tables on stdout, or with `--json` the records on stdout
+/// and the tables on stderr (none with `--quiet`).
+struct Report(super::super::Output);
+
+impl Report {
+    fn table(&self, line: String) {
+        if !self.0.json {
+            println!("{line}");
+        } else if self.0.human() {
+            eprintln!("{line}");
+        }
+    }
+
+    fn record(&self, lines: &mut Vec<Value>, v: Value) {
+        if self.0.json {
+            println!("{v}");
+        }
+        lines.push(v);
     }
 }
 
