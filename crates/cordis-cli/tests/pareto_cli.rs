@@ -143,4 +143,22 @@ fn exact_solvers_on_a_nonlinear_scene_are_reported_not_applicable() {
         assert!(reason.contains("nonlinear"), "{reason}");
     }
     assert!(records(&lines, "point", "").is_empty());
+
+    // With --json, stdout holds the same records and nothing else; the table goes to stderr.
+    let out = Command::new(env!("CARGO_BIN_EXE_cordis"))
+        .current_dir(dir.path())
+        .args([
+            "--json", "bench", "pareto", "--out", "q.jsonl", "--scenes", "muscle",
+        ])
+        .args(["--strategies", "least-squares", "--budgets", "100"])
+        .output()
+        .expect("cordis runs");
+    assert!(out.status.success());
+    let stdout: Vec<Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("only JSON on stdout"))
+        .collect();
+    assert_eq!(stdout.len(), 2, "the scene and one not_applicable record");
+    assert_eq!(stdout[1]["record"], "not_applicable");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("not applicable"));
 }
