@@ -423,9 +423,9 @@ fn print_speedups(out: &Report, speedups: &[Value]) {
         return;
     }
     out.table(String::new());
-    out.table(format!(
-        "time to the thesis' error (best individual's mean parameter error ≤ target):"
-    ));
+    out.table(
+        "time to the thesis' error (best individual's mean parameter error ≤ target):".into(),
+    );
     out.table(format!(
         "{:<7} {:>9} {:>13} {:<14} {:>10} {:>10}",
         "scene", "target %", "thesis (s)", "best", "best (s)", "ratio"
