@@ -497,6 +497,31 @@ impl TypeView {
             .count()
     }
 
+    /// Provot's critical deformation rate τc (springs only; None: no limit). Settable:
+    /// `scene.types["rib"].max_elongation = None` removes the limit.
+    #[getter]
+    fn max_elongation(&self, py: Python<'_>) -> Option<f64> {
+        self.read(py, |t| t.max_elongation)
+    }
+
+    #[setter]
+    fn set_max_elongation(&self, py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        let tau = if value.is_none() {
+            None
+        } else {
+            let place = format!("types.{}.max_elongation", self.name(py));
+            Some(number(value, &place)?)
+        };
+        let ti = self.index;
+        self.scene.bind(py).get().edit(
+            |s| {
+                let old = std::mem::replace(&mut s.types[ti].max_elongation, tau);
+                Ok(move |s: &mut CoreScene| s.types[ti].max_elongation = old)
+            },
+            |s| s.validate_type(ti),
+        )
+    }
+
     fn __len__(&self, py: Python<'_>) -> usize {
         self.read(py, |t| t.params.len())
     }
