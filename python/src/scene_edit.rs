@@ -419,12 +419,10 @@ impl Types {
 
     /// The view of type `name`, or `default` when there is none.
     #[pyo3(signature = (name, default = None))]
-    fn get(&self, py: Python<'_>, name: &str, default: Option<Py<PyAny>>) -> Py<PyAny> {
+    fn get(&self, py: Python<'_>, name: &str, default: Option<Py<PyAny>>) -> PyResult<Py<PyAny>> {
         match self.names(py).iter().position(|n| n == name) {
-            Some(i) => Py::new(py, self.view(py, i))
-                .map(Py::into_any)
-                .unwrap_or_else(|_| py.None()),
-            None => default.unwrap_or_else(|| py.None()),
+            Some(i) => Ok(Py::new(py, self.view(py, i))?.into_any()),
+            None => Ok(default.unwrap_or_else(|| py.None())),
         }
     }
 
