@@ -27,7 +27,17 @@ use crate::scene_edit::{self, Particles, Types};
 /// particles, with its time step `dt` (s) and `gravity` (m/s²). Read one with
 /// `Scene.from_json` or `Scene.from_dict`; run it with `simulate`; edit it in place
 /// (`scene.dt`, `scene.gravity`, `scene.types[NAME][PARAM]`, `scene.particles[i].mass`,
-/// `scene.masses`, `scene.positions`, `scene.velocities`), every edit validated.
+/// `scene.masses`, `scene.positions`, `scene.velocities`), every edit validated: a refused
+/// value raises `SceneError` naming the place and leaves the scene unchanged.
+///
+/// >>> scene = cordis.example("rigid")
+/// >>> scene.dt = 0.005
+/// >>> scene.types["brace"]["stiffness"] = 120.0
+/// >>> scene.types["brace"]["damping"] = cordis.Unknown(0.0, 2.0)
+/// >>> scene.particles[3].mass = 2.0
+/// >>> print(scene)
+/// Scene: 15 particles (0 fixed), 31 links, 10 types; dt = 0.005 s, …
+/// >>> open("edited.json", "w").write(scene.to_json())
 #[pyclass(frozen, eq, module = "cordis", name = "Scene")]
 pub struct Scene {
     inner: RwLock<Arc<CoreScene>>,

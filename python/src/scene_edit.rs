@@ -195,6 +195,12 @@ impl Particles {
 /// One particle of a scene: `mass` (kg, or `Unknown`), `pos` = x(0) (m), `vel` = v(0) (m/s),
 /// `fixed`, `group`. Every attribute can be set; a value the scene refuses raises `SceneError`
 /// (`particles[3].mass: must be a positive number, got 0`) and changes nothing.
+///
+/// >>> p = scene.particles[3]
+/// >>> p.mass = 2.0
+/// >>> p.pos = (0.0, 0.0, 1.5)
+/// >>> p
+/// Particle(3, mass=2.0, pos=(0.0, 0.0, 1.5))
 #[pyclass(frozen, module = "cordis", name = "Particle")]
 pub struct ParticleView {
     scene: Py<Scene>,
@@ -438,6 +444,13 @@ impl Types {
 /// `damping`…, and a muscle's `w_len[k]`, `w_rate[k]`) to its value, shared by every link of
 /// the type. Values are floats, or `cordis.Unknown(min, max)` for parameters to identify;
 /// assignments write through to the scene and are validated.
+///
+/// >>> rib = scene.types["rib"]
+/// >>> rib["stiffness"] = 120.0
+/// >>> rib["damping"] = cordis.Unknown(0.0, 5.0)
+/// >>> dict(rib)
+/// {'stiffness': 120.0, 'rest_length': 1.0, 'damping': Unknown(0.0, 5.0)}
+/// >>> rib["stifness"]   # SceneKeyError (a KeyError) listing the type's parameters
 #[pyclass(frozen, mapping, module = "cordis", name = "LinkType")]
 pub struct TypeView {
     scene: Py<Scene>,
