@@ -25,8 +25,10 @@ pub enum Mode {
     Pareto(pareto::Args),
 }
 
-/// Benchmarks print JSON lines whatever `--json` says; `--quiet` is not honoured by their
-/// tables (a benchmark run is read by a person or a script that keeps stdout only).
+/// `cost` and `stability` print JSON lines on stdout whatever `--json` says, and their table
+/// on stderr even with `--quiet` (a script keeps stdout only; docs/cli.md says so). `pareto`
+/// writes its records to a file and its tables on stdout; with `--json`, the records on stdout
+/// and the tables on stderr.
 pub fn run(a: Args, output: super::Output) -> Result<()> {
     match a.mode {
         Mode::Cost(a) => cost::run(a),
