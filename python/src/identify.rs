@@ -14,12 +14,10 @@ use std::time::Duration;
 use cordis_es::executor::{
     self, HistoryRow, Observer, RunConfig, RunResult, StopReason, StopRules,
 };
-use cordis_es::identify::{
-    add_noise, make_islands, make_strategy, StrategyName, StrategyOptions,
-};
-use cordis_es::strategies::islands::IslandConfig;
+use cordis_es::identify::{add_noise, make_islands, make_strategy, StrategyName, StrategyOptions};
 use cordis_es::problem::Problem;
 use cordis_es::space::ParameterSpace;
+use cordis_es::strategies::islands::IslandConfig;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2};
 use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
