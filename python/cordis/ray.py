@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import json
 import os
+import time
 from pathlib import Path
 from typing import Any, Callable, Dict, Iterable, Mapping, Optional, Union
 
@@ -58,7 +59,11 @@ class _Worker:
         )
 
     def evaluate(self, genomes: np.ndarray, generation: int, local: bool) -> Any:
-        return self._ev.evaluate(genomes, generation, local)
+        # The actor's own evaluation time travels back too: the driver can tell the round
+        # trip's overhead from the work (RayEvaluator.last_timing).
+        start = time.perf_counter()
+        out = self._ev.evaluate(genomes, generation, local)
+        return out, time.perf_counter() - start
 
     def pid(self) -> int:
         return os.getpid()
@@ -86,6 +91,9 @@ class RayEvaluator:
         # Held until close(): a restarted actor reads its constructor argument again.
         self._spec = spec
         self.num_workers = num_workers
+        # (wall seconds of the last generation's round trip, seconds the slowest actor spent
+        # evaluating): their difference is Ray's overhead for that generation.
+        self.last_timing = (0.0, 0.0)
         self._actors = [
             _RemoteWorker.options(
                 num_cpus=threads_per_worker,
@@ -97,8 +105,11 @@ class RayEvaluator:
 
     def __call__(self, genomes: np.ndarray, generation: int, local: bool) -> Any:
         blocks = [b for b in np.array_split(genomes, len(self._actors)) if len(b)]
+        start = time.perf_counter()
         refs = [a.evaluate.remote(b, generation, local) for a, b in zip(self._actors, blocks)]
-        outs = ray.get(refs)
+        timed = ray.get(refs)
+        outs = [o for o, _ in timed]
+        self.last_timing = (time.perf_counter() - start, max(t for _, t in timed))
         if not local:
             return np.concatenate(outs)
         return np.concatenate([o[0] for o in outs]), np.concatenate([o[1] for o in outs])
@@ -151,10 +162,16 @@ class RayExecutor:
     def evaluator(self, scene_json: str, traj: np.ndarray, cost: str) -> RayEvaluator:
         """Starts the actors of one run (called by `cordis.identify`)."""
         _ensure_ray(self.address, self.init_kwargs)
+        cpus = int(ray.cluster_resources().get("CPU", 1))
         n = self.num_workers
         if n is None:
-            cpus = int(ray.cluster_resources().get("CPU", 1))
             n = max(1, cpus // self.threads_per_worker)
+        elif n * self.threads_per_worker > cpus:
+            # Ray would wait forever for CPUs that do not exist: say so instead of hanging.
+            raise ValueError(
+                f"num_workers: {n} workers of {self.threads_per_worker} thread(s) need "
+                f"{n * self.threads_per_worker} CPUs, the Ray cluster has {cpus}"
+            )
         self.last = RayEvaluator(
             scene_json, traj, cost, n, self.threads_per_worker, self.max_restarts
         )
@@ -249,6 +266,10 @@ def identify_many(
     total = len(takes)
     done = len(results)
     _ensure_ray(address, init_kwargs or {})
+    cpus = int(ray.cluster_resources().get("CPU", 1))
+    if threads > cpus:
+        raise ValueError(f"threads: a take on {threads} threads needs {threads} CPUs, "
+                         f"the Ray cluster has {cpus}")
     scene_json = scene.to_json()
     scene_ref = ray.put(scene_json)
     pending = {

@@ -114,6 +114,12 @@ def test_identify_many_keeps_results_and_reruns_a_killed_task(local_ray, rigid, 
     assert again == res and seen == []
 
 
+def test_more_workers_than_cpus_is_an_error_not_a_hang(local_ray, rigid):
+    truth, traj, scene = rigid
+    with pytest.raises(ValueError, match="need 3 CPUs, the Ray cluster has 2"):
+        cordis.identify(scene, traj, executor=cordis.RayExecutor(num_workers=3), **RUN)
+
+
 def test_bad_executor_arguments(rigid):
     truth, traj, scene = rigid
     with pytest.raises(ValueError, match="unknown executor `dask`"):
