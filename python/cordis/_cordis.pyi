@@ -22,6 +22,7 @@ __version__: str
 EXAMPLES: Tuple[str, ...]
 __all__ = [
     "__version__",
+    "PopulationEvaluator",
     "CordisError",
     "SceneError",
     "TrajectoryError",
@@ -423,9 +424,9 @@ class PopulationEvaluator:
     >>> costs = ev.evaluate(genomes, generation=0)            # (M,) for genomes (M, ev.dim)
     """
 
-    def __init__(
-        self, scene: Scene, traj: _ArrayLike, cost: str = "short", threads: int = 1
-    ) -> None: ...
+    def __new__(
+        cls, scene: Scene, traj: _ArrayLike, cost: str = "short", threads: int = 1
+    ) -> "PopulationEvaluator": ...
     @property
     def dim(self) -> int:
         """Number of unknowns (length of a genome)."""
