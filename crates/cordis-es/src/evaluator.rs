@@ -43,21 +43,21 @@ impl Evaluator for Local {
     ) -> Result<(), String> {
         let dim = problem.dim();
         let n = problem.num_particles;
-        // A zero-dimensional genome still has a cost: chunks of at least one value.
-        let rows = genomes.chunks_exact(dim.max(1));
+        debug_assert_eq!(genomes.len(), costs.len() * dim, "one genome per cost");
+        // One row per individual; without unknowns the rows are empty (each still has a cost).
         let rows: Vec<&[f64]> = if dim == 0 {
             vec![&[][..]; costs.len()]
         } else {
-            rows.collect()
+            genomes.chunks_exact(dim).collect()
         };
         match local {
             Some(local) if n > 0 => rows
                 .par_iter()
                 .zip(costs.par_iter_mut())
-                .zip(local.par_chunks_mut(n.max(1)))
+                .zip(local.par_chunks_mut(n))
                 .for_each_init(
                     || problem.scratch(),
-                    |s, ((g, c), l)| *c = problem.evaluate_uncounted(g, s, &mut l[..n]),
+                    |s, ((g, c), l)| *c = problem.evaluate_uncounted(g, s, l),
                 ),
             _ => rows.par_iter().zip(costs.par_iter_mut()).for_each_init(
                 || (problem.scratch(), vec![0.0; n]),
