@@ -224,6 +224,14 @@ class LinkType:
     @property
     def num_links(self) -> int:
         """Number of listed links of this type."""
+    @property
+    def max_elongation(self) -> Optional[float]:
+        """Provot's critical deformation rate τc (springs only), or None: no limit.
+
+        Settable; ``None`` removes the limit, a value on another kind raises SceneError.
+        """
+    @max_elongation.setter
+    def max_elongation(self, value: Optional[float]) -> None: ...
     def __len__(self) -> int: ...
     def __getitem__(self, key: str, /) -> _Param: ...
     def __setitem__(self, key: str, value: _ParamIn, /) -> None: ...

@@ -21,8 +21,8 @@ pub enum Mode {
     Stability(stability::Args),
 }
 
-/// Benchmarks print JSON lines whatever `--json` says; `--quiet` is not honoured by their
-/// tables (a benchmark run is read by a person or a script that keeps stdout only).
+/// Benchmarks print JSON lines on stdout whatever `--json` says, and their table on stderr
+/// even with `--quiet` (a script keeps stdout only; docs/cli.md says so).
 pub fn run(a: Args, _output: super::Output) -> Result<()> {
     match a.mode {
         Mode::Cost(a) => cost::run(a),
