@@ -224,12 +224,14 @@ fn bad(what: &str, message: impl std::fmt::Display) -> PyErr {
 #[pyo3(signature = (
     scene, traj, strategy = "auto", generations = Some(1000), population = 100, seed = 0,
     callback = None, *, noise = 0.0, cost = "short", time_limit = None, target_cost = None,
-    max_evals = None, threads = None, truth = None, checkpoint = None, resume = None, dt = None
+    max_evals = None, threads = None, truth = None, checkpoint = None, resume = None, dt = None,
+    stable_horizon = None, stable_spread = cordis_es::stable::DEFAULT_SPREAD
 ))]
 #[pyo3(
     text_signature = "(scene, traj, strategy='auto', generations=1000, population=100, \
     seed=0, callback=None, *, noise=0.0, cost='short', time_limit=None, target_cost=None, \
-    max_evals=None, threads=None, truth=None, checkpoint=None, resume=None, dt=None)"
+    max_evals=None, threads=None, truth=None, checkpoint=None, resume=None, dt=None, \
+    stable_horizon=None, stable_spread=2.0)"
 )]
 #[allow(clippy::too_many_arguments)]
 pub fn identify(
@@ -251,6 +253,8 @@ pub fn identify(
     checkpoint: Option<PathBuf>,
     resume: Option<PathBuf>,
     dt: Option<f64>,
+    stable_horizon: Option<i64>,
+    stable_spread: f64,
 ) -> PyResult<IdentifyResult> {
     let name: StrategyName = strategy.parse().map_err(|e| bad("strategy", e))?;
     let generations: Option<u64> = generations.map(|g| count(g, "generations")).transpose()?;
@@ -258,6 +262,12 @@ pub fn identify(
     let seed: u64 = count(seed, "seed")?;
     let max_evals: Option<u64> = max_evals.map(|m| count(m, "max_evals")).transpose()?;
     let threads: Option<usize> = threads.map(|t| count(t, "threads")).transpose()?;
+    let stable = stable_horizon
+        .map(|h| {
+            let h = count(h, "stable_horizon")?;
+            cordis_es::stable::StableHorizon::new(h, stable_spread).map_err(cost_to_py)
+        })
+        .transpose()?;
     if population < 2 {
         return Err(bad(
             "population",
@@ -317,6 +327,9 @@ pub fn identify(
                 ));
             }
             problem = problem.with_truth(t).map_err(cost_to_py)?;
+        }
+        if let Some(h) = stable {
+            problem = problem.with_stable_horizon(h);
         }
         Ok(problem)
     });

@@ -43,7 +43,7 @@ pub use particle::Particle;
 pub use plan::Plan;
 pub use scene::Scene;
 pub use simulator::Simulator;
-pub use stability::{stability, StabilityReport};
+pub use stability::{stability, StabilityReport, StabilityScratch};
 pub use trajectory::Trajectory;
 
 /// 3-vector of f64 (positions in m, velocities in m/s, forces in N).
