@@ -6,7 +6,7 @@ import cordis
 
 
 def test_examples_are_the_shipped_names():
-    assert cordis.EXAMPLES == ("rigid", "cloth", "fluid", "horse", "muscle")
+    assert cordis.EXAMPLES == ("rigid", "cloth", "fluid", "horse", "muscle", "horse-gait")
 
 
 @pytest.mark.parametrize("name", cordis.EXAMPLES)

@@ -154,9 +154,7 @@ const GAIT_MUSCLES: [&str; 4] = [
 #[test]
 fn the_neuro_mechanical_horse_beats_the_passive_one() {
     let truth = cordis_core::examples::horse_gait();
-    let traj = truth
-        .simulate(cordis_core::examples::HORSE_FRAMES)
-        .unwrap();
+    let traj = truth.simulate(cordis_core::examples::HORSE_FRAMES).unwrap();
     let mut neural = with_unknown_boxes(&truth, 10.0, 0);
     for (t, known) in neural.types.iter_mut().zip(&truth.types) {
         if !GAIT_MUSCLES.contains(&known.name.as_str()) {

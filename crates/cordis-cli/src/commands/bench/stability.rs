@@ -38,6 +38,9 @@ pub struct Args {
     /// Seeds of the wide-box identification runs (0..N).
     #[arg(long, default_value_t = 3)]
     identify_seeds: u64,
+    /// Run only this section: sweep | limit | long | large | extremes | wide_identification.
+    #[arg(long)]
+    only: Option<String>,
     /// Smaller everything (CI): 2000 frames, 10^5 steps, a 100×100 cloth, 2000 evaluations.
     #[arg(long)]
     quick: bool,
@@ -57,12 +60,42 @@ pub fn run(mut a: Args) -> Result<()> {
         a.identify_evals = a.identify_evals.min(2000);
         a.identify_seeds = a.identify_seeds.min(1);
     }
-    sweep(&a)?;
-    limits(&a)?;
-    long(&a)?;
-    large(&a)?;
-    extremes()?;
-    wide_identification(&a)
+    const SECTIONS: [&str; 6] = [
+        "sweep",
+        "limit",
+        "long",
+        "large",
+        "extremes",
+        "wide_identification",
+    ];
+    if let Some(only) = &a.only {
+        if !SECTIONS.contains(&only.as_str()) {
+            anyhow::bail!(
+                "--only: unknown section `{only}` (expected one of: {})",
+                SECTIONS.join(", ")
+            );
+        }
+    }
+    let on = |name: &str| a.only.as_deref().is_none_or(|o| o == name);
+    if on("sweep") {
+        sweep(&a)?;
+    }
+    if on("limit") {
+        limits(&a)?;
+    }
+    if on("long") {
+        long(&a)?;
+    }
+    if on("large") {
+        large(&a)?;
+    }
+    if on("extremes") {
+        extremes()?;
+    }
+    if on("wide_identification") {
+        wide_identification(&a)?;
+    }
+    Ok(())
 }
 
 fn emit(case: &str, mut v: Value) {
