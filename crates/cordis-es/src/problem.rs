@@ -113,8 +113,8 @@ impl Problem {
     pub fn stability_check(&self, p: &[f64], s: &mut EvalScratch) -> Option<Rejection> {
         let g = self.guard.as_ref()?;
         let q = plan_max_ratio(&self.objective.plan, p, &mut s.stability);
-        // `!(q < 1)`: a NaN bound (absurd values) is a rejection too.
-        if !(q < 1.0) {
+        // A NaN bound (absurd values) is a rejection too.
+        if q >= 1.0 || q.is_nan() {
             return Some(Rejection::Bound(q));
         }
         self.objective

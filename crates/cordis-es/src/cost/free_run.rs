@@ -36,9 +36,9 @@ impl Objective {
             {
                 return Some(t);
             }
-            // `!(a <= b)` rather than `a > b`: a NaN spread (it cannot be, positions are
-            // finite here) would count as diverged.
-            if !(spread(&s.x, &self.free) <= limit) {
+            // A NaN spread (it cannot be: positions are finite here) counts as diverged.
+            let d = spread(&s.x, &self.free);
+            if d > limit || d.is_nan() {
                 return Some(t);
             }
         }
