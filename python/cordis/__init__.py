@@ -20,6 +20,11 @@ Example::
     f = cordis.Objective(truth, traj)                 # the cost, compiled once: f(params) -> float
     f(f.param_vector())                               # 0.0 at the true parameters
 
+    scene.types["brace"]["stiffness"] = 120.0        # edit in place, validated
+    scene.types["brace"]["damping"] = cordis.Unknown(0.0, 2.0)   # make a parameter unknown
+    scene.particles[0].mass = 2.0
+    print(scene)                                      # a summary; scene.to_json() has the edits
+
 Pictures (``pip install cordis-anima[plot]`` for matplotlib): :mod:`cordis.plot` draws
 convergence curves, original vs identified frames, local costs and Pareto fronts;
 ``cordis.animate(scene, traj, "motion.gif")`` writes an animation.
@@ -28,6 +33,11 @@ Errors are subclasses of :class:`CordisError` (:class:`SceneError`, :class:`Traj
 :class:`CostKindError`…) and name the place of the fault, e.g.
 ``links[3].particles[1]: particle 40 does not exist``. The GIL is released during
 ``simulate``, ``identify``, batch evaluations and file I/O.
+
+Scaling out (``pip install cordis-anima[ray]``): ``cordis.identify(..., executor="ray")`` or
+``executor=cordis.RayExecutor(num_workers=8)`` evaluates populations on Ray actors with the same
+result as a local run; :func:`cordis.ray.identify_many` fans one identification per trajectory
+out as Ray tasks. Ray is imported only when used.
 """
 
 from ._cordis import (
@@ -41,11 +51,19 @@ from ._cordis import (
     DivergedError,
     FormatError,
     IdentifyResult,
+    LinkType,
+    LinkTypes,
     Objective,
     ParamLengthError,
+    Particle,
+    ParticleList,
+    PopulationEvaluator,
     Scene,
     SceneError,
+    SceneIndexError,
+    SceneKeyError,
     TrajectoryError,
+    Unknown,
     __version__,
     cost,
     discover,
@@ -69,11 +87,20 @@ __all__ = [
     "DivergedError",
     "FormatError",
     "IdentifyResult",
+    "LinkType",
+    "LinkTypes",
     "Objective",
     "ParamLengthError",
+    "Particle",
+    "ParticleList",
+    "PopulationEvaluator",
+    "RayExecutor",
     "Scene",
     "SceneError",
+    "SceneIndexError",
+    "SceneKeyError",
     "TrajectoryError",
+    "Unknown",
     "__version__",
     "animate",
     "cost",
@@ -85,3 +112,13 @@ __all__ = [
     "read_trajectory",
     "write_trajectory",
 ]
+
+
+def __getattr__(name: str):
+    # Ray is an optional extra and slow to import: `cordis.RayExecutor` imports it on first use
+    # (and says how to install it when it is missing).
+    if name == "RayExecutor":
+        from .ray import RayExecutor
+
+        return RayExecutor
+    raise AttributeError(f"module 'cordis' has no attribute {name!r}")
