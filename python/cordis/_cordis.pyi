@@ -545,6 +545,8 @@ def identify(
     checkpoint: Optional[_PathLike] = None,
     resume: Optional[_PathLike] = None,
     dt: Optional[float] = None,
+    stable_horizon: Optional[int] = None,
+    stable_spread: float = 2.0,
     executor: Optional[Any] = None,
     islands: Optional[int] = None,
     migrate_every: int = 10,
@@ -556,6 +558,11 @@ def identify(
     where populations are evaluated; the result is the same on every executor. ``islands``:
     that many thesis populations exchanging their ``migrants`` best every ``migrate_every``
     generations (deterministic given the seed and the island count).
+
+    ``stable_horizon=H`` rejects (cost ``inf``) every candidate whose stability bound exceeds
+    1 or whose free run from the observed frames 0 and 1 diverges within ``H`` frames: a
+    non-finite or runaway position, or the free particles' spread about their centroid beyond
+    ``stable_spread`` times the largest observed (CLI ``--stable-horizon``).
 
     ``callback(generation, best_cost, params)`` runs after every generation; returning False
     stops the run, an exception stops it and is raised again. Ctrl-C stops cleanly and raises

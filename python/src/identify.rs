@@ -237,12 +237,14 @@ fn bad(what: &str, message: impl std::fmt::Display) -> PyErr {
     scene, traj, strategy = "auto", generations = Some(1000), population = 100, seed = 0,
     callback = None, *, noise = 0.0, cost = "short", time_limit = None, target_cost = None,
     max_evals = None, threads = None, truth = None, checkpoint = None, resume = None, dt = None,
+    stable_horizon = None, stable_spread = cordis_es::stable::DEFAULT_SPREAD,
     executor = None, islands = None, migrate_every = 10, migrants = 2
 ))]
 #[pyo3(
     text_signature = "(scene, traj, strategy='auto', generations=1000, population=100, \
     seed=0, callback=None, *, noise=0.0, cost='short', time_limit=None, target_cost=None, \
     max_evals=None, threads=None, truth=None, checkpoint=None, resume=None, dt=None, \
+    stable_horizon=None, stable_spread=2.0, \
     executor=None, islands=None, migrate_every=10, migrants=2)"
 )]
 #[allow(clippy::too_many_arguments)]
@@ -265,6 +267,8 @@ pub fn identify(
     checkpoint: Option<PathBuf>,
     resume: Option<PathBuf>,
     dt: Option<f64>,
+    stable_horizon: Option<i64>,
+    stable_spread: f64,
     executor: Option<Bound<'_, PyAny>>,
     islands: Option<i64>,
     migrate_every: i64,
@@ -276,6 +280,12 @@ pub fn identify(
     let seed: u64 = count(seed, "seed")?;
     let max_evals: Option<u64> = max_evals.map(|m| count(m, "max_evals")).transpose()?;
     let threads: Option<usize> = threads.map(|t| count(t, "threads")).transpose()?;
+    let stable = stable_horizon
+        .map(|h| {
+            let h = count(h, "stable_horizon")?;
+            cordis_es::stable::StableHorizon::new(h, stable_spread).map_err(cost_to_py)
+        })
+        .transpose()?;
     let islands = match islands {
         Some(k) => Some(IslandConfig {
             islands: count(k, "islands")?,
@@ -344,6 +354,9 @@ pub fn identify(
                 ));
             }
             problem = problem.with_truth(t).map_err(cost_to_py)?;
+        }
+        if let Some(h) = stable {
+            problem = problem.with_stable_horizon(h);
         }
         Ok(problem)
     });

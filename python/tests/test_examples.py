@@ -6,7 +6,9 @@ import cordis
 
 
 def test_examples_are_the_shipped_names():
-    assert cordis.EXAMPLES == ("rigid", "cloth", "fluid", "horse", "muscle", "tadpole", "frog")
+    assert cordis.EXAMPLES == (
+        "rigid", "cloth", "fluid", "horse", "muscle", "horse-gait", "tadpole", "frog",
+    )
 
 
 @pytest.mark.parametrize("name", cordis.EXAMPLES)

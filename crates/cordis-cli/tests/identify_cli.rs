@@ -78,3 +78,63 @@ fn identify_recovers_rigid_and_honours_lock() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("types.nope.stiffness"));
 }
+
+#[test]
+fn stable_horizon_is_reported_and_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let ok = |args: &[&str]| assert!(cordis(d, args).status.success(), "{args:?}");
+    ok(&["example", "horse-gait", "--out", "truth.json"]);
+    ok(&["simulate", "truth.json", "--frames", "53", "--out", "t.csv"]);
+    // The passive model of the four leg muscles only (12 unknowns).
+    ok(&[
+        "example",
+        "horse-gait",
+        "--passive",
+        "--unknowns",
+        "--width",
+        "10",
+        "--unknown-types",
+        "front_left_1-girth,front_right_1-girth,hind_left_1-belly,hind_right_1-belly",
+        "--out",
+        "p.json",
+    ]);
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "identify",
+            "p.json",
+            "-t",
+            "t.csv",
+            "--strategy",
+            "cmaes",
+            "--max-evals",
+            "400",
+            "-q",
+        ];
+        args.extend_from_slice(extra);
+        cordis(d, &args)
+    };
+    let s = summary(&run(&["--stable-horizon", "530"]));
+    assert_eq!(s["stable_horizon"], 530);
+    assert!(s["cost"].as_f64().is_some_and(f64::is_finite), "{s}");
+    assert!(summary(&run(&[]))["stable_horizon"].is_null());
+    for (bad, place) in [
+        (["--stable-horizon", "2"], "--stable-horizon"),
+        (["--stable-spread", "0.5"], "--stable-spread"),
+    ] {
+        let mut extra = bad.to_vec();
+        if place == "--stable-spread" {
+            extra.extend(["--stable-horizon", "100"]);
+        }
+        let out = run(&extra);
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(place), "{err}");
+    }
+    let out = cordis(
+        d,
+        &["example", "horse", "--unknowns", "--unknown-types", "nope"],
+    );
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("`nope`"));
+}

@@ -144,6 +144,8 @@ fn bench_stability_quick_prints_json_lines_with_right_verdicts() {
         "2000",
         "--large-side",
         "10",
+        "--identify-evals",
+        "200",
         "--thesis",
         "/nonexistent/none",
     ]);
@@ -170,5 +172,15 @@ fn bench_stability_quick_prints_json_lines_with_right_verdicts() {
     for v in lines.iter().filter(|v| v["case"] == "limit") {
         let r = v["measured_over_bound"].as_f64().unwrap();
         assert!(r > 0.99, "the bound is safe: {v}");
+    }
+    // Long-cost identification over boxes 1e6 wide: rigid, horse, horse-gait × 2 strategies.
+    let wide: Vec<_> = lines
+        .iter()
+        .filter(|v| v["case"] == "wide_identification")
+        .collect();
+    assert_eq!(wide.len(), 6);
+    for v in wide {
+        assert_eq!(v["nan"], false, "{v}");
+        assert_eq!(v["in_box"], true, "{v}");
     }
 }

@@ -45,7 +45,7 @@ pub use plan::Plan;
 pub use scene::Scene;
 pub use signal::{Shape, Signal};
 pub use simulator::Simulator;
-pub use stability::{stability, StabilityReport};
+pub use stability::{stability, StabilityReport, StabilityScratch};
 pub use trajectory::Trajectory;
 
 /// 3-vector of f64 (positions in m, velocities in m/s, forces in N).

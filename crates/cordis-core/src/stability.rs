@@ -94,6 +94,53 @@ pub fn stability(scene: &Scene) -> Result<StabilityReport> {
 /// example an identification candidate), at the plan's initial positions. Panics on a vector
 /// of the wrong length, as [`crate::Simulator::from_plan`] does (a caller's bug, not input).
 pub fn plan_stability(plan: &Plan, p: &[f64]) -> StabilityReport {
+    let mut ws = StabilityScratch::default();
+    row_sums(plan, p, &mut ws);
+    let mass = &p[plan.layout.mass_offset..plan.layout.mass_offset + plan.n];
+    let mut per_particle = vec![None; plan.n];
+    let (mut max_ratio, mut worst, mut local_max) = (0.0_f64, None, 0.0_f64);
+    for i in (0..plan.n).filter(|&i| plan.free[i]) {
+        // Divide by m before 4: `4 m` overflows for m above ~4.5e307 kg, and ∞/∞ is NaN.
+        let q = (ws.own[i] + ws.coupled[i]) / mass[i] / 4.0;
+        local_max = local_max.max(ws.own[i] / mass[i] / 4.0);
+        per_particle[i] = Some(q);
+        if worst.is_none() || q > max_ratio {
+            max_ratio = q;
+            worst = Some(i);
+        }
+    }
+    StabilityReport {
+        per_particle,
+        max_ratio,
+        worst_particle: worst,
+        stable: max_ratio < 1.0,
+        local_max_ratio: local_max,
+    }
+}
+
+/// Buffers of [`plan_max_ratio`] (row sums, square roots of the masses, the conditional grid),
+/// so that checking many parameter vectors allocates nothing after the first.
+#[derive(Clone, Debug, Default)]
+pub struct StabilityScratch {
+    own: Vec<f64>,
+    coupled: Vec<f64>,
+    root: Vec<f64>,
+    grid: Grid,
+}
+
+/// [`StabilityReport::max_ratio`] of `p` alone, with reusable buffers: what an identification
+/// checks on every candidate (`--stable-horizon`). Equal to [`plan_stability`]'s figure.
+pub fn plan_max_ratio(plan: &Plan, p: &[f64], ws: &mut StabilityScratch) -> f64 {
+    row_sums(plan, p, ws);
+    let mass = &p[plan.layout.mass_offset..plan.layout.mass_offset + plan.n];
+    (0..plan.n)
+        .filter(|&i| plan.free[i])
+        .map(|i| (ws.own[i] + ws.coupled[i]) / mass[i] / 4.0)
+        .fold(0.0, f64::max)
+}
+
+/// Fills `ws.own` and `ws.coupled` with every particle's Gershgorin row sums (kg).
+fn row_sums(plan: &Plan, p: &[f64], ws: &mut StabilityScratch) {
     assert_eq!(
         p.len(),
         plan.layout.len,
@@ -104,12 +151,17 @@ pub fn plan_stability(plan: &Plan, p: &[f64]) -> StabilityReport {
     let mass = &p[plan.layout.mass_offset..plan.layout.mass_offset + n];
     // √m once per particle: √(m_i/m_j) as a quotient of roots cannot overflow where the
     // quotient itself would (masses span the whole f64 range).
-    let root: Vec<f64> = mass.iter().map(|m| m.sqrt()).collect();
+    ws.root.clear();
+    ws.root.extend(mass.iter().map(|m| m.sqrt()));
+    ws.own.clear();
+    ws.own.resize(n, 0.0);
+    ws.coupled.clear();
+    ws.coupled.resize(n, 0.0);
     let mut acc = Acc {
-        own: vec![0.0; n],
-        coupled: vec![0.0; n],
+        own: &mut ws.own,
+        coupled: &mut ws.coupled,
         free: &plan.free,
-        root: &root,
+        root: &ws.root,
     };
     let g = |k: f64, z: f64| mul(k, dt * dt) + mul(2.0 * z, dt);
 
@@ -125,6 +177,15 @@ pub fn plan_stability(plan: &Plan, p: &[f64]) -> StabilityReport {
     for r in &tgrs.runs {
         let w = g(p[r.param], p[r.param + 2]);
         for &[i, j] in &tgrs.pairs[r.start..r.end] {
+            acc.pair(i as usize, j as usize, w);
+        }
+    }
+    // A muscle is a spring (K, l0, Z first in its parameters) plus a neuron whose force is
+    // bounded by its gain: the neuron adds no stiffness at large amplitude, so only K and Z
+    // count, as for the angle's curvature part below.
+    for r in &plan.muscles.runs {
+        let w = g(p[r.param], p[r.param + 2]);
+        for &[i, j] in &plan.muscles.pairs[r.start..r.end] {
             acc.pair(i as usize, j as usize, w);
         }
     }
@@ -158,30 +219,9 @@ pub fn plan_stability(plan: &Plan, p: &[f64]) -> StabilityReport {
             acc.angle([i as usize, j as usize, k as usize], &plan.x0, w);
         }
     }
-    let mut grid = Grid::default();
     for c in &plan.conditionals {
         let w = g(p[c.param], p[c.param + 2]);
-        c.for_each_active_pair(p, &plan.x0, &mut grid, |i, j, _| acc.pair(i, j, w));
-    }
-
-    let mut per_particle = vec![None; n];
-    let (mut max_ratio, mut worst, mut local_max) = (0.0_f64, None, 0.0_f64);
-    for i in (0..n).filter(|&i| plan.free[i]) {
-        // Divide by m before 4: `4 m` overflows for m above ~4.5e307 kg, and ∞/∞ is NaN.
-        let q = (acc.own[i] + acc.coupled[i]) / mass[i] / 4.0;
-        local_max = local_max.max(acc.own[i] / mass[i] / 4.0);
-        per_particle[i] = Some(q);
-        if worst.is_none() || q > max_ratio {
-            max_ratio = q;
-            worst = Some(i);
-        }
-    }
-    StabilityReport {
-        per_particle,
-        max_ratio,
-        worst_particle: worst,
-        stable: max_ratio < 1.0,
-        local_max_ratio: local_max,
+        c.for_each_active_pair(p, &plan.x0, &mut ws.grid, |i, j, _| acc.pair(i, j, w));
     }
 }
 
@@ -230,8 +270,8 @@ fn mul(a: f64, b: f64) -> f64 {
 /// Gershgorin row sums in kg: `own` is the diagonal block's bound, `coupled` the off-diagonal
 /// blocks' norms already weighted by `√(m_i/m_j)`.
 struct Acc<'a> {
-    own: Vec<f64>,
-    coupled: Vec<f64>,
+    own: &'a mut [f64],
+    coupled: &'a mut [f64],
     free: &'a [bool],
     root: &'a [f64],
 }

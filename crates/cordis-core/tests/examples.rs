@@ -502,3 +502,59 @@ fn horse_has_annexe_2_size_and_gallops_stably() {
     assert!(max_ratio(&scene) < 0.35, "{}", max_ratio(&scene));
     assert_json_round_trip("horse", &scene);
 }
+
+/// Largest swing (max - min length over frames `from..to`, m) of each muscle link of
+/// `horse-gait`, measured on a trajectory of either horse (same links, same order).
+fn leg_swings(gait: &Scene, traj: &cordis_core::Trajectory, from: usize, to: usize) -> Vec<f64> {
+    gait.links
+        .iter()
+        .filter(|l| gait.types[l.type_index].kind == LinkKind::Muscle)
+        .map(|l| {
+            let len = |t: usize| (traj.pos(t, l.particles[1]) - traj.pos(t, l.particles[0])).norm();
+            let (lo, hi) = (from..to).fold((f64::INFINITY, 0.0_f64), |(lo, hi), t| {
+                (lo.min(len(t)), hi.max(len(t)))
+            });
+            hi - lo
+        })
+        .collect()
+}
+
+#[test]
+fn horse_gait_sustains_a_bounded_leg_cycle_the_passive_horse_damps_out() {
+    let gait = examples::horse_gait();
+    assert_eq!(count_kind(&gait, LinkKind::Muscle), 4);
+    // Its passive counterpart is exactly the passive horse.
+    let passive = examples::passive(&gait);
+    assert_eq!(passive.param_values(), examples::horse().param_values());
+    assert_eq!(count_kind(&passive, LinkKind::Muscle), 0);
+    // 10× the horse's frames: the neurons keep the legs swinging, the passive horse's swings
+    // decay; the active horse stays in one piece (its size within 30% of the initial one).
+    let frames = 10 * examples::HORSE_FRAMES;
+    let active = gait.simulate(frames).unwrap();
+    let still = examples::horse().simulate(frames).unwrap();
+    assert_finite("horse-gait", &active);
+    let last = frames - examples::HORSE_FRAMES;
+    let a = leg_swings(&gait, &active, last, frames);
+    let p = leg_swings(&gait, &still, last, frames);
+    for (leg, (a, p)) in a.iter().zip(&p).enumerate() {
+        assert!(
+            *a > 0.05 && *a > 3.0 * p,
+            "leg {leg}: active {a} m, passive {p} m"
+        );
+    }
+    let size = |t: usize| {
+        let n = gait.particles.len();
+        let c = (0..n).fold(Vec3::zeros(), |c, i| c + active.pos(t, i)) / n as f64;
+        (0..n)
+            .map(|i| (active.pos(t, i) - c).norm())
+            .fold(0.0, f64::max)
+    };
+    let s0 = size(0);
+    for t in 0..frames {
+        assert!(
+            (size(t) - s0).abs() < 0.3 * s0,
+            "frame {t}: size {} vs {s0}",
+            size(t)
+        );
+    }
+}

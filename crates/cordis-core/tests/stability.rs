@@ -602,3 +602,23 @@ fn a_hundred_thousand_particle_cloth_gets_a_report_and_simulates() {
     let t = s.simulate(20).unwrap();
     assert_eq!((t.frames(), t.particles()), (20, side * side));
 }
+
+/// A muscle counts in the bound by its spring part: each shipped muscle scene has the bound
+/// of its passive counterpart (the muscles as springs), and the reusable-buffer form used per
+/// identification candidate gives the report's figure bit for bit.
+#[test]
+fn muscles_count_as_their_springs_and_max_ratio_matches_the_report() {
+    use cordis_core::examples::{horse_gait, muscle, passive};
+    use cordis_core::stability::{plan_max_ratio, StabilityScratch};
+    let mut ws = StabilityScratch::default();
+    for scene in [muscle(), horse_gait()] {
+        let active = stability(&scene).unwrap();
+        let springs = stability(&passive(&scene)).unwrap();
+        assert!(active.max_ratio > 0.0);
+        assert_eq!(active.per_particle, springs.per_particle);
+        let plan = Plan::compile(&scene).unwrap();
+        let p = scene.param_values();
+        let q = plan_max_ratio(&plan, &p, &mut ws);
+        assert_eq!(q.to_bits(), plan_stability(&plan, &p).max_ratio.to_bits());
+    }
+}

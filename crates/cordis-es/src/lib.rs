@@ -14,6 +14,7 @@ pub mod identify;
 pub mod problem;
 pub mod rng;
 pub mod space;
+pub mod stable;
 pub mod strategies;
 pub mod strategy;
 

@@ -5,12 +5,14 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
 use cordis_core::forces::angle::cos_angle;
+use cordis_core::stability::{plan_max_ratio, StabilityScratch};
 use cordis_core::{LinkKind, Scene, Trajectory};
 
 use crate::cost::{CostKind, CostScratch, Objective};
 use crate::error::CostError;
 use crate::evaluator::{Evaluator, Local};
 use crate::space::{ParameterSpace, Role};
+use crate::stable::{Guard, Rejection, StableHorizon};
 
 pub struct Problem {
     pub scene: Scene,
@@ -25,6 +27,8 @@ pub struct Problem {
     /// ends, or the particle itself for a mass).
     pub touches: Vec<Vec<u32>>,
     pub num_particles: usize,
+    /// Stability-aware identification ([`Problem::with_stable_horizon`]); `None` costs nothing.
+    guard: Option<Guard>,
     evals: AtomicU64,
     /// Wall time spent in [`Problem::timed`] sections (population evaluations), ns.
     eval_nanos: AtomicU64,
@@ -38,6 +42,8 @@ pub struct Problem {
 pub struct EvalScratch {
     pub params: Vec<f64>,
     pub cost: CostScratch,
+    /// Buffers of the stability bound (used only with a stable horizon).
+    pub stability: StabilityScratch,
 }
 
 impl Problem {
@@ -65,6 +71,7 @@ impl Problem {
             observed,
             touches,
             num_particles: scene.num_particles(),
+            guard: None,
             evals: AtomicU64::new(0),
             eval_nanos: AtomicU64::new(0),
             evaluator: Arc::new(Local),
@@ -103,6 +110,32 @@ impl Problem {
         Ok(self)
     }
 
+    /// Rejects (`+inf` cost) every candidate whose stability bound exceeds 1 or whose free
+    /// run from the observed start diverges within `horizon.frames` frames (see
+    /// [`crate::stable`]). The spread limit is fixed here from the observed trajectory.
+    pub fn with_stable_horizon(mut self, horizon: StableHorizon) -> Self {
+        self.guard = Some(Guard::new(horizon, self.objective.observed_spread()));
+        self
+    }
+
+    /// The stable horizon set by [`Problem::with_stable_horizon`].
+    pub fn stable_horizon(&self) -> Option<StableHorizon> {
+        self.guard.map(|g| g.horizon)
+    }
+
+    /// Why the stable horizon rejects parameter vector `p` (`None`: accepted, or no horizon).
+    pub fn stability_check(&self, p: &[f64], s: &mut EvalScratch) -> Option<Rejection> {
+        let g = self.guard.as_ref()?;
+        let q = plan_max_ratio(&self.objective.plan, p, &mut s.stability);
+        // A NaN bound (absurd values) is a rejection too.
+        if q >= 1.0 || q.is_nan() {
+            return Some(Rejection::Bound(q));
+        }
+        self.objective
+            .free_run_diverges(p, g.horizon.frames, g.limit, &mut s.cost)
+            .map(Rejection::Diverged)
+    }
+
     pub fn dim(&self) -> usize {
         self.space.dim()
     }
@@ -111,6 +144,7 @@ impl Problem {
         EvalScratch {
             params: self.space.base.clone(),
             cost: self.objective.scratch(),
+            stability: StabilityScratch::default(),
         }
     }
 
@@ -129,6 +163,22 @@ impl Problem {
         local: &mut [f64],
     ) -> f64 {
         self.space.fill_params(genome, &mut s.params);
+        if self.guard.is_some() {
+            let params = std::mem::take(&mut s.params);
+            let rejected = self.stability_check(&params, s).is_some();
+            s.params = params;
+            if rejected {
+                // Every free particle's local cost too, so particle-wise operators (the
+                // thesis strategy's) never take a gene from a rejected candidate.
+                local.fill(0.0);
+                for &i in &self.objective.free {
+                    if let Some(c) = local.get_mut(i) {
+                        *c = f64::INFINITY;
+                    }
+                }
+                return f64::INFINITY;
+            }
+        }
         match self.objective.evaluate(&s.params, &mut s.cost, local) {
             Ok(c) if !c.is_nan() => c,
             _ => f64::INFINITY,

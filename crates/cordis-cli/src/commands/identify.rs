@@ -45,6 +45,15 @@ pub struct Args {
     /// Cost: short | horizon:H | long | progressive | harmonic.
     #[arg(long, default_value = "short")]
     cost: String,
+    /// Reject (+inf cost) every candidate whose stability bound exceeds 1 or whose free run
+    /// from the observed frames 0 and 1 diverges within this many frames (frame 0 included):
+    /// a non-finite or runaway position, or a spread beyond --stable-spread times the observed.
+    #[arg(long)]
+    stable_horizon: Option<usize>,
+    /// With --stable-horizon: the largest spread of the free particles about their centroid,
+    /// as a multiple of the largest observed one.
+    #[arg(long, default_value_t = cordis_es::stable::DEFAULT_SPREAD)]
+    stable_spread: f64,
     /// Stop after this many seconds.
     #[arg(long)]
     time_limit: Option<f64>,
@@ -142,6 +151,10 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     }
     if let Some(t) = &a.truth {
         problem = problem.with_truth(&Scene::from_json_path(t)?)?;
+    }
+    if let Some(h) = a.stable_horizon {
+        let h = cordis_es::stable::StableHorizon::new(h, a.stable_spread)?;
+        problem = problem.with_stable_horizon(h);
     }
     if let Some(m) = a.total_mass {
         problem = problem.with_total_mass(m).context("--total-mass")?;
@@ -282,6 +295,15 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     });
     if let Some(e) = result.param_error_pct {
         summary["param_error_pct"] = e.into();
+    }
+    if let Some(h) = a.stable_horizon {
+        summary["stable_horizon"] = h.into();
+        if !result.cost.is_finite() {
+            eprintln!(
+                "warning: --stable-horizon {h}: every candidate evaluated was rejected as \
+                 unstable (widen the budget, or narrow the boxes)"
+            );
+        }
     }
     if !report.is_null() {
         summary["solver"] = report;

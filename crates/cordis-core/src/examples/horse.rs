@@ -57,7 +57,7 @@ const LEG_TOPS: [[f64; 3]; 4] = [
     [0.35, 1.35, 0.0],
     [0.25, 1.30, 0.0],
 ];
-const LEG_NAMES: [&str; 4] = ["front_left", "front_right", "hind_left", "hind_right"];
+pub(super) const LEG_NAMES: [&str; 4] = ["front_left", "front_right", "hind_left", "hind_right"];
 /// Phase of each leg's swing in the transverse gallop, in cycles (hind left leads).
 const LEG_PHASE: [f64; 4] = [0.55, 0.75, 0.0, 0.2];
 /// Forward speed of the whole horse (m/s), peak swing of a leg (rad/s), head nod (m/s).

@@ -10,6 +10,7 @@ mod cloth;
 mod fluid;
 mod frog;
 mod horse;
+mod horse_gait;
 mod muscle;
 mod random;
 mod rigid;
@@ -19,6 +20,7 @@ pub use cloth::{cloth, CLOTH_FRAMES};
 pub use fluid::{fluid, FLUID_FRAMES};
 pub use frog::{frog, frog_heading, frog_with, FROG_FRAMES};
 pub use horse::{horse, HORSE_FRAMES};
+pub use horse_gait::{horse_gait, GAIT_GAIN, GAIT_RATE_WEIGHT};
 pub use muscle::{muscle, MUSCLE_FRAMES, MUSCLE_GAIN};
 pub use random::random_network;
 pub use rigid::{rigid, RIGID_FRAMES};
@@ -26,11 +28,11 @@ pub use tadpole::{
     tadpole, tadpole_vmax_bracket, tadpole_with, TADPOLE_BODY_LENGTH, TADPOLE_FRAMES,
 };
 
-use crate::Scene;
+use crate::{LinkKind, LinkType, Scene};
 
 /// Names accepted by [`by_name`], in the order the thesis presents them.
 pub const NAMES: &[&str] = &[
-    "rigid", "cloth", "fluid", "horse", "muscle", "tadpole", "frog",
+    "rigid", "cloth", "fluid", "horse", "muscle", "horse-gait", "tadpole", "frog",
 ];
 
 /// The example of that name at its default size, or `None` for a name not in [`NAMES`].
@@ -41,6 +43,7 @@ pub fn by_name(name: &str) -> Option<Scene> {
         "fluid" => Some(fluid(80, 48)),
         "horse" => Some(horse()),
         "muscle" => Some(muscle()),
+        "horse-gait" => Some(horse_gait()),
         "tadpole" => Some(tadpole()),
         "frog" => Some(frog()),
         _ => None,
@@ -54,12 +57,34 @@ pub fn default_frames(name: &str) -> usize {
         "rigid" => RIGID_FRAMES,
         "cloth" => CLOTH_FRAMES,
         "fluid" => FLUID_FRAMES,
-        "horse" => HORSE_FRAMES,
+        "horse" | "horse-gait" => HORSE_FRAMES,
         "muscle" => MUSCLE_FRAMES,
         "tadpole" => TADPOLE_FRAMES,
         "frog" => FROG_FRAMES,
         _ => 0,
     }
+}
+
+/// The passive counterpart of a scene (thesis §6.2): every muscle type becomes a spring with
+/// the muscle's stiffness, rest length and damping (known or unknown as they were), and the
+/// neurons are dropped (gain, threshold, weights, `observes`). Every other type, the links and
+/// the particles are unchanged, so the result fits the same trajectories with the same
+/// topology, without energy injection.
+pub fn passive(scene: &Scene) -> Scene {
+    let mut out = scene.clone();
+    for t in out.types.iter_mut().filter(|t| t.kind == LinkKind::Muscle) {
+        let mut spring = LinkType::new(t.name.clone(), LinkKind::Spring);
+        for name in ["stiffness", "rest_length", "damping"] {
+            if let Some(p) = t.param(name) {
+                spring = spring.with(name, *p);
+            }
+        }
+        *t = spring;
+    }
+    for l in &mut out.links {
+        l.observes = None;
+    }
+    out
 }
 
 /// SplitMix64 (Steele, Lea & Flood 2014): a tiny seeded generator, so that the examples' jitter

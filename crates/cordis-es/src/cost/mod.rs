@@ -26,6 +26,7 @@
 //! ```
 
 mod batch;
+mod free_run;
 pub mod hidden;
 pub(crate) mod kernels;
 mod kind;

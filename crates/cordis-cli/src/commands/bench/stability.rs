@@ -9,6 +9,10 @@
 //! - `long`: undamped nonlinear chain at q = 0.9, 10^6 steps: energy error and drift.
 //! - `large`: a 10^5-particle cloth: report and simulation times.
 //! - `extremes`: masses 1e-6…1e6 kg × dt 1e-6…1e-1 s at q = 0.95 and 1.05.
+//! - `wide_identification`: `rigid`, `horse` and `horse-gait` identified with the `long` cost
+//!   over boxes spanning 1e-3…1e3 × the truth (most candidates explode in the rollout) by
+//!   CMA-ES and the thesis strategy: the final cost (`+inf` when every candidate diverged,
+//!   never NaN), and whether the parameters are finite and inside their boxes.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -29,7 +33,16 @@ pub struct Args {
     /// Side of the large cloth (side² particles, at most 2000² = 4·10^6).
     #[arg(long, default_value_t = 317, value_parser = clap::value_parser!(u32).range(2..=2000))]
     large_side: u32,
-    /// Smaller everything (CI): 2000 frames, 10^5 steps, a 100×100 cloth.
+    /// Cost evaluations per wide-box identification run (strategy × example × seed).
+    #[arg(long, default_value_t = 20_000)]
+    identify_evals: u64,
+    /// Seeds of the wide-box identification runs (0..N).
+    #[arg(long, default_value_t = 3)]
+    identify_seeds: u64,
+    /// Run only this section: sweep | limit | long | large | extremes | wide_identification.
+    #[arg(long)]
+    only: Option<String>,
+    /// Smaller everything (CI): 2000 frames, 10^5 steps, a 100×100 cloth, 2000 evaluations.
     #[arg(long)]
     quick: bool,
     /// More scenes to measure (JSON), e.g. the shipped examples.
@@ -45,12 +58,45 @@ pub fn run(mut a: Args) -> Result<()> {
         a.frames = a.frames.min(2000);
         a.long_steps = a.long_steps.min(100_000);
         a.large_side = a.large_side.min(100);
+        a.identify_evals = a.identify_evals.min(2000);
+        a.identify_seeds = a.identify_seeds.min(1);
     }
-    sweep(&a)?;
-    limits(&a)?;
-    long(&a)?;
-    large(&a)?;
-    extremes()
+    const SECTIONS: [&str; 6] = [
+        "sweep",
+        "limit",
+        "long",
+        "large",
+        "extremes",
+        "wide_identification",
+    ];
+    if let Some(only) = &a.only {
+        if !SECTIONS.contains(&only.as_str()) {
+            anyhow::bail!(
+                "--only: unknown section `{only}` (expected one of: {})",
+                SECTIONS.join(", ")
+            );
+        }
+    }
+    let on = |name: &str| a.only.as_deref().is_none_or(|o| o == name);
+    if on("sweep") {
+        sweep(&a)?;
+    }
+    if on("limit") {
+        limits(&a)?;
+    }
+    if on("long") {
+        long(&a)?;
+    }
+    if on("large") {
+        large(&a)?;
+    }
+    if on("extremes") {
+        extremes()?;
+    }
+    if on("wide_identification") {
+        wide_identification(&a)?;
+    }
+    Ok(())
 }
 
 fn emit(case: &str, mut v: Value) {
@@ -525,5 +571,68 @@ fn extremes() -> Result<()> {
         "extremes",
         json!({"runs": runs, "right": right, "wrong": wrong}),
     );
+    Ok(())
+}
+
+// ------------------------------------------------------------------ wide_identification
+
+/// The `long` cost over boxes 1e6 wide (1e-3…1e3 × the truth, the truth off-centre): the
+/// rollout of most candidates diverges (`+inf`); a run must end without a NaN and in its
+/// boxes, and the table shows which strategies still reach a finite cost.
+fn wide_identification(a: &Args) -> Result<()> {
+    use cordis_es::cost::CostKind;
+    use cordis_es::executor::{self, RunConfig, StopRules};
+    use cordis_es::identify::{make_strategy, with_unknown_boxes, StrategyName, StrategyOptions};
+    use cordis_es::problem::Problem;
+
+    eprintln!(
+        "\nwide_identification: long cost, boxes 1e-3…1e3 × truth, {} evaluations per run",
+        a.identify_evals
+    );
+    eprintln!(
+        "  {:<11} {:<8} {:>4} {:>12} {:>12} {:>8} {:>8}",
+        "example", "strategy", "seed", "cost", "rmse", "in box", "s"
+    );
+    for name in ["rigid", "horse", "horse-gait"] {
+        let truth = cordis_core::examples::by_name(name).expect("a shipped example");
+        let traj = truth.simulate(cordis_core::examples::default_frames(name))?;
+        for seed in 0..a.identify_seeds {
+            let scene = with_unknown_boxes(&truth, 1e6, seed);
+            for strategy in [StrategyName::Cmaes, StrategyName::Thesis] {
+                let mut problem = Problem::new(&scene, &traj, CostKind::Long)?;
+                let (mut s, ran) = make_strategy(strategy, &problem, &StrategyOptions::default());
+                let config = RunConfig {
+                    seed,
+                    stop: StopRules {
+                        max_evals: Some(a.identify_evals),
+                        ..StopRules::default()
+                    },
+                    ..RunConfig::default()
+                };
+                let start = Instant::now();
+                let r = executor::run(&mut problem, s.as_mut(), &config, &mut [], None)
+                    .map_err(|e| anyhow::anyhow!(e))?;
+                let secs = start.elapsed().as_secs_f64();
+                let in_box = problem
+                    .space
+                    .unknowns
+                    .iter()
+                    .zip(problem.space.values(&r.genome))
+                    .all(|(u, v)| v.is_finite() && u.min <= v && v <= u.max);
+                eprintln!(
+                    "  {name:<11} {ran:<8} {seed:>4} {:>12.4e} {:>12.4e} {in_box:>8} {secs:>8.2}",
+                    r.cost, r.rmse
+                );
+                emit(
+                    "wide_identification",
+                    json!({"example": name, "strategy": ran, "seed": seed,
+                           "evals": r.evals, "cost": r.cost, "rmse": r.rmse,
+                           "finite": r.cost.is_finite() && r.rmse.is_finite(),
+                           "nan": r.cost.is_nan() || r.rmse.is_nan(),
+                           "in_box": in_box, "seconds": secs}),
+                );
+            }
+        }
+    }
     Ok(())
 }

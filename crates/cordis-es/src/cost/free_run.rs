@@ -1,0 +1,59 @@
+//! The free run of a candidate from the observed start, for stability-aware identification
+//! ([`crate::stable`]): no observed frame is used after the first two.
+
+use super::objective::{CostScratch, Objective};
+use cordis_core::Vec3;
+
+impl Objective {
+    /// Largest distance (m) of a free particle from the free particles' centroid over the
+    /// observed frames: the size the network's shape is known to reach. 0 without free
+    /// particles.
+    pub(crate) fn observed_spread(&self) -> f64 {
+        (0..self.obs.frames)
+            .map(|t| spread(self.obs.frame(t), &self.free))
+            .fold(0.0, f64::max)
+    }
+
+    /// Runs the simulator's own step (SPEC §2.1, fixed particles held where frame 1 has them)
+    /// from the observed frames 0 and 1 up to frame `frames - 1`, as `simulate --frames`
+    /// would; returns the first frame at which a position is not finite or beyond
+    /// [`cordis_core::plan::RUNAWAY`], or the free particles' spread exceeds `limit` (m).
+    /// The cost's hidden passes (none exist yet, see [`super::hidden`]) are not advanced.
+    pub(crate) fn free_run_diverges(
+        &self,
+        p: &[f64],
+        frames: usize,
+        limit: f64,
+        s: &mut CostScratch,
+    ) -> Option<usize> {
+        s.x_prev.copy_from_slice(self.obs.frame(0));
+        s.x.copy_from_slice(self.obs.frame(1));
+        for t in 2..frames {
+            if self
+                .plan
+                .step(p, &mut s.x, &mut s.x_prev, &mut s.core)
+                .is_some()
+            {
+                return Some(t);
+            }
+            // A NaN spread (it cannot be: positions are finite here) counts as diverged.
+            let d = spread(&s.x, &self.free);
+            if d > limit || d.is_nan() {
+                return Some(t);
+            }
+        }
+        None
+    }
+}
+
+/// Largest distance (m) of the particles `ids` of `x` from their centroid.
+fn spread(x: &[Vec3], ids: &[usize]) -> f64 {
+    if ids.is_empty() {
+        return 0.0;
+    }
+    let c = ids.iter().fold(Vec3::zeros(), |c, &i| c + x[i]) / ids.len() as f64;
+    ids.iter()
+        .map(|&i| (x[i] - c).norm_squared())
+        .fold(0.0, f64::max)
+        .sqrt()
+}
