@@ -1,14 +1,14 @@
 //! The scene: particles, the link catalogue and link instances (thesis `.mas` + `.cat` + `.ini`).
 
 use crate::error::{CordisError, Result};
-use crate::{Link, LinkKind, LinkType, Param, Particle};
+use crate::{Link, LinkKind, LinkType, Param, Particle, World};
 
 /// A Cordis-Anima network and its time step. Build one in code with [`Scene::new`] and the
 /// `add_*` methods, or read one with [`Scene::from_json_str`]; run [`Scene::validate`] before
 /// simulating (the JSON reader does).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {
-    /// Time step in s.
+    /// Time step of the main world in s (one trajectory frame per step of it).
     pub dt: f64,
     /// Acceleration of every free particle, m/s².
     pub gravity: [f64; 3],
@@ -16,6 +16,8 @@ pub struct Scene {
     /// The catalogue, in file order.
     pub types: Vec<LinkType>,
     pub links: Vec<Link>,
+    /// Extra worlds with their own time step ([`crate::world`]); the main world is implicit.
+    pub worlds: Vec<World>,
 }
 
 impl Scene {
@@ -26,6 +28,7 @@ impl Scene {
             particles: Vec::new(),
             types: Vec::new(),
             links: Vec::new(),
+            worlds: Vec::new(),
         }
     }
 
@@ -85,6 +88,7 @@ impl Scene {
             ));
         }
         check_finite3("gravity", &self.gravity)?;
+        self.validate_worlds()?;
         for (i, p) in self.particles.iter().enumerate() {
             let at = format!("particles[{i}]");
             check_param(&format!("{at}.mass"), &p.mass, Sign::Positive)?;
@@ -176,6 +180,7 @@ impl Scene {
                         format!("names one or two groups, got {}", t.groups.len()),
                     ));
                 }
+                self.check_groups_world(ti)?;
             } else if !t.groups.is_empty() {
                 return Err(CordisError::scene(
                     format!("{at}.groups"),
@@ -225,6 +230,7 @@ impl Scene {
                     ));
                 }
             }
+            self.check_link_world(&at, &l.particles)?;
             if let Some(point) = &l.point {
                 if t.kind != LinkKind::Anchor {
                     return Err(CordisError::scene(

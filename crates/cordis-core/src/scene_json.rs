@@ -8,7 +8,7 @@ use std::path::Path;
 use serde_json::{Map, Value};
 
 use crate::error::{CordisError, Result};
-use crate::{Bounds, Link, LinkKind, LinkType, Param, Particle, Scene};
+use crate::{Bounds, Link, LinkKind, LinkType, Param, Particle, Scene, World};
 
 pub const FORMAT: &str = "cordis-scene/1";
 
@@ -67,6 +67,15 @@ impl Scene {
         if self.gravity != [0.0; 3] {
             root.insert("gravity".into(), vec3(&self.gravity));
         }
+        if !self.worlds.is_empty() {
+            let mut worlds = Map::new();
+            for w in &self.worlds {
+                let mut o = Map::new();
+                o.insert("dt".into(), w.dt.into());
+                worlds.insert(w.name.clone(), Value::Object(o));
+            }
+            root.insert("worlds".into(), Value::Object(worlds));
+        }
         let particles = self
             .particles
             .iter()
@@ -82,6 +91,9 @@ impl Scene {
                 }
                 if let Some(g) = &p.group {
                     o.insert("group".into(), g.clone().into());
+                }
+                if let Some(w) = &p.world {
+                    o.insert("world".into(), w.clone().into());
                 }
                 Value::Object(o)
             })
@@ -267,7 +279,15 @@ fn read_scene(v: &Value) -> Result<Scene> {
     let root = as_object(
         v,
         "",
-        &["format", "dt", "gravity", "particles", "types", "links"],
+        &[
+            "format",
+            "dt",
+            "gravity",
+            "worlds",
+            "particles",
+            "types",
+            "links",
+        ],
     )
     .map_err(|e| match e {
         CordisError::Scene { place, message } if place.is_empty() => {
@@ -290,6 +310,30 @@ fn read_scene(v: &Value) -> Result<Scene> {
     if let Some(g) = root.get("gravity") {
         scene.gravity = vector3(g, "gravity")?;
     }
+    if let Some(worlds) = root.get("worlds") {
+        let Value::Object(worlds) = worlds else {
+            return Err(err(
+                "worlds",
+                format!(
+                    "expected an object of named worlds, got {}",
+                    kind_of(worlds)
+                ),
+            ));
+        };
+        for (name, wv) in worlds {
+            let at = format!("worlds.{name}");
+            let o = as_object(wv, &at, &["dt"])?;
+            let dt = number(
+                o.get("dt")
+                    .ok_or_else(|| err(&at, "missing `dt`: the world's time step in s"))?,
+                &join(&at, "dt"),
+            )?;
+            scene.worlds.push(World {
+                name: name.clone(),
+                dt,
+            });
+        }
+    }
     let particles = match root.get("particles") {
         Some(Value::Array(a)) => a,
         Some(other) => {
@@ -302,7 +346,7 @@ fn read_scene(v: &Value) -> Result<Scene> {
     };
     for (i, pv) in particles.iter().enumerate() {
         let at = format!("particles[{i}]");
-        let o = as_object(pv, &at, &["mass", "pos", "vel", "fixed", "group"])?;
+        let o = as_object(pv, &at, &["mass", "pos", "vel", "fixed", "group", "world"])?;
         let mass = param(
             o.get("mass").ok_or_else(|| err(&at, "missing `mass`"))?,
             &join(&at, "mass"),
@@ -326,6 +370,10 @@ fn read_scene(v: &Value) -> Result<Scene> {
         }
         if let Some(g) = o.get("group") {
             p.group = Some(string(g, &join(&at, "group"))?);
+        }
+        if let Some(w) = o.get("world") {
+            // `"main"` is the default: store it as `None` so a scene round-trips.
+            p = p.in_world(string(w, &join(&at, "world"))?);
         }
         scene.particles.push(p);
     }
