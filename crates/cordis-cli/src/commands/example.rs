@@ -5,7 +5,7 @@ use cordis_core::examples;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Example name: rigid | cloth | fluid | horse.
+    /// Example name: rigid | cloth | fluid | horse | muscle | tadpole | frog.
     name: String,
     /// Write the scene with its positive parameters unknown, in boxes `--width` times wide
     /// around the true values (the truth is the scene written without this flag).

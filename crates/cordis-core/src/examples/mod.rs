@@ -8,22 +8,30 @@
 
 mod cloth;
 mod fluid;
+mod frog;
 mod horse;
 mod muscle;
 mod random;
 mod rigid;
+mod tadpole;
 
 pub use cloth::{cloth, CLOTH_FRAMES};
 pub use fluid::{fluid, FLUID_FRAMES};
+pub use frog::{frog, frog_heading, frog_with, FROG_FRAMES};
 pub use horse::{horse, HORSE_FRAMES};
 pub use muscle::{muscle, MUSCLE_FRAMES, MUSCLE_GAIN};
 pub use random::random_network;
 pub use rigid::{rigid, RIGID_FRAMES};
+pub use tadpole::{
+    tadpole, tadpole_vmax_bracket, tadpole_with, TADPOLE_BODY_LENGTH, TADPOLE_FRAMES,
+};
 
 use crate::Scene;
 
 /// Names accepted by [`by_name`], in the order the thesis presents them.
-pub const NAMES: &[&str] = &["rigid", "cloth", "fluid", "horse", "muscle"];
+pub const NAMES: &[&str] = &[
+    "rigid", "cloth", "fluid", "horse", "muscle", "tadpole", "frog",
+];
 
 /// The example of that name at its default size, or `None` for a name not in [`NAMES`].
 pub fn by_name(name: &str) -> Option<Scene> {
@@ -33,6 +41,8 @@ pub fn by_name(name: &str) -> Option<Scene> {
         "fluid" => Some(fluid(80, 48)),
         "horse" => Some(horse()),
         "muscle" => Some(muscle()),
+        "tadpole" => Some(tadpole()),
+        "frog" => Some(frog()),
         _ => None,
     }
 }
@@ -46,6 +56,8 @@ pub fn default_frames(name: &str) -> usize {
         "fluid" => FLUID_FRAMES,
         "horse" => HORSE_FRAMES,
         "muscle" => MUSCLE_FRAMES,
+        "tadpole" => TADPOLE_FRAMES,
+        "frog" => FROG_FRAMES,
         _ => 0,
     }
 }
