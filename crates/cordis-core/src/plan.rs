@@ -7,9 +7,9 @@ use crate::error::Result;
 use crate::forces::conditional::Part;
 use crate::forces::{
     anchor::AnchorPass, angle::AnglePass, conditional::ConditionalPass, damper::DamperPass,
-    drag::DragPass, grid::Grid, muscle::MuscleBuf, muscle::MusclePass,
-    nonlinear_drag::NonlinearDragPass, provot::ProvotLink, provot::ProvotPass, runs_by_type,
-    spring::SpringPass, stateful::Stateful, tgr::TgrPass,
+    drag::DragPass, force_transmitter::ForceTransmitterPass, grid::Grid, muscle::MuscleBuf,
+    muscle::MusclePass, nonlinear_drag::NonlinearDragPass, provot::ProvotLink, provot::ProvotPass,
+    quadripole::QuadripolePass, runs_by_type, spring::SpringPass, stateful::Stateful, tgr::TgrPass,
 };
 use crate::world::{Clock, OneClock, WorldClock, WorldSteps};
 use crate::{LinkKind, ParamLayout, Scene, Vec3};
@@ -100,6 +100,9 @@ impl Plan {
         let mut angle_items = Vec::new();
         let mut muscle_items = Vec::new();
         let mut tgr_items = Vec::new();
+        let mut quad_items = Vec::new();
+        let mut pos_items = Vec::new();
+        let mut force_items = Vec::new();
         let mut provot = ProvotPass::default();
         let mut needs_velocity = false;
         let damping_matters = |t: usize| {
@@ -152,7 +155,10 @@ impl Plan {
                         damping_matters(t) || ty.w_rate().iter().any(|w| !w.is_known_zero());
                 }
                 LinkKind::Conditional => unreachable!("validated: conditional types have no links"),
-                LinkKind::Tgr => unreachable!("validated: couplings are not links"),
+                LinkKind::Tgr
+                | LinkKind::Quadripole
+                | LinkKind::PositionTransmitter
+                | LinkKind::ForceTransmitter => unreachable!("validated: couplings are not links"),
             }
         }
         for c in &scene.couplings {
@@ -162,6 +168,15 @@ impl Plan {
                 LinkKind::Tgr => {
                     tgr_items.push((t, [ps[0], ps[1]]));
                     needs_velocity |= damping_matters(t);
+                }
+                LinkKind::Quadripole => quad_items.push((t, [ps[0], ps[1], ps[2], ps[3]])),
+                LinkKind::PositionTransmitter => pos_items.push((t, [ps[0], ps[1], ps[2], ps[3]])),
+                LinkKind::ForceTransmitter => {
+                    let src = &scene.links[c.source.expect("validated: a source")];
+                    let ends = [src.particles[0] as u32, src.particles[1] as u32];
+                    force_items.push((t, ([ps[0], ps[1]], (ends, off[src.type_index]))));
+                    // The source's tension reads its rate when its damping may be non-zero.
+                    needs_velocity |= damping_matters(src.type_index);
                 }
                 k => unreachable!("validated: `{k}` is not a coupling kind"),
             }
@@ -203,6 +218,22 @@ impl Plan {
                 signals: runs.iter().map(signal_of).collect(),
                 runs,
                 pairs,
+            },
+            quadripoles: {
+                let (runs, quads) = runs_by_type(&quad_items, off);
+                QuadripolePass { runs, quads }
+            },
+            position_transmitters: {
+                let (runs, quads) = runs_by_type(&pos_items, off);
+                QuadripolePass { runs, quads }
+            },
+            force_transmitters: {
+                let (runs, items) = runs_by_type(&force_items, off);
+                ForceTransmitterPass {
+                    runs,
+                    pairs: items.iter().map(|i| i.0).collect(),
+                    sources: items.iter().map(|i| i.1).collect(),
+                }
             },
         };
 

@@ -93,8 +93,22 @@ impl Scene {
         self.couplings.push(Coupling {
             type_index,
             particles: particles.to_vec(),
+            source: None,
         });
         self.couplings.len() - 1
+    }
+
+    /// Adds a `force_transmitter` coupling of the named type on dipole `particles`, fed by the
+    /// tension of spring link `source`. Panics on an unknown type name (code-built scenes only).
+    pub fn add_force_transmitter(
+        &mut self,
+        type_name: &str,
+        particles: [usize; 2],
+        source: usize,
+    ) -> usize {
+        let c = self.add_coupling(type_name, &particles);
+        self.couplings[c].source = Some(source);
+        c
     }
 
     pub fn type_index(&self, name: &str) -> Option<usize> {
@@ -311,8 +325,36 @@ impl Scene {
                 ));
             }
             self.check_particles(&at, t.kind, &c.particles)?;
+            self.check_source(&at, t.kind, c.source)?;
         }
         Ok(())
+    }
+
+    /// A force transmitter names an existing spring link as `source`; other couplings do not.
+    fn check_source(&self, at: &str, kind: LinkKind, source: Option<usize>) -> Result<()> {
+        let place = format!("{at}.source");
+        match (kind == LinkKind::ForceTransmitter, source) {
+            (false, Some(_)) => Err(CordisError::scene(
+                place,
+                "only force_transmitter couplings have it",
+            )),
+            (true, None) => Err(CordisError::scene(
+                at,
+                "a force_transmitter needs `source`: the index in `links` of a spring",
+            )),
+            (true, Some(li)) => match self.links.get(li).map(|l| self.types[l.type_index].kind) {
+                Some(LinkKind::Spring) => Ok(()),
+                Some(k) => Err(CordisError::scene(
+                    place,
+                    format!("link {li} is a `{k}`: a force transmitter reads a spring's tension"),
+                )),
+                None => Err(CordisError::scene(
+                    place,
+                    format!("link {li} does not exist ({} links)", self.links.len()),
+                )),
+            },
+            (false, None) => Ok(()),
+        }
     }
 
     /// A link's or coupling's particles: as many as the kind joins, existing, distinct.

@@ -175,6 +175,9 @@ impl Scene {
                     let mut o = Map::new();
                     o.insert("type".into(), self.types[c.type_index].name.clone().into());
                     o.insert("particles".into(), c.particles.clone().into());
+                    if let Some(src) = c.source {
+                        o.insert("source".into(), src.into());
+                    }
                     Value::Object(o)
                 })
                 .collect();
@@ -481,12 +484,17 @@ fn read_scene(v: &Value) -> Result<Scene> {
         };
         for (i, cv) in couplings.iter().enumerate() {
             let at = format!("couplings[{i}]");
-            let o = as_object(cv, &at, &["type", "particles"])?;
+            let o = as_object(cv, &at, &["type", "particles", "source"])?;
             let type_index = type_ref(&scene, o, &at)?;
             let particles = particle_list(o, &at)?;
+            let source = o
+                .get("source")
+                .map(|v| link_index(v, &join(&at, "source")))
+                .transpose()?;
             scene.couplings.push(Coupling {
                 type_index,
                 particles,
+                source,
             });
         }
     }
@@ -503,6 +511,17 @@ fn read_scene(v: &Value) -> Result<Scene> {
         scene.types[t] = scene.types[t].clone().with_weights(&zeros, &zeros);
     }
     Ok(scene)
+}
+
+/// A link index (a non-negative integer).
+fn link_index(v: &Value, place: &str) -> Result<usize> {
+    match v.as_u64().and_then(|i| usize::try_from(i).ok()) {
+        Some(i) => Ok(i),
+        None => Err(err(
+            place,
+            format!("expected a link index (a non-negative integer), got {v}"),
+        )),
+    }
 }
 
 /// The catalogue index of the `type` a link or coupling names.

@@ -99,3 +99,42 @@ fn auto_does_not_pick_the_exact_solvers() {
     let (_, ran) = make_strategy(StrategyName::Auto, &problem, &StrategyOptions::default());
     assert_eq!(ran, "thesis");
 }
+
+/// `scene` plus a damped quadripole and a position transmitter between the worlds' chains
+/// (their Δ(n-1) is hidden state) and a force transmitter from a main spring into ctrl.
+fn coupled() -> Scene {
+    let mut s = scene("ctrl");
+    s.add_type(
+        LinkType::new("q", LinkKind::Quadripole)
+            .with("stiffness", 5.0)
+            .with("damping", 2.0)
+            .with("ratio", 1.2),
+    );
+    s.add_type(
+        LinkType::new("sense", LinkKind::PositionTransmitter)
+            .with("stiffness", 3.0)
+            .with("damping", 1.0),
+    );
+    s.add_type(LinkType::new("tx", LinkKind::ForceTransmitter).with("gain", 0.5));
+    s.add_coupling("q", &[1, 2, 4, 5]);
+    s.add_coupling("sense", &[0, 2, 3, 5]);
+    s.add_force_transmitter("tx", [3, 4], 0);
+    s
+}
+
+#[test]
+fn couplings_with_hidden_state_cost_zero_on_their_own_motion() {
+    let s = coupled();
+    let traj = s.simulate(150).unwrap();
+    let p = s.param_values();
+    for kind in [CostKind::Short, CostKind::Horizon(9), CostKind::Long] {
+        let obj = Objective::new(&s, &traj, kind).unwrap();
+        assert_eq!(obj.report(&p).unwrap().total, 0.0, "{kind}");
+    }
+    // The quadripole's damping matters (it acts through Δ(n) - Δ(n-1)).
+    let obj = Objective::new(&s, &traj, CostKind::Short).unwrap();
+    let z = s.param_layout().param(&s, 2, "damping").unwrap();
+    let mut q = p.clone();
+    q[z] = 2.5;
+    assert!(obj.report(&q).unwrap().total > 1e-12);
+}
