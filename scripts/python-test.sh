@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Builds the Python package `cordis` (distribution cordis-anima) into a fresh venv and runs its
-# tests (mypy is for the stub check). MuJoCo is installed for the scheme-equivalence test when
-# pip can get it; that test skips itself otherwise.
+# Builds the wheel of the Python package `cordis` (distribution cordis-anima) with
+# `maturin build --release`, installs it into a fresh venv and runs its tests (mypy is for the
+# stub check). MuJoCo is installed for the scheme-equivalence test when pip can get it; that
+# test skips itself otherwise.
 set -euo pipefail
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -11,7 +12,15 @@ venv="$(mktemp -d "${TMPDIR:-/tmp}/cordis-venv.XXXXXX")"
 trap 'rm -rf "$venv"' EXIT
 
 "$python" -m venv "$venv"
-"$venv/bin/python" -m pip install --quiet ./python pytest mypy
+# The wheel a release would ship, built once (`maturin build --release`, the extension's only
+# release build in CI) and installed like a user would: this checks that it installs into a
+# fresh venv and imports, not only that the source tree builds. maturin is pinned as
+# python/pyproject.toml's build-system pins it.
+"$venv/bin/python" -m pip install --quiet "maturin>=1.7,<2"
+wheels="$venv/wheels"
+(cd python && "$venv/bin/maturin" build --release --out "$wheels" --quiet)
+"$venv/bin/python" -m pip install --quiet "$wheels"/cordis_anima-*.whl pytest mypy
+(cd "$venv" && "$venv/bin/python" -c 'import cordis; print("python-test: installed cordis", cordis.__version__, "from", cordis.__file__)')
 # The plot extra, for cordis.plot's tests and the examples/ scripts (a wheel: a few seconds).
 "$venv/bin/python" -m pip install --quiet matplotlib
 if ! "$venv/bin/python" -m pip install --quiet mujoco; then

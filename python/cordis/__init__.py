@@ -20,6 +20,11 @@ Example::
     f = cordis.Objective(truth, traj)                 # the cost, compiled once: f(params) -> float
     f(f.param_vector())                               # 0.0 at the true parameters
 
+    scene.types["brace"]["stiffness"] = 120.0        # edit in place, validated
+    scene.types["brace"]["damping"] = cordis.Unknown(0.0, 2.0)   # make a parameter unknown
+    scene.particles[0].mass = 2.0
+    print(scene)                                      # a summary; scene.to_json() has the edits
+
 Pictures (``pip install cordis-anima[plot]`` for matplotlib): :mod:`cordis.plot` draws
 convergence curves, original vs identified frames, local costs and Pareto fronts;
 ``cordis.animate(scene, traj, "motion.gif")`` writes an animation.
@@ -41,11 +46,18 @@ from ._cordis import (
     DivergedError,
     FormatError,
     IdentifyResult,
+    LinkType,
+    LinkTypes,
     Objective,
     ParamLengthError,
+    Particle,
+    ParticleList,
     Scene,
     SceneError,
+    SceneIndexError,
+    SceneKeyError,
     TrajectoryError,
+    Unknown,
     __version__,
     cost,
     discover,
@@ -69,11 +81,18 @@ __all__ = [
     "DivergedError",
     "FormatError",
     "IdentifyResult",
+    "LinkType",
+    "LinkTypes",
     "Objective",
     "ParamLengthError",
+    "Particle",
+    "ParticleList",
     "Scene",
     "SceneError",
+    "SceneIndexError",
+    "SceneKeyError",
     "TrajectoryError",
+    "Unknown",
     "__version__",
     "animate",
     "cost",

@@ -1,7 +1,19 @@
 """Type stubs of the compiled extension ``cordis._cordis`` (re-exported by ``cordis``)."""
 
 import os
-from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union, final
+from typing import (
+    Any,
+    Callable,
+    Dict,
+    Iterator,
+    List,
+    Mapping,
+    Optional,
+    Sequence,
+    Tuple,
+    Union,
+    final,
+)
 
 import numpy as np
 import numpy.typing as npt
@@ -19,7 +31,14 @@ __all__ = [
     "CordisIOError",
     "CostKindError",
     "ParamLengthError",
+    "SceneKeyError",
+    "SceneIndexError",
     "Scene",
+    "Unknown",
+    "Particle",
+    "ParticleList",
+    "LinkType",
+    "LinkTypes",
     "read_trajectory",
     "write_trajectory",
     "example",
@@ -88,12 +107,167 @@ class ParamLengthError(CordisError, ValueError):
 class CheckpointError(CordisError):
     """A checkpoint could not be read or written, or does not fit the run it should resume."""
 
+class SceneKeyError(SceneError, KeyError):
+    """A link-type or parameter name the scene does not have; ``place`` names it.
+
+    >>> scene.types["rib"]["stifness"]   # SceneKeyError: types.rib.stifness: `spring` types
+    ...                                  # have no parameter `stifness` (they have: …)
+    """
+
+class SceneIndexError(SceneError, IndexError):
+    """A particle or type index out of range (``scene.particles[99]``); ``place`` names it."""
+
+@final
+class Unknown:
+    """A parameter to identify, searched in ``[min, max]``, starting from ``init``.
+
+    Without ``init`` a simulation uses the box's middle (geometric when the box is positive and
+    spans more than a decade). Assign it where a number goes:
+
+    >>> scene.types["rib"]["stiffness"] = cordis.Unknown(1.0, 1000.0)
+    >>> scene.particles[2].mass = cordis.Unknown(0.1, 10.0, init=1.0)
+
+    Raises ValueError unless ``min <= max`` (finite) and ``init`` is inside the box.
+    """
+
+    def __new__(cls, min: float, max: float, init: Optional[float] = None) -> "Unknown": ...
+    @property
+    def min(self) -> float: ...
+    @property
+    def max(self) -> float: ...
+    @property
+    def init(self) -> Optional[float]: ...
+    @property
+    def value(self) -> float:
+        """The value a simulation uses before identification: ``init``, else the middle."""
+    def to_dict(self) -> Dict[str, float]:
+        """``{"min": …, "max": …}`` (and ``"init"``), as in the JSON format."""
+    def __eq__(self, other: object, /) -> bool: ...
+    __hash__: None  # type: ignore[assignment]
+    def __reduce__(self) -> Tuple[Any, Tuple[float, float, Optional[float]]]: ...
+
+_Param = Union[float, Unknown]
+_ParamIn = Union[float, Unknown, Mapping[str, float]]
+
+@final
+class Particle:
+    """One particle of a scene, a view that writes through (``scene.particles[i]``).
+
+    Every attribute is settable; a value the scene refuses raises SceneError naming it
+    (``particles[3].mass: must be a positive number, got 0``) and changes nothing.
+
+    >>> p = scene.particles[3]
+    >>> p.mass = 2.0
+    >>> p.pos = (0.0, 0.0, 1.5)
+    """
+
+    @property
+    def index(self) -> int: ...
+    @property
+    def mass(self) -> _Param:
+        """Mass, kg, or ``Unknown`` when it is to be identified."""
+    @mass.setter
+    def mass(self, value: _ParamIn) -> None: ...
+    @property
+    def pos(self) -> Tuple[float, float, float]:
+        """Initial position x(0), m."""
+    @pos.setter
+    def pos(self, value: _ArrayLike) -> None: ...
+    @property
+    def vel(self) -> Tuple[float, float, float]:
+        """Initial velocity v(0), m/s."""
+    @vel.setter
+    def vel(self, value: _ArrayLike) -> None: ...
+    @property
+    def fixed(self) -> bool:
+        """A fixed particle never moves."""
+    @fixed.setter
+    def fixed(self, value: bool) -> None: ...
+    @property
+    def group(self) -> Optional[str]:
+        """Group name (conditional types pair particles by group), or None."""
+    @group.setter
+    def group(self, value: Optional[str]) -> None: ...
+
+@final
+class ParticleList:
+    """``scene.particles``: a sequence of :class:`Particle` views (negative indices work)."""
+
+    def __len__(self) -> int: ...
+    def __getitem__(self, i: int, /) -> Particle:
+        """Raises SceneIndexError (an IndexError) out of range."""
+    def __iter__(self) -> Iterator[Particle]: ...
+
+@final
+class LinkType:
+    """One entry of the catalogue: a mapping parameter name → value that writes through.
+
+    Keys are the kind's parameters in parameter-vector order (``stiffness``, ``rest_length``,
+    ``damping``…; a muscle's ``w_len[k]``, ``w_rate[k]``). Values are floats, or
+    :class:`Unknown` for parameters to identify. An assignment is validated: a bad value raises
+    SceneError (``types.rib.stiffness: must be a non-negative number, got -1``), an unknown name
+    SceneKeyError (a KeyError), and the scene is left unchanged.
+
+    >>> rib = scene.types["rib"]
+    >>> rib["stiffness"] = 120.0
+    >>> rib["damping"] = cordis.Unknown(0.0, 5.0)
+    >>> dict(rib)
+    {'stiffness': 120.0, 'rest_length': 1.0, 'damping': Unknown(0.0, 5.0)}
+    """
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def kind(self) -> str:
+        """``spring``, ``damper``, ``anchor``, ``angle``, ``conditional``, ``muscle``…"""
+    @property
+    def num_links(self) -> int:
+        """Number of listed links of this type."""
+    def __len__(self) -> int: ...
+    def __getitem__(self, key: str, /) -> _Param: ...
+    def __setitem__(self, key: str, value: _ParamIn, /) -> None: ...
+    def __contains__(self, key: object, /) -> bool: ...
+    def __iter__(self) -> Iterator[str]: ...
+    def keys(self) -> List[str]: ...
+    def values(self) -> List[_Param]: ...
+    def items(self) -> List[Tuple[str, _Param]]: ...
+    def get(self, key: str, default: Optional[Any] = None) -> Any: ...
+
+@final
+class LinkTypes:
+    """``scene.types``: the catalogue, a mapping type name → :class:`LinkType` (file order).
+
+    An int index works too (``scene.types[0]``). A missing name raises SceneKeyError.
+    """
+
+    def __len__(self) -> int: ...
+    def __getitem__(self, key: Union[str, int], /) -> LinkType: ...
+    def __contains__(self, name: object, /) -> bool: ...
+    def __iter__(self) -> Iterator[str]: ...
+    def keys(self) -> List[str]: ...
+    def values(self) -> List[LinkType]: ...
+    def items(self) -> List[Tuple[str, LinkType]]: ...
+    def get(self, name: str, default: Optional[Any] = None) -> Any: ...
+
 @final
 class Scene:
     """A Cordis-Anima network (particles, link catalogue, links) with its time step.
 
-    Immutable: read one with :meth:`from_json` or :meth:`from_dict`, run it with
-    :meth:`simulate`. Equal scenes compare equal; scenes pickle as their JSON text.
+    Read one with :meth:`from_json` or :meth:`from_dict`, run it with :meth:`simulate`. Edit it
+    in place; every edit is validated (a refused value raises SceneError naming the place and
+    leaves the scene unchanged), and :meth:`to_json` writes the edits:
+
+    >>> scene = cordis.example("rigid")
+    >>> scene.dt = 0.005
+    >>> scene.gravity = (0.0, 0.0, -9.81)
+    >>> scene.types["brace"]["stiffness"] = 120.0
+    >>> scene.types["brace"]["damping"] = cordis.Unknown(0.0, 2.0)
+    >>> scene.particles[3].mass = 2.0
+    >>> scene.masses = 1.5 * scene.masses          # whole arrays: masses, positions, velocities
+    >>> print(scene)                               # a readable summary
+
+    Equal scenes compare equal; scenes pickle as their JSON text; ``copy.copy`` and
+    :meth:`copy` give an independent scene.
     """
 
     @classmethod
@@ -106,15 +280,16 @@ class Scene:
     def from_dict(cls, d: Mapping[str, Any], /) -> "Scene":
         """Reads a scene from a dict shaped like the JSON format (numpy values accepted)."""
     def to_json(self) -> str:
-        """The scene as pretty-printed JSON text (``cordis-scene/1``)."""
+        """The scene as pretty-printed JSON text (``cordis-scene/1``), edits included."""
     def to_dict(self) -> Dict[str, Any]:
         """The scene as a dict of plain Python values (the JSON format's structure)."""
     def simulate(self, frames: int) -> npt.NDArray[np.float64]:
         """Positions for ``frames`` frames, a C-contiguous float64 array ``(frames, N, 3)`` in m.
 
-        Frame 0 is the initial positions. The GIL is released while it runs. Raises
-        ValueError for a negative count, MemoryError for one that cannot be allocated and
-        DivergedError when the motion leaves the finite numbers.
+        Frame 0 is the initial positions. The GIL is released while it runs (an edit made
+        meanwhile by another thread does not affect it). Raises ValueError for a negative
+        count, MemoryError for one that cannot be allocated and DivergedError when the motion
+        leaves the finite numbers.
         """
     def stability(self) -> Dict[str, Any]:
         """The stability report, as ``cordis check`` prints it.
@@ -128,10 +303,39 @@ class Scene:
         """
     @property
     def dt(self) -> float:
-        """Time step, s."""
+        """Time step, s. Settable (a positive number, else SceneError)."""
+    @dt.setter
+    def dt(self, value: float) -> None: ...
     @property
     def gravity(self) -> Tuple[float, float, float]:
-        """Acceleration of every free particle, m/s²."""
+        """Acceleration of every free particle, m/s². Settable from 3 finite numbers."""
+    @gravity.setter
+    def gravity(self, value: _ArrayLike) -> None: ...
+    @property
+    def particles(self) -> ParticleList:
+        """The particles, views that write through: ``scene.particles[3].mass = 2.0``."""
+    @property
+    def types(self) -> LinkTypes:
+        """The catalogue: ``scene.types["rib"]["stiffness"] = 120.0``."""
+    @property
+    def masses(self) -> npt.NDArray[np.float64]:
+        """Masses ``(N,)`` kg, a read-only copy (unknown masses at their starting value).
+
+        Assign a whole ``(N,)`` array to change them (all become known); a wrong shape raises
+        ValueError, a non-positive mass SceneError.
+        """
+    @masses.setter
+    def masses(self, value: _ArrayLike) -> None: ...
+    @property
+    def positions(self) -> npt.NDArray[np.float64]:
+        """Initial positions x(0) ``(N, 3)`` m, a read-only copy; assign ``(N, 3)`` to set."""
+    @positions.setter
+    def positions(self, value: _ArrayLike) -> None: ...
+    @property
+    def velocities(self) -> npt.NDArray[np.float64]:
+        """Initial velocities v(0) ``(N, 3)`` m/s, a read-only copy; assign ``(N, 3)`` to set."""
+    @velocities.setter
+    def velocities(self, value: _ArrayLike) -> None: ...
     @property
     def num_particles(self) -> int: ...
     @property
@@ -146,6 +350,8 @@ class Scene:
     @property
     def has_unknowns(self) -> bool:
         """True when some parameter or mass is still to be identified."""
+    def copy(self) -> "Scene":
+        """An independent copy (edits to one do not change the other)."""
     def __eq__(self, other: object, /) -> bool: ...
     __hash__: None  # type: ignore[assignment]
     def __copy__(self) -> "Scene": ...

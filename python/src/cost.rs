@@ -138,13 +138,13 @@ impl Objective {
         let traj = traj_from_py(traj, "traj")?;
         let core = scene.core();
         let mut inner = py
-            .detach(|| CoreObjective::new(core, &traj, kind))
+            .detach(|| CoreObjective::new(&core, &traj, kind))
             .map_err(cost_to_py)?;
         inner.set_generation(generation);
         inner.set_linear(precompute);
         Ok(Objective {
             inner: Arc::new(inner),
-            scene: core.clone(),
+            scene: (*core).clone(),
             scratch: Mutex::new(None),
         })
     }
@@ -382,7 +382,7 @@ pub fn cost(
     let traj = traj_from_py(traj, "traj")?;
     let core = scene.core();
     let report = py
-        .detach(|| cached_objective(core, &traj, kind)?.report(&core.param_values()))
+        .detach(|| cached_objective(&core, &traj, kind)?.report(&core.param_values()))
         .map_err(cost_to_py)?;
     Ok(report_to_py(py, report, &kind))
 }

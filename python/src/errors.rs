@@ -7,7 +7,7 @@
 
 use cordis_core::CordisError as CoreError;
 use cordis_es::CostError;
-use pyo3::exceptions::{PyException, PyOSError, PyValueError};
+use pyo3::exceptions::{PyException, PyIndexError, PyKeyError, PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyDict, PyTuple, PyType};
@@ -56,6 +56,8 @@ pyo3::create_exception!(
 static IO_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
 static COST_KIND_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
 static PARAM_LENGTH_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+static SCENE_KEY_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+static SCENE_INDEX_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
 
 fn dual_type<'py, B: pyo3::PyTypeInfo>(
     py: Python<'py>,
@@ -63,8 +65,18 @@ fn dual_type<'py, B: pyo3::PyTypeInfo>(
     name: &str,
     doc: &str,
 ) -> PyResult<&'py Bound<'py, PyType>> {
+    dual_type_of::<CordisError, B>(py, cell, name, doc)
+}
+
+/// A class deriving from cordis' `A` and the built-in `B`.
+fn dual_type_of<'py, A: pyo3::PyTypeInfo, B: pyo3::PyTypeInfo>(
+    py: Python<'py>,
+    cell: &'static PyOnceLock<Py<PyType>>,
+    name: &str,
+    doc: &str,
+) -> PyResult<&'py Bound<'py, PyType>> {
     cell.get_or_try_init(py, || {
-        let bases = PyTuple::new(py, [py.get_type::<CordisError>(), py.get_type::<B>()])?;
+        let bases = PyTuple::new(py, [py.get_type::<A>(), py.get_type::<B>()])?;
         let ns = PyDict::new(py);
         ns.set_item("__module__", "cordis")?;
         ns.set_item("__doc__", doc)?;
@@ -107,6 +119,59 @@ pub fn param_length_error_type(py: Python<'_>) -> PyResult<&Bound<'_, PyType>> {
     )
 }
 
+/// `SceneKeyError(SceneError, KeyError)`: a link type or parameter name the scene lacks.
+pub fn scene_key_error_type(py: Python<'_>) -> PyResult<&Bound<'_, PyType>> {
+    dual_type_of::<SceneError, PyKeyError>(
+        py,
+        &SCENE_KEY_ERROR,
+        "SceneKeyError",
+        "A link-type or parameter name the scene does not have (`scene.types[\"rib\"][\"stifness\"]`); `place` names it.",
+    )
+}
+
+/// `SceneIndexError(SceneError, IndexError)`: a particle or type index out of range.
+pub fn scene_index_error_type(py: Python<'_>) -> PyResult<&Bound<'_, PyType>> {
+    dual_type_of::<SceneError, PyIndexError>(
+        py,
+        &SCENE_INDEX_ERROR,
+        "SceneIndexError",
+        "A particle or type index out of range (`scene.particles[99]`); `place` names it.",
+    )
+}
+
+/// A `SceneKeyError` with `place` and `message` set (as every placed error has).
+pub fn scene_key_error(place: &str, message: &str) -> PyErr {
+    Python::attach(|py| {
+        let make = || -> PyResult<PyErr> {
+            let cls = scene_key_error_type(py)?;
+            Ok(PyErr::from_value(placed_of(cls, place, message)?))
+        };
+        make().unwrap_or_else(|e| e)
+    })
+}
+
+/// A `SceneIndexError` with `place` and `message` set.
+pub fn scene_index_error(place: &str, message: &str) -> PyErr {
+    Python::attach(|py| {
+        let make = || -> PyResult<PyErr> {
+            let cls = scene_index_error_type(py)?;
+            Ok(PyErr::from_value(placed_of(cls, place, message)?))
+        };
+        make().unwrap_or_else(|e| e)
+    })
+}
+
+fn placed_of<'py>(
+    cls: &Bound<'py, PyType>,
+    place: &str,
+    message: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let e = cls.call1((format!("{place}: {message}"),))?;
+    e.setattr("place", place)?;
+    e.setattr("message", message)?;
+    Ok(e)
+}
+
 /// Registers the exception classes on the extension module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
@@ -119,6 +184,8 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("CordisIOError", io_error_type(py)?)?;
     m.add("CostKindError", cost_kind_error_type(py)?)?;
     m.add("ParamLengthError", param_length_error_type(py)?)?;
+    m.add("SceneKeyError", scene_key_error_type(py)?)?;
+    m.add("SceneIndexError", scene_index_error_type(py)?)?;
     Ok(())
 }
 

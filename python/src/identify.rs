@@ -290,7 +290,7 @@ pub fn identify(
         }
     }
     let kind = cost.parse().map_err(cost_to_py)?;
-    let scene = scene.core().clone();
+    let scene = scene.core();
     if !scene.has_unknowns() {
         return Err(SceneError::new_err(
             "scene: no parameter to identify: write unknowns as {\"min\": …, \"max\": …}",

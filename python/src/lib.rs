@@ -5,7 +5,8 @@
 //! the core call and map errors with [`errors::to_py`]. The pure-Python package `cordis`
 //! (python/cordis/) re-exports everything from here and adds Python-only helpers.
 //!
-//! Modules: `scene.rs` (core `Scene`), `trajectory.rs` (`cordis_core::io`), `examples.rs`
+//! Modules: `scene.rs` (core `Scene`), `scene_edit.rs` (its editing views), `unknown.rs`
+//! (`Param::Unknown`), `trajectory.rs` (`cordis_core::io`), `examples.rs`
 //! (`cordis_core::examples`), `cost.rs` (`cordis_es::cost`), `identify.rs` (`cordis_es::problem`,
 //! `identify`, `executor`), `discover.rs` (`cordis_es::discover`), `cli.rs` (`cordis_cli`), `errors.rs` (both error enums).
 
@@ -19,13 +20,20 @@ pub mod examples;
 pub mod identify;
 pub mod json;
 pub mod scene;
+pub mod scene_edit;
 pub mod trajectory;
+pub mod unknown;
 
 #[pymodule]
 fn _cordis(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     errors::register(m)?;
     m.add_class::<scene::Scene>()?;
+    m.add_class::<unknown::Unknown>()?;
+    m.add_class::<scene_edit::Particles>()?;
+    m.add_class::<scene_edit::ParticleView>()?;
+    m.add_class::<scene_edit::Types>()?;
+    m.add_class::<scene_edit::TypeView>()?;
     trajectory::register(m)?;
     examples::register(m)?;
     cost::register(m)?;

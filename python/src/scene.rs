@@ -1,36 +1,80 @@
 //! `cordis.Scene`: a Cordis-Anima network (particles, link catalogue, links) and its time step.
 //!
-//! Immutable from Python (`frozen`): methods that change a scene (identification) return a new
-//! one. That is also what lets `simulate` run without the GIL while other threads hold the
-//! same scene.
+//! Editable from Python, one validated value at a time (`scene.dt = …`,
+//! `scene.types["rib"]["stiffness"] = …`, `scene.particles[3].mass = …`; the views are in
+//! `scene_edit.rs`): an edit that would make the scene invalid is refused with a `SceneError`
+//! naming the place and leaves the scene unchanged, so a `Scene` is always simulable.
+//!
+//! The core scene sits behind an `RwLock<Arc<…>>`: a reader (simulate, identify, cost) takes
+//! a snapshot (an `Arc` clone) and runs on it without the GIL; an edit made meanwhile by another
+//! thread copies the scene first (`Arc::make_mut`), so a running simulation never sees a
+//! half-edited scene. The lock is only held to swap values, never while Python code runs.
 
 use std::path::PathBuf;
+use std::sync::{Arc, PoisonError, RwLock, RwLockWriteGuard};
 
 use cordis_core::Scene as CoreScene;
-use numpy::PyArray3;
+use numpy::{PyArray1, PyArray2, PyArray3};
 use pyo3::exceptions::{PyMemoryError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString, PyTuple, PyType};
 
 use crate::errors::to_py;
 use crate::json;
+use crate::scene_edit::{self, Particles, Types};
 
 /// A Cordis-Anima network: particles, a catalogue of link types and the links between
 /// particles, with its time step `dt` (s) and `gravity` (m/s²). Read one with
-/// `Scene.from_json` or `Scene.from_dict`; run it with `simulate`.
+/// `Scene.from_json` or `Scene.from_dict`; run it with `simulate`; edit it in place
+/// (`scene.dt`, `scene.gravity`, `scene.types[NAME][PARAM]`, `scene.particles[i].mass`,
+/// `scene.masses`, `scene.positions`, `scene.velocities`), every edit validated.
 #[pyclass(frozen, eq, module = "cordis", name = "Scene")]
-#[derive(Clone, PartialEq)]
 pub struct Scene {
-    inner: CoreScene,
+    inner: RwLock<Arc<CoreScene>>,
+}
+
+impl PartialEq for Scene {
+    fn eq(&self, other: &Self) -> bool {
+        *self.core() == *other.core()
+    }
 }
 
 impl Scene {
     pub fn from_core(inner: CoreScene) -> Self {
-        Scene { inner }
+        Scene {
+            inner: RwLock::new(Arc::new(inner)),
+        }
     }
 
-    pub fn core(&self) -> &CoreScene {
-        &self.inner
+    /// A snapshot of the scene as it is now: later edits do not change it.
+    pub fn core(&self) -> Arc<CoreScene> {
+        self.inner
+            .read()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clone()
+    }
+
+    fn write(&self) -> RwLockWriteGuard<'_, Arc<CoreScene>> {
+        self.inner.write().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Runs `edit` on the scene, then `check` (the validation of what `edit` touched); when
+    /// either fails, restores the scene as it was and raises. `edit` returns the undo.
+    pub fn edit<U: FnOnce(&mut CoreScene)>(
+        &self,
+        edit: impl FnOnce(&mut CoreScene) -> Result<U, cordis_core::CordisError>,
+        check: impl FnOnce(&CoreScene) -> cordis_core::Result<()>,
+    ) -> PyResult<()> {
+        let result = {
+            let mut guard = self.write();
+            let scene = Arc::make_mut(&mut guard);
+            match edit(scene) {
+                Err(e) => Err(e),
+                Ok(undo) => check(scene).inspect_err(|_| undo(scene)),
+            }
+        };
+        // The guard is dropped before the exception is built (that runs Python code).
+        result.map_err(to_py)
     }
 }
 
@@ -86,12 +130,12 @@ impl Scene {
 
     /// The scene as pretty-printed JSON text (`cordis-scene/1`), ending with a newline.
     fn to_json(&self) -> String {
-        self.inner.to_json_string()
+        self.core().to_json_string()
     }
 
     /// The scene as a dict of plain Python values (the JSON format's structure).
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        json::to_py(py, &self.inner.to_json_value())
+        json::to_py(py, &self.core().to_json_value())
     }
 
     /// Simulates `frames` frames from the initial state and returns the positions as a
@@ -103,10 +147,10 @@ impl Scene {
         py: Python<'py>,
         frames: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray3<f64>>> {
-        let n = self.inner.num_particles();
+        let scene = self.core();
+        let n = scene.num_particles();
         let frames = frames_arg(frames)?;
         let frames = check_frames(frames, n).map_err(FramesError::into_py)?;
-        let scene = &self.inner;
         let traj = py.detach(|| scene.simulate(frames)).map_err(to_py)?;
         crate::trajectory::traj_to_py(py, traj)
     }
@@ -117,12 +161,12 @@ impl Scene {
     /// `local_max_ratio` (neighbours held fixed), `max_stable_dt` (s, or None when any step
     /// passes) and `per_particle` (a list of floats, None for fixed particles).
     fn stability<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let scene = &self.inner;
+        let scene = self.core();
         let (r, dt_max) = py
             .detach(|| -> cordis_core::Result<_> {
                 Ok((
-                    cordis_core::stability(scene)?,
-                    cordis_core::stability::max_stable_dt(scene)?,
+                    cordis_core::stability(&scene)?,
+                    cordis_core::stability::max_stable_dt(&scene)?,
                 ))
             })
             .map_err(to_py)?;
@@ -136,57 +180,188 @@ impl Scene {
         Ok(d)
     }
 
-    /// Time step, s.
+    /// Time step, s. Settable: `scene.dt = 0.001` (a positive number, else `SceneError`).
     #[getter]
     fn dt(&self) -> f64 {
-        self.inner.dt
+        self.core().dt
     }
 
-    /// Acceleration of every free particle, m/s², as `(gx, gy, gz)`.
+    #[setter]
+    fn set_dt(&self, dt: &Bound<'_, PyAny>) -> PyResult<()> {
+        let dt = scene_edit::number(dt, "dt")?;
+        self.edit(
+            |s| {
+                let old = std::mem::replace(&mut s.dt, dt);
+                Ok(move |s: &mut CoreScene| s.dt = old)
+            },
+            CoreScene::validate_globals,
+        )
+    }
+
+    /// Acceleration of every free particle, m/s², as `(gx, gy, gz)`. Settable from any
+    /// sequence of 3 finite numbers: `scene.gravity = (0, 0, -9.81)`.
     #[getter]
     fn gravity(&self) -> (f64, f64, f64) {
-        let [x, y, z] = self.inner.gravity;
+        let [x, y, z] = self.core().gravity;
         (x, y, z)
+    }
+
+    #[setter]
+    fn set_gravity(&self, g: &Bound<'_, PyAny>) -> PyResult<()> {
+        let g = scene_edit::vec3(g, "gravity")?;
+        self.edit(
+            |s| {
+                let old = std::mem::replace(&mut s.gravity, g);
+                Ok(move |s: &mut CoreScene| s.gravity = old)
+            },
+            CoreScene::validate_globals,
+        )
+    }
+
+    /// The particles as a sequence of views that write through:
+    /// `scene.particles[3].mass = 2.0`, `scene.particles[-1].pos = (0, 0, 1)`.
+    #[getter]
+    fn particles(slf: &Bound<'_, Self>) -> Particles {
+        Particles::new(slf.clone().unbind())
+    }
+
+    /// The catalogue as a mapping from type name to a view of its parameters that writes
+    /// through: `scene.types["rib"]["stiffness"] = 120.0`, or
+    /// `= cordis.Unknown(1.0, 1000.0)` to make it identifiable.
+    #[getter]
+    fn types(slf: &Bound<'_, Self>) -> Types {
+        Types::new(slf.clone().unbind())
+    }
+
+    /// Masses, kg, float64 `(N,)`, read-only (an unknown mass shows its starting value).
+    /// Assign a whole array to change them: `scene.masses = 2 * scene.masses`.
+    #[getter]
+    fn masses<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let values: Vec<f64> = self
+            .core()
+            .particles
+            .iter()
+            .map(|p| p.mass.value())
+            .collect();
+        read_only(PyArray1::from_vec(py, values))
+    }
+
+    #[setter]
+    fn set_masses(&self, m: &Bound<'_, PyAny>) -> PyResult<()> {
+        let n = self.core().num_particles();
+        let values = scene_edit::array(m, "masses", &[n])?;
+        self.edit(
+            |s| {
+                let old: Vec<_> = s.particles.iter().map(|p| p.mass).collect();
+                for (p, v) in s.particles.iter_mut().zip(values) {
+                    p.mass = cordis_core::Param::Known(v);
+                }
+                Ok(move |s: &mut CoreScene| {
+                    for (p, m) in s.particles.iter_mut().zip(old) {
+                        p.mass = m;
+                    }
+                })
+            },
+            |s| (0..s.num_particles()).try_for_each(|i| s.validate_particle(i)),
+        )
+    }
+
+    /// Initial positions x(0), m, float64 `(N, 3)`, read-only; assign an `(N, 3)` array to
+    /// change them.
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let rows: Vec<Vec<f64>> = self
+            .core()
+            .particles
+            .iter()
+            .map(|p| p.pos.to_vec())
+            .collect();
+        Ok(read_only(PyArray2::from_vec2(py, &rows).map_err(|e| {
+            PyValueError::new_err(format!("positions: {e}"))
+        })?))
+    }
+
+    #[setter]
+    fn set_positions(&self, x: &Bound<'_, PyAny>) -> PyResult<()> {
+        self.set_rows(x, "positions", |p| &mut p.pos)
+    }
+
+    /// Initial velocities v(0), m/s, float64 `(N, 3)`, read-only; assign an `(N, 3)` array
+    /// to change them.
+    #[getter]
+    fn velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let rows: Vec<Vec<f64>> = self
+            .core()
+            .particles
+            .iter()
+            .map(|p| p.vel.to_vec())
+            .collect();
+        Ok(read_only(PyArray2::from_vec2(py, &rows).map_err(|e| {
+            PyValueError::new_err(format!("velocities: {e}"))
+        })?))
+    }
+
+    #[setter]
+    fn set_velocities(&self, v: &Bound<'_, PyAny>) -> PyResult<()> {
+        self.set_rows(v, "velocities", |p| &mut p.vel)
     }
 
     #[getter]
     fn num_particles(&self) -> usize {
-        self.inner.num_particles()
+        self.core().num_particles()
     }
 
     /// Number of listed links (pairs of conditional types are found while simulating and are
     /// not counted).
     #[getter]
     fn num_links(&self) -> usize {
-        self.inner.links.len()
+        self.core().links.len()
     }
 
     /// Number of link types in the catalogue.
     #[getter]
     fn num_types(&self) -> usize {
-        self.inner.types.len()
+        self.core().types.len()
     }
 
     /// Names of the catalogue's link types, in file order.
     #[getter]
     fn type_names(&self) -> Vec<String> {
-        self.inner.types.iter().map(|t| t.name.clone()).collect()
+        self.core().types.iter().map(|t| t.name.clone()).collect()
     }
 
     /// True when some parameter or mass is still to be identified (`{"min", "max"}`).
     #[getter]
     fn has_unknowns(&self) -> bool {
-        self.inner.has_unknowns()
+        self.core().has_unknowns()
+    }
+
+    /// A copy of the scene (edits to one do not change the other).
+    fn copy(&self) -> Scene {
+        Scene::from_core((*self.core()).clone())
     }
 
     fn __repr__(&self) -> String {
+        let s = self.core();
+        let unknowns = scene_edit::count_unknowns(&s);
         format!(
-            "Scene(particles={}, types={}, links={}, dt={})",
-            self.inner.num_particles(),
-            self.inner.types.len(),
-            self.inner.links.len(),
-            self.inner.dt
+            "Scene(particles={}, types={}, links={}, dt={}{})",
+            s.num_particles(),
+            s.types.len(),
+            s.links.len(),
+            s.dt,
+            if unknowns > 0 {
+                format!(", unknowns={unknowns}")
+            } else {
+                String::new()
+            }
         )
+    }
+
+    /// A readable summary: sizes, dt, gravity, each type with its parameters and link count,
+    /// the masses.
+    fn __str__(&self, py: Python<'_>) -> PyResult<String> {
+        scene_edit::summary(py, &self.core())
     }
 
     /// Pickles as its JSON text.
@@ -198,14 +373,50 @@ impl Scene {
         Ok((ctor, args))
     }
 
-    /// Scenes are immutable: a copy is the scene itself.
-    fn __copy__(slf: Bound<'_, Self>) -> Bound<'_, Self> {
-        slf
+    /// A copy (scenes are editable): shares nothing with the original.
+    fn __copy__(&self) -> Scene {
+        self.copy()
     }
 
-    fn __deepcopy__<'py>(slf: Bound<'py, Self>, _memo: &Bound<'py, PyAny>) -> Bound<'py, Self> {
-        slf
+    fn __deepcopy__(&self, _memo: &Bound<'_, PyAny>) -> Scene {
+        self.copy()
     }
+}
+
+impl Scene {
+    /// Sets one 3-vector per particle (`positions`, `velocities`) from an `(N, 3)` array.
+    fn set_rows(
+        &self,
+        x: &Bound<'_, PyAny>,
+        what: &str,
+        field: fn(&mut cordis_core::Particle) -> &mut [f64; 3],
+    ) -> PyResult<()> {
+        let n = self.core().num_particles();
+        let values = scene_edit::array(x, what, &[n, 3])?;
+        self.edit(
+            |s| {
+                let mut old = Vec::with_capacity(n);
+                for (p, row) in s.particles.iter_mut().zip(values.chunks_exact(3)) {
+                    old.push(std::mem::replace(field(p), [row[0], row[1], row[2]]));
+                }
+                Ok(move |s: &mut CoreScene| {
+                    for (p, o) in s.particles.iter_mut().zip(old) {
+                        *field(p) = o;
+                    }
+                })
+            },
+            |s| (0..s.num_particles()).try_for_each(|i| s.validate_particle(i)),
+        )
+    }
+}
+
+/// Marks an array read-only, so that `scene.masses[3] = 2.0` raises instead of changing a copy.
+fn read_only<'py, D: numpy::ndarray::Dimension>(
+    a: Bound<'py, numpy::PyArray<f64, D>>,
+) -> Bound<'py, numpy::PyArray<f64, D>> {
+    // Clearing WRITEABLE on an array we own cannot fail.
+    let _ = a.call_method1("setflags", (false,));
+    a
 }
 
 /// An integer frame count; one beyond i64 is a `ValueError` (not an `OverflowError`), as any

@@ -68,3 +68,37 @@ def test_cli_identify_equals_python_identify(tmp_path):
     assert summary["param_error_pct"] == res.param_error_pct
     assert summary["stopped_by"] == res.stopped_by == "converged"  # auto: least-squares
     assert cordis.Scene.from_json(tmp_path / "out.json") == res.scene
+
+
+def test_json_output_parses_line_by_line(tmp_path):
+    """`--json`: stdout is JSON objects only, one per line, for every command; a scene that
+    would go to stdout is embedded in the summary."""
+    def objects(args):
+        out = run([cordis_exe(), *args, "--json", "-q"], cwd=tmp_path)
+        assert out.returncode == 0, out.stderr
+        assert out.stderr == ""
+        return [json.loads(line) for line in out.stdout.splitlines()]
+
+    [ex] = objects(["example", "rigid"])
+    assert cordis.Scene.from_dict(ex["scene"]) == cordis.example("rigid")
+    assert (ex["particles"], ex["frames"]) == (15, 100)
+    [ex] = objects(["example", "rigid", "--out", "rigid.json"])
+    assert ex["out"] == "rigid.json" and "scene" not in ex
+    [sim] = objects(["simulate", "rigid.json", "--frames", "40", "--out", "rigid.npy"])
+    assert sim["frames"] == 40 and sim["out"] == "rigid.npy"
+    [c] = objects(["cost", "rigid.json", "--trajectory", "rigid.npy"])
+    report = cordis.cost(cordis.example("rigid"), cordis.read_trajectory(tmp_path / "rigid.npy"))
+    assert c["total"] == report.total and c["per_particle"] == report.per_particle.tolist()
+    [chk] = objects(["check", "rigid.json"])
+    assert chk["max_stability_ratio"] == cordis.example("rigid").stability()["max_stability_ratio"]
+
+
+@pytest.mark.parametrize("args, code", [
+    (["simulate", "missing.json", "--frames", "3"], 1),
+    (["example", "nope"], 2),
+])
+def test_json_errors_carry_the_exit_code(tmp_path, args, code):
+    out = run([cordis_exe(), *args, "--json"], cwd=tmp_path)
+    assert out.returncode == code
+    [err] = [json.loads(line) for line in out.stdout.splitlines()]
+    assert err["exit_code"] == code and err["error"] in out.stderr

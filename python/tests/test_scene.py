@@ -76,7 +76,7 @@ def test_properties_and_repr():
     assert s.type_names == ["soft", "stiff"]
     assert s.dt == 0.005
     assert s.gravity == (0.0, 0.0, -9.81)
-    assert repr(s) == "Scene(particles=6, types=2, links=5, dt=0.005)"
+    assert repr(s) == "Scene(particles=6, types=2, links=5, dt=0.005)"  # no unknowns
 
 
 def test_equality_pickle_and_copy():
@@ -86,6 +86,10 @@ def test_equality_pickle_and_copy():
     assert a == b and a != c and a != "scene"
     assert pickle.loads(pickle.dumps(a)) == a
     assert copy.copy(a) == a and copy.deepcopy(a) == a
+    # Scenes are editable: a copy is independent of its original.
+    for c in (copy.copy(a), copy.deepcopy(a), a.copy()):
+        c.dt = 2 * a.dt
+        assert c != a and a == b
 
 
 # --- simulating ---------------------------------------------------------------------------
@@ -291,3 +295,226 @@ def test_json_text_round_trip_is_bit_exact():
     b = cordis.Scene.from_json(a.to_json())
     assert b == a
     assert b.to_dict()["particles"] == a.to_dict()["particles"]
+
+
+# --- editing ------------------------------------------------------------------------------
+
+
+def test_edits_write_through_and_round_trip():
+    """Each edit shows in the views, the arrays, to_dict and to_json; the edited scene equals
+    the one built from the edited dict."""
+    s = cordis.Scene.from_dict(scenes.damped_chain())
+    s.dt = 0.002
+    s.gravity = np.array([0.0, -1.0, 0.0])
+    s.types["soft"]["stiffness"] = 55.0
+    s.types["stiff"]["damping"] = np.float32(0.25)
+    s.particles[2].mass = 1.5
+    s.particles[-1].pos = (1.0, 2.0, 3.0)
+    s.particles[1].vel = [0.0, 0.0, 0.5]
+    s.particles[3].fixed = True
+    want = scenes.damped_chain()
+    want["dt"] = 0.002
+    want["gravity"] = [0.0, -1.0, 0.0]
+    want["types"]["soft"]["stiffness"] = 55.0
+    want["types"]["stiff"]["damping"] = 0.25
+    want["particles"][2]["mass"] = 1.5
+    want["particles"][5]["pos"] = [1.0, 2.0, 3.0]
+    want["particles"][1]["vel"] = [0.0, 0.0, 0.5]
+    want["particles"][3]["fixed"] = True
+    assert s == cordis.Scene.from_dict(want)
+    assert cordis.Scene.from_json(s.to_json()) == s
+    assert s.to_dict()["types"]["soft"]["stiffness"] == 55.0
+    assert (s.dt, s.gravity) == (0.002, (0.0, -1.0, 0.0))
+    assert s.masses[2] == 1.5 and s.particles[2].mass == 1.5
+    assert s.positions[5].tolist() == [1.0, 2.0, 3.0]
+    assert s.particles[3].fixed and not s.particles[4].fixed
+    # The simulation follows the edits: the newly fixed particle stays put.
+    traj = s.simulate(20)
+    assert np.array_equal(traj[:, 3], np.repeat(traj[:1, 3], 20, axis=0))
+
+
+def test_unknowns_are_settable_and_identifiable():
+    truth = cordis.Scene.from_dict(scenes.spring_on_fixed(k=20.0, z=0.3))
+    scene = truth.copy()
+    assert not scene.has_unknowns
+    scene.types["rib"]["stiffness"] = cordis.Unknown(1.0, 100.0)
+    scene.types["rib"]["damping"] = {"min": 0.0, "max": 2.0, "init": 1.0}  # the JSON shape
+    assert scene.has_unknowns
+    u = scene.types["rib"]["stiffness"]
+    assert isinstance(u, cordis.Unknown) and (u.min, u.max, u.init) == (1.0, 100.0, None)
+    assert u.value == pytest.approx(10.0)  # geometric middle of a box wider than a decade
+    assert scene.types["rib"]["damping"] == cordis.Unknown(0.0, 2.0, init=1.0)
+    assert scene.to_dict()["types"]["rib"]["stiffness"] == {"min": 1.0, "max": 100.0}
+    assert "unknowns=2" in repr(scene)
+    res = cordis.identify(scene, truth.simulate(50), truth=truth)
+    assert res.param_error_pct < 1e-6
+    assert res.scene.types["rib"]["stiffness"] == pytest.approx(20.0, rel=1e-9)
+    # And back to known.
+    scene.types["rib"]["stiffness"] = 20.0
+    scene.types["rib"]["damping"] = 0.3
+    assert scene == truth
+
+
+def test_unknown_masses():
+    s = cordis.Scene.from_dict(scenes.damped_chain())
+    s.particles[1].mass = cordis.Unknown(0.1, 10.0, init=2.0)
+    assert s.particles[1].mass == cordis.Unknown(0.1, 10.0, init=2.0)
+    assert s.masses[1] == 2.0  # the starting value
+    assert s.to_dict()["particles"][1]["mass"] == {"min": 0.1, "max": 10.0, "init": 2.0}
+    with pytest.raises(cordis.SceneError, match=r"particles\[1\]\.mass\.min") as e:
+        s.particles[1].mass = cordis.Unknown(-1.0, 1.0)
+    assert e.value.place == "particles[1].mass.min"
+    assert s.particles[1].mass == cordis.Unknown(0.1, 10.0, init=2.0)  # unchanged
+
+
+@pytest.mark.parametrize("edit, exc, place", [
+    (lambda s: s.types["rib"].__setitem__("stiffness", -1.0), cordis.SceneError,
+     "types.rib.stiffness"),
+    (lambda s: s.types["rib"].__setitem__("rest_length", float("nan")), cordis.SceneError,
+     "types.rib.rest_length"),
+    (lambda s: s.types["rib"].__setitem__("stifness", 1.0), cordis.SceneKeyError,
+     "types.rib.stifness"),
+    (lambda s: s.types["ribs"], cordis.SceneKeyError, "types.ribs"),
+    (lambda s: s.particles[1].__setattr__("mass", 0.0), cordis.SceneError,
+     "particles[1].mass"),
+    (lambda s: s.particles[0].__setattr__("pos", (0.0, float("inf"), 0.0)), cordis.SceneError,
+     "particles[0].pos[1]"),
+    (lambda s: s.particles[2], cordis.SceneIndexError, "particles[2]"),
+    (lambda s: s.particles[-3], cordis.SceneIndexError, "particles[-3]"),
+    (lambda s: setattr(s, "dt", 0.0), cordis.SceneError, "dt"),
+    (lambda s: setattr(s, "gravity", (0.0, 0.0, float("nan"))), cordis.SceneError,
+     "gravity[2]"),
+    (lambda s: setattr(s, "masses", np.array([1.0, -2.0])), cordis.SceneError,
+     "particles[1].mass"),
+])
+def test_refused_edits_name_the_place_and_change_nothing(edit, exc, place):
+    s = cordis.Scene.from_dict(scenes.spring_on_fixed())
+    before = s.to_json()
+    with pytest.raises(exc) as e:
+        edit(s)
+    assert e.value.place == place
+    assert place in str(e.value)
+    assert isinstance(e.value, cordis.CordisError)
+    assert s.to_json() == before
+
+
+def test_lookup_errors_are_also_builtin_lookup_errors():
+    s = cordis.Scene.from_dict(scenes.spring_on_fixed())
+    with pytest.raises(KeyError, match="they have: stiffness, rest_length, damping"):
+        s.types["rib"]["stifness"]
+    with pytest.raises(KeyError, match="the scene has: rib"):
+        s.types["nope"]
+    with pytest.raises(IndexError, match="the scene has 2 particles"):
+        s.particles[5]
+    assert s.types.get("nope") is None and s.types["rib"].get("nope", 3) == 3
+
+
+@pytest.mark.parametrize("edit, exc, words", [
+    (lambda s: setattr(s, "dt", "fast"), TypeError, "dt: expected a number, got str"),
+    (lambda s: setattr(s, "dt", True), TypeError, "got bool"),
+    (lambda s: s.types["rib"].__setitem__("stiffness", "x"), TypeError,
+     "types.rib.stiffness: expected a number or cordis.Unknown"),
+    (lambda s: s.types["rib"].__setitem__("stiffness", {"min": 1.0}), TypeError,
+     "needs \"min\" and \"max\""),
+    (lambda s: setattr(s, "gravity", (0.0, 1.0)), ValueError,
+     r"gravity: expected an array of shape \(3,\), got shape \(2,\)"),
+    (lambda s: setattr(s, "positions", np.zeros((3, 3))), ValueError,
+     r"positions: expected an array of shape \(2, 3\), got shape \(3, 3\)"),
+    (lambda s: setattr(s, "masses", [1.0]), ValueError, r"masses: .*shape \(2,\)"),
+    (lambda s: s.particles[1].__setattr__("fixed", 1), TypeError, "expected a bool"),
+    (lambda s: cordis.Unknown(2.0, 1.0), ValueError, r"Unknown: min 2(\.0)? is above max 1"),
+    (lambda s: cordis.Unknown(0.0, 1.0, init=3.0), ValueError, "outside"),
+])
+def test_wrong_values_are_type_or_value_errors(edit, exc, words):
+    s = cordis.Scene.from_dict(scenes.spring_on_fixed())
+    before = s.to_json()
+    with pytest.raises(exc, match=words):
+        edit(s)
+    assert s.to_json() == before
+
+
+def test_returned_arrays_are_read_only_copies():
+    """Writing into `scene.masses[i]` would silently change a copy: it raises instead."""
+    s = cordis.Scene.from_dict(scenes.damped_chain())
+    for a in (s.masses, s.positions, s.velocities):
+        assert a.dtype == np.float64 and not a.flags["WRITEABLE"]
+        with pytest.raises(ValueError, match="read-only"):
+            a[0] = 1.0
+    assert s.positions.shape == (6, 3) and s.velocities.shape == (6, 3)
+    x = np.asfortranarray(s.positions + 1.0)  # any layout
+    s.positions = x
+    assert np.array_equal(s.positions, x)
+    s.velocities = np.zeros((6, 3))
+    s.masses = np.arange(1, 7)  # ints convert
+    assert s.masses.tolist() == [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]
+
+
+def test_views_are_mappings_and_sequences():
+    d = scenes.damped_chain()
+    s = cordis.Scene.from_dict(d)
+    soft_links = sum(link["type"] == "soft" for link in d["links"])
+    assert list(s.types) == s.type_names == list(s.types.keys())
+    assert len(s.types) == 2 and "soft" in s.types and "x" not in s.types
+    soft = s.types["soft"]
+    assert s.types[0].name == "soft" and s.types[-1].name == "stiff"
+    assert (soft.name, soft.kind, soft.num_links) == ("soft", "spring", soft_links)
+    assert dict(soft) == {"stiffness": 40.0, "rest_length": 0.8, "damping": 0.4}
+    assert dict(soft.items()) == dict(soft) and soft.values() == [40.0, 0.8, 0.4]
+    assert len(soft) == 3 and "damping" in soft
+    assert [n for n, _ in s.types.items()] == ["soft", "stiff"]
+    assert len(s.particles) == 6
+    assert [p.index for p in s.particles] == list(range(6))
+    assert [p.mass for p in s.particles] == s.masses.tolist()
+    assert s.particles[0].fixed and s.particles[0].group is None
+    assert repr(soft) == ("LinkType('soft', kind='spring', stiffness=40.0, rest_length=0.8, "
+                          "damping=0.4)")
+    assert repr(s.particles[0]) == "Particle(0, mass=1.0, pos=(0.0, 0.0, 0.0), fixed=True)"
+    # A view outlives nothing: it reads the scene as it is now.
+    s.types["soft"]["stiffness"] = 41.0
+    assert soft["stiffness"] == 41.0
+
+
+def test_muscle_weights_are_parameters():
+    s = cordis.example("muscle")
+    t = next(v for v in s.types.values() if v.kind == "muscle")
+    assert "w_len[0]" in t.keys() and "w_rate[0]" in t.keys()
+    t["w_len[0]"] = -0.5  # weights may be negative (inhibition)
+    assert t["w_len[0]"] == -0.5
+    assert s.to_dict()["types"][t.name]["w_len"][0] == -0.5
+    with pytest.raises(cordis.SceneError, match=r"gain"):
+        t["gain"] = -1.0
+
+
+def test_str_is_a_readable_summary():
+    s = cordis.Scene.from_dict(scenes.damped_chain())
+    s.types["stiff"]["stiffness"] = cordis.Unknown(10.0, 1000.0)
+    text = str(s)
+    assert text.startswith("Scene: 6 particles (1 fixed), 5 links, 2 types; dt = 0.005 s")
+    assert "soft" in text and "stiffness=Unknown(10.0, 1000.0)" in text
+    assert "(3 links)" in text and "(2 links)" in text
+    assert "1 unknown(s) to identify" in text
+    assert repr(s) == "Scene(particles=6, types=2, links=5, dt=0.005, unknowns=1)"
+
+
+def test_unknown_pickles_and_compares():
+    u = cordis.Unknown(1.0, 2.0, init=1.5)
+    assert pickle.loads(pickle.dumps(u)) == u and u != cordis.Unknown(1.0, 2.0)
+    assert u.to_dict() == {"min": 1.0, "max": 2.0, "init": 1.5}
+    assert repr(u) == "Unknown(1.0, 2.0, init=1.5)"
+
+
+def test_edit_during_simulate_does_not_affect_it():
+    """simulate runs on a snapshot: an edit made meanwhile from another thread gives either
+    the motion before the edit or the one after, never a mixture, and is kept afterwards."""
+    s = cordis.Scene.from_dict(scenes.cloth())
+    edited = s.copy()
+    edited.types[0]["stiffness"] = 1.0
+    before, after = s.simulate(3000), edited.simulate(3000)
+    result = {}
+    t = threading.Thread(target=lambda: result.setdefault("traj", s.simulate(3000)))
+    t.start()
+    s.types[0]["stiffness"] = 1.0
+    t.join()
+    assert np.array_equal(result["traj"], before) or np.array_equal(result["traj"], after)
+    assert not np.array_equal(before, after)
+    assert s == edited

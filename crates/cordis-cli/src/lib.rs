@@ -2,7 +2,9 @@
 //! same command as a console script; `main.rs` only calls [`run`].
 //!
 //! Errors print one line on stderr (`error: <place>: <what>`) and exit with a non-zero code:
-//! 1 for a failed run (diverged, I/O), 2 for bad input or usage.
+//! 1 for a failed run (diverged, I/O), 2 for bad input or usage, 130 when Ctrl-C stopped an
+//! identification. `--json` makes stdout JSON lines only; `--quiet` silences the human report
+//! (see [`commands::Output`]).
 
 mod commands;
 pub mod render;
@@ -19,6 +21,14 @@ use clap::{Parser, Subcommand};
     after_help = "Example:\n  cordis example rigid --out rigid.json\n  cordis simulate rigid.json --frames 100 --out rigid.csv"
 )]
 struct Cli {
+    /// Machine-readable output: stdout holds only JSON objects, one per line (each command's
+    /// summary; a scene written to stdout is embedded as "scene"; an error as {"error", ...}).
+    #[arg(long, global = true)]
+    json: bool,
+    /// No human-readable report, progress bar or "wrote ..." line on stderr (warnings and
+    /// errors still print).
+    #[arg(long, short = 'q', global = true)]
+    quiet: bool,
     #[command(subcommand)]
     command: Command,
 }
@@ -77,22 +87,35 @@ where
             return code;
         }
     };
+    let output = commands::Output {
+        json: cli.json,
+        quiet: cli.quiet,
+    };
     let result = match cli.command {
-        Command::Simulate(a) => commands::simulate::run(a),
-        Command::Identify(a) => commands::identify::run(*a),
-        Command::Cost(a) => commands::cost::run(a),
-        Command::Discover(a) => commands::discover::run(*a),
-        Command::Example(a) => commands::example::run(a),
-        Command::Import(a) => commands::import::run(a),
-        Command::Render(a) => commands::render::run(a),
-        Command::Check(a) => commands::check::run(a),
-        Command::Bench(a) => commands::bench::run(a),
+        Command::Simulate(a) => commands::simulate::run(a, output),
+        Command::Identify(a) => commands::identify::run(*a, output),
+        Command::Cost(a) => commands::cost::run(a, output),
+        Command::Discover(a) => commands::discover::run(*a, output),
+        Command::Example(a) => commands::example::run(a, output),
+        Command::Import(a) => commands::import::run(a, output),
+        Command::Render(a) => commands::render::run(a, output),
+        Command::Check(a) => commands::check::run(a, output),
+        Command::Bench(a) => commands::bench::run(a, output),
     };
     match result {
         Ok(()) => 0,
         Err(e) => {
-            eprintln!("error: {}", one_line(&e));
-            exit_code(&e)
+            let code = exit_code(&e);
+            let message = one_line(&e);
+            eprintln!("error: {message}");
+            if output.json {
+                // Best effort: the error is already on stderr and in the exit code.
+                let _ = output.json_line(&serde_json::json!({
+                    "error": message,
+                    "exit_code": code,
+                }));
+            }
+            code
         }
     }
 }
@@ -110,8 +133,13 @@ fn one_line(e: &anyhow::Error) -> String {
     s.replace('\n', " ")
 }
 
+/// 0 success, 1 a run that failed (divergence, a file that cannot be read or written), 2 bad
+/// input or usage, 130 interrupted by Ctrl-C (after writing the best result so far).
 fn exit_code(e: &anyhow::Error) -> i32 {
     use cordis_core::CordisError;
+    if e.is::<commands::Interrupted>() {
+        return 130;
+    }
     match e.downcast_ref::<CordisError>() {
         Some(CordisError::Diverged { .. }) | Some(CordisError::Io { .. }) => 1,
         _ => 2,

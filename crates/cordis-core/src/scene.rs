@@ -9,7 +9,7 @@ use crate::{Coupling, Link, LinkKind, LinkType, Param, Particle, World};
 /// simulating (the JSON reader does).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {
-    /// Time step of the main world in s (one trajectory frame per step of it).
+    /// Time step in s.
     pub dt: f64,
     /// Acceleration of every free particle, m/s².
     pub gravity: [f64; 3],
@@ -17,12 +17,12 @@ pub struct Scene {
     /// The catalogue, in file order.
     pub types: Vec<LinkType>,
     pub links: Vec<Link>,
-    /// Extra worlds with their own time step ([`crate::world`]); the main world is implicit.
-    pub worlds: Vec<World>,
     /// Command signals, by name (known inputs: never identified).
     pub signals: Vec<Signal>,
     /// Instances of the coupling kinds ([`LinkKind::is_coupling`]), in file order.
     pub couplings: Vec<Coupling>,
+    /// Extra worlds with their own time step ([`crate::world`]); the main world is implicit.
+    pub worlds: Vec<World>,
 }
 
 impl Scene {
@@ -33,9 +33,9 @@ impl Scene {
             particles: Vec::new(),
             types: Vec::new(),
             links: Vec::new(),
-            worlds: Vec::new(),
             signals: Vec::new(),
             couplings: Vec::new(),
+            worlds: Vec::new(),
         }
     }
 
@@ -130,137 +130,166 @@ impl Scene {
 
     /// Checks every semantic rule of SPEC §5.1 and names the place of the first violation.
     pub fn validate(&self) -> Result<()> {
+        self.validate_globals()?;
+        self.validate_worlds()?;
+        for i in 0..self.particles.len() {
+            self.validate_particle(i)?;
+        }
+        self.validate_signals()?;
+        for ti in 0..self.types.len() {
+            self.validate_type(ti)?;
+        }
+        self.validate_links()?;
+        self.validate_couplings()
+    }
+
+    /// The rules on `dt` and `gravity` alone (part of [`Scene::validate`]), for editors that
+    /// change one of them and need not re-check the whole scene.
+    pub fn validate_globals(&self) -> Result<()> {
         if !(self.dt.is_finite() && self.dt > 0.0) {
             return Err(CordisError::scene(
                 "dt",
                 format!("must be a positive number, got {}", self.dt),
             ));
         }
-        check_finite3("gravity", &self.gravity)?;
-        self.validate_worlds()?;
-        for (i, p) in self.particles.iter().enumerate() {
-            let at = format!("particles[{i}]");
-            check_param(&format!("{at}.mass"), &p.mass, Sign::Positive)?;
-            check_finite3(&format!("{at}.pos"), &p.pos)?;
-            check_finite3(&format!("{at}.vel"), &p.vel)?;
+        check_finite3("gravity", &self.gravity)
+    }
+
+    /// The rules on particle `i` alone: mass positive (or a valid box), finite position and
+    /// velocity. Part of [`Scene::validate`]; `i` must exist.
+    pub fn validate_particle(&self, i: usize) -> Result<()> {
+        let p = &self.particles[i];
+        let at = format!("particles[{i}]");
+        check_param(&format!("{at}.mass"), &p.mass, Sign::Positive)?;
+        check_finite3(&format!("{at}.pos"), &p.pos)?;
+        check_finite3(&format!("{at}.vel"), &p.vel)?;
+        self.check_particle_world(i)
+    }
+
+    /// The rules on catalogue entry `ti` alone (name, parameter count and signs, kind-specific
+    /// keys); the links that use it are checked by [`Scene::validate`]. `ti` must exist.
+    pub fn validate_type(&self, ti: usize) -> Result<()> {
+        let t = &self.types[ti];
+        let at = format!("types.{}", t.name);
+        if t.name.is_empty() {
+            return Err(CordisError::scene(
+                format!("types[{ti}]"),
+                "a type needs a non-empty name",
+            ));
         }
-        self.validate_signals()?;
-        for (ti, t) in self.types.iter().enumerate() {
-            let at = format!("types.{}", t.name);
-            if t.name.is_empty() {
-                return Err(CordisError::scene(
-                    format!("types[{ti}]"),
-                    "a type needs a non-empty name",
-                ));
-            }
-            if self.types[..ti].iter().any(|o| o.name == t.name) {
-                return Err(CordisError::scene(at, "the name is used twice"));
-            }
-            let specs = t.kind.param_specs();
-            let extra = t.params.len().wrapping_sub(specs.len());
-            if t.kind == LinkKind::Muscle && t.params.len() >= specs.len() && extra % 2 != 0 {
-                return Err(CordisError::scene(
-                    format!("{at}.w_rate"),
-                    format!(
-                        "w_len has {} weight(s), w_rate {}: they must match",
-                        extra.div_ceil(2),
-                        extra / 2
-                    ),
-                ));
-            }
-            if t.params.len() != specs.len()
-                && !(t.kind == LinkKind::Muscle && t.params.len() > specs.len())
-            {
-                return Err(CordisError::scene(
-                    at,
-                    format!(
-                        "`{}` types have {} parameters, got {}",
-                        t.kind,
-                        specs.len(),
-                        t.params.len()
-                    ),
-                ));
-            }
-            for ((name, _), p) in specs.iter().zip(&t.params) {
-                let sign = match *name {
-                    "rest_cos" => Sign::UnitInterval,
-                    "range" | "tendon_mass" => Sign::Positive,
-                    "threshold" => Sign::Any,
-                    _ => Sign::NonNegative,
-                };
-                check_param(&format!("{at}.{name}"), p, sign)?;
-            }
-            // Neural weights may have either sign (excitation or inhibition).
-            for (k, p) in t.params.iter().enumerate().skip(specs.len()) {
-                check_param(&format!("{at}.{}", t.param_name(k)), p, Sign::Any)?;
-            }
-            if t.observes.is_some() && t.kind != LinkKind::Muscle {
-                return Err(CordisError::scene(
-                    format!("{at}.observes"),
-                    "only muscle types have it",
-                ));
-            }
-            match (&t.signal, t.kind == LinkKind::Tgr) {
-                (Some(name), true) => {
-                    if self.signal_index(name).is_none() {
-                        return Err(CordisError::scene(
-                            format!("{at}.signal"),
-                            format!("no signal named `{name}` in `signals`"),
-                        ));
-                    }
-                }
-                (None, true) => {
-                    return Err(CordisError::scene(
-                        at,
-                        "a `tgr` type needs `signal` (the name of its command signal)",
-                    ))
-                }
-                (Some(_), false) => {
+        if self.types[..ti].iter().any(|o| o.name == t.name) {
+            return Err(CordisError::scene(at, "the name is used twice"));
+        }
+        let specs = t.kind.param_specs();
+        let extra = t.params.len().wrapping_sub(specs.len());
+        if t.kind == LinkKind::Muscle && t.params.len() >= specs.len() && extra % 2 != 0 {
+            return Err(CordisError::scene(
+                format!("{at}.w_rate"),
+                format!(
+                    "w_len has {} weight(s), w_rate {}: they must match",
+                    extra.div_ceil(2),
+                    extra / 2
+                ),
+            ));
+        }
+        if t.params.len() != specs.len()
+            && !(t.kind == LinkKind::Muscle && t.params.len() > specs.len())
+        {
+            return Err(CordisError::scene(
+                at,
+                format!(
+                    "`{}` types have {} parameters, got {}",
+                    t.kind,
+                    specs.len(),
+                    t.params.len()
+                ),
+            ));
+        }
+        for ((name, _), p) in specs.iter().zip(&t.params) {
+            let sign = match *name {
+                "rest_cos" => Sign::UnitInterval,
+                "range" | "tendon_mass" => Sign::Positive,
+                "threshold" => Sign::Any,
+                _ => Sign::NonNegative,
+            };
+            check_param(&format!("{at}.{name}"), p, sign)?;
+        }
+        // Neural weights may have either sign (excitation or inhibition).
+        for (k, p) in t.params.iter().enumerate().skip(specs.len()) {
+            check_param(&format!("{at}.{}", t.param_name(k)), p, Sign::Any)?;
+        }
+        if t.observes.is_some() && t.kind != LinkKind::Muscle {
+            return Err(CordisError::scene(
+                format!("{at}.observes"),
+                "only muscle types have it",
+            ));
+        }
+        match (&t.signal, t.kind == LinkKind::Tgr) {
+            (Some(name), true) => {
+                if self.signal_index(name).is_none() {
                     return Err(CordisError::scene(
                         format!("{at}.signal"),
-                        "only tgr types have it",
-                    ))
-                }
-                (None, false) => {}
-            }
-            if let Some(tau) = t.max_elongation {
-                if t.kind != LinkKind::Spring {
-                    return Err(CordisError::scene(
-                        format!("{at}.max_elongation"),
-                        "only springs have it",
-                    ));
-                }
-                if !(tau.is_finite() && tau > 0.0) {
-                    return Err(CordisError::scene(
-                        format!("{at}.max_elongation"),
-                        format!("must be a positive number, got {tau}"),
+                        format!("no signal named `{name}` in `signals`"),
                     ));
                 }
             }
-            if let Some(point) = &t.point {
-                if t.kind != LinkKind::Anchor {
-                    return Err(CordisError::scene(
-                        format!("{at}.point"),
-                        "only anchors have it",
-                    ));
-                }
-                check_finite3(&format!("{at}.point"), point)?;
-            }
-            if t.kind == LinkKind::Conditional {
-                if !(1..=2).contains(&t.groups.len()) {
-                    return Err(CordisError::scene(
-                        format!("{at}.groups"),
-                        format!("names one or two groups, got {}", t.groups.len()),
-                    ));
-                }
-                self.check_groups_world(ti)?;
-            } else if !t.groups.is_empty() {
+            (None, true) => {
                 return Err(CordisError::scene(
-                    format!("{at}.groups"),
-                    "only conditional types have it",
+                    at,
+                    "a `tgr` type needs `signal` (the name of its command signal)",
+                ))
+            }
+            (Some(_), false) => {
+                return Err(CordisError::scene(
+                    format!("{at}.signal"),
+                    "only tgr types have it",
+                ))
+            }
+            (None, false) => {}
+        }
+        if let Some(tau) = t.max_elongation {
+            if t.kind != LinkKind::Spring {
+                return Err(CordisError::scene(
+                    format!("{at}.max_elongation"),
+                    "only springs have it",
+                ));
+            }
+            if !(tau.is_finite() && tau > 0.0) {
+                return Err(CordisError::scene(
+                    format!("{at}.max_elongation"),
+                    format!("must be a positive number, got {tau}"),
                 ));
             }
         }
+        if let Some(point) = &t.point {
+            if t.kind != LinkKind::Anchor {
+                return Err(CordisError::scene(
+                    format!("{at}.point"),
+                    "only anchors have it",
+                ));
+            }
+            check_finite3(&format!("{at}.point"), point)?;
+        }
+        if t.kind == LinkKind::Conditional {
+            if !(1..=2).contains(&t.groups.len()) {
+                return Err(CordisError::scene(
+                    format!("{at}.groups"),
+                    format!("names one or two groups, got {}", t.groups.len()),
+                ));
+            }
+            self.check_groups_world(ti)?;
+        } else if !t.groups.is_empty() {
+            return Err(CordisError::scene(
+                format!("{at}.groups"),
+                "only conditional types have it",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The rules on the link instances (types exist, arity, particle indices, muscles'
+    /// observed links).
+    fn validate_links(&self) -> Result<()> {
         for (li, l) in self.links.iter().enumerate() {
             let at = format!("links[{li}]");
             let Some(t) = self.types.get(l.type_index) else {
@@ -307,6 +336,11 @@ impl Scene {
                 ));
             }
         }
+        Ok(())
+    }
+
+    /// The rules on the couplings (types exist and are coupling kinds, arity, particles).
+    fn validate_couplings(&self) -> Result<()> {
         for (ci, c) in self.couplings.iter().enumerate() {
             let at = format!("couplings[{ci}]");
             let Some(t) = self.types.get(c.type_index) else {

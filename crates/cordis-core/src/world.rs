@@ -86,8 +86,8 @@ impl Scene {
         (0..self.particles.len()).any(|i| self.world_of(i) != 0)
     }
 
-    /// The world rules: declared worlds have distinct names other than `main` and a positive
-    /// `dt`; every particle's world is declared.
+    /// The world declarations: distinct names other than `main`, a positive `dt` (particles'
+    /// worlds are checked with each particle).
     pub(crate) fn validate_worlds(&self) -> Result<()> {
         for (k, w) in self.worlds.iter().enumerate() {
             let at = format!("worlds.{}", w.name);
@@ -113,17 +113,18 @@ impl Scene {
                 ));
             }
         }
-        for (i, p) in self.particles.iter().enumerate() {
-            if let Some(name) = &p.world {
-                if self.world_index(Some(name)).is_none() {
-                    return Err(CordisError::scene(
-                        format!("particles[{i}].world"),
-                        format!("no world named `{name}` in `worlds`"),
-                    ));
-                }
-            }
-        }
         Ok(())
+    }
+
+    /// Particle `i`'s world is declared (part of [`Scene::validate_particle`]).
+    pub(crate) fn check_particle_world(&self, i: usize) -> Result<()> {
+        match &self.particles[i].world {
+            Some(name) if self.world_index(Some(name)).is_none() => Err(CordisError::scene(
+                format!("particles[{i}].world"),
+                format!("no world named `{name}` in `worlds`"),
+            )),
+            _ => Ok(()),
+        }
     }
 
     /// A plain link (`links[li]`, particle indices already checked) joins particles of one world.

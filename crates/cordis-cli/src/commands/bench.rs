@@ -21,7 +21,9 @@ pub enum Mode {
     Stability(stability::Args),
 }
 
-pub fn run(a: Args) -> Result<()> {
+/// Benchmarks print JSON lines whatever `--json` says; `--quiet` is not honoured by their
+/// tables (a benchmark run is read by a person or a script that keeps stdout only).
+pub fn run(a: Args, _output: super::Output) -> Result<()> {
     match a.mode {
         Mode::Cost(a) => cost::run(a),
         Mode::Stability(a) => stability::run(a),

@@ -8,6 +8,8 @@ use cordis_core::stability::{max_stable_dt, stability};
 use cordis_core::Scene;
 use serde_json::json;
 
+use super::Output;
+
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Scene file (JSON, cordis-scene/1).
@@ -15,17 +17,14 @@ pub struct Args {
     /// Particles listed in the readable report, worst first.
     #[arg(long, default_value_t = 5)]
     top: usize,
-    /// Print only the JSON line.
-    #[arg(long, short = 'q')]
-    quiet: bool,
 }
 
-pub fn run(a: Args) -> Result<()> {
+pub fn run(a: Args, output: Output) -> Result<()> {
     let scene = Scene::from_json_path(&a.scene)?;
     let r = stability(&scene)?;
     let dt_max = max_stable_dt(&scene)?;
     let free = r.per_particle.iter().flatten().count();
-    if !a.quiet {
+    if output.human() {
         let verdict = if r.stable {
             "stable: every particle is inside the bound"
         } else {
@@ -68,9 +67,7 @@ pub fn run(a: Args) -> Result<()> {
             }
         }
     }
-    println!(
-        "{}",
-        json!({
+    output.json_line(&json!({
             "max_stability_ratio": finite(r.max_ratio),
             "stable": r.stable,
             "worst_particle": r.worst_particle,
@@ -79,9 +76,7 @@ pub fn run(a: Args) -> Result<()> {
             "dt": scene.dt,
             "particles": scene.num_particles(),
             "free_particles": free,
-        })
-    );
-    Ok(())
+    }))
 }
 
 /// A ratio for reading: four decimals, or `inf`.

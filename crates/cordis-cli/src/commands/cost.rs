@@ -5,6 +5,8 @@ use anyhow::Result;
 use cordis_core::Scene;
 use cordis_es::cost::{CostKind, Objective};
 
+use super::Output;
+
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Scene file (JSON); unknown parameters are taken at their `init` or box middle.
@@ -15,12 +17,9 @@ pub struct Args {
     /// Cost: short | horizon:H | long | progressive[:G[:START]] | harmonic[:EPS].
     #[arg(long, default_value = "short")]
     cost: String,
-    /// Print only the JSON line.
-    #[arg(long, short = 'q')]
-    quiet: bool,
 }
 
-pub fn run(a: Args) -> Result<()> {
+pub fn run(a: Args, output: Output) -> Result<()> {
     let scene = Scene::from_json_path(&a.scene)?;
     let traj = cordis_core::io::read_trajectory(&a.trajectory)?;
     super::check_dt(&scene, traj.dt, &a.trajectory)?;
@@ -29,7 +28,7 @@ pub fn run(a: Args) -> Result<()> {
     let objective = Objective::new(&scene, &traj, kind)?;
     let report = objective.report(&scene.param_values())?;
     let seconds = start.elapsed().as_secs_f64();
-    if !a.quiet {
+    if output.human() {
         eprintln!(
             "{} cost over {} frames: total {:.6e}, rmse {:.6e} m ({} terms)",
             kind,
@@ -43,18 +42,14 @@ pub fn run(a: Args) -> Result<()> {
             eprintln!("{i:>8}  {c:>14.6e}");
         }
     }
-    println!(
-        "{}",
-        serde_json::json!({
+    output.json_line(&serde_json::json!({
             "kind": kind.to_string(),
             "total": finite_or_string(report.total),
             "rmse": finite_or_string(report.rmse),
             "terms": report.terms,
             "per_particle": report.per_particle.iter().map(|c| finite_or_string(*c)).collect::<Vec<_>>(),
             "seconds": seconds,
-        })
-    );
-    Ok(())
+    }))
 }
 
 /// JSON has no infinity: a diverged cost is written as the string "inf".

@@ -4,6 +4,8 @@ use std::time::Instant;
 use anyhow::{anyhow, bail, Context, Result};
 use cordis_es::discover::{discover, DiscoverOptions};
 
+use super::Output;
+
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Observed trajectory (.csv, .npy or .tra): positions only.
@@ -38,9 +40,6 @@ pub struct Args {
     /// Where to write the per-link scores and the near misses (JSON).
     #[arg(long)]
     scores: Option<PathBuf>,
-    /// No summary on stderr.
-    #[arg(long, short = 'q')]
-    quiet: bool,
 }
 
 fn read_masses(path: &PathBuf) -> Result<Vec<f64>> {
@@ -55,7 +54,7 @@ fn read_masses(path: &PathBuf) -> Result<Vec<f64>> {
         .collect()
 }
 
-pub fn run(a: Args) -> Result<()> {
+pub fn run(a: Args, output: Output) -> Result<()> {
     let traj = cordis_core::io::read_trajectory(&a.trajectory)?;
     let dt = match (a.dt, traj.dt) {
         (Some(dt), _) => dt,
@@ -80,7 +79,6 @@ pub fn run(a: Args) -> Result<()> {
     let start = Instant::now();
     let d = discover(&traj, dt, &opt)?;
     let seconds = start.elapsed().as_secs_f64();
-    super::write_scene(&d.scene, a.out.as_deref())?;
     let scores = serde_json::json!({
         "radius": d.radius,
         "candidates": d.candidates,
@@ -97,7 +95,12 @@ pub fn run(a: Args) -> Result<()> {
         let text = serde_json::to_string_pretty(&scores)?;
         cordis_core::io::write_atomic(path, text.as_bytes())?;
     }
-    if !a.quiet {
+    let mut summary = scores;
+    summary["particles"] = d.scene.num_particles().into();
+    summary["types"] = d.scene.types.len().into();
+    summary["num_links"] = d.scene.links.len().into();
+    output.scene_result(&d.scene, a.out.as_deref(), summary.clone())?;
+    if output.human() {
         eprintln!(
             "{} particles, {} candidate pairs (radius {:.4} m) -> {} links of {} types in {:.2} s; short-cost rmse {:.3e} m",
             d.scene.num_particles(),

@@ -3,6 +3,8 @@ use std::path::PathBuf;
 use anyhow::{anyhow, Result};
 use cordis_core::examples;
 
+use super::Output;
+
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Example name: rigid | cloth | fluid | horse | muscle | tadpole | frog.
@@ -22,7 +24,7 @@ pub struct Args {
     out: Option<PathBuf>,
 }
 
-pub fn run(a: Args) -> Result<()> {
+pub fn run(a: Args, output: Output) -> Result<()> {
     let scene = examples::by_name(&a.name).ok_or_else(|| {
         anyhow!(
             "example `{}` does not exist (expected one of: {})",
@@ -35,15 +37,29 @@ pub fn run(a: Args) -> Result<()> {
     } else {
         scene
     };
-    super::write_scene(&scene, a.out.as_deref())?;
-    if let Some(out) = &a.out {
+    let frames = examples::default_frames(&a.name);
+    let summary = serde_json::json!({
+        "example": a.name,
+        "unknowns": a.unknowns,
+        "particles": scene.num_particles(),
+        "types": scene.types.len(),
+        "links": scene.links.len(),
+        "couplings": scene.couplings.len(),
+        "frames": frames,
+    });
+    output.scene_result(&scene, a.out.as_deref(), summary)?;
+    if let (Some(out), true) = (&a.out, output.human()) {
+        let couplings = match scene.couplings.len() {
+            0 => String::new(),
+            n => format!(", {n} couplings"),
+        };
         eprintln!(
-            "wrote {} ({} particles, {} types, {} links; simulate {} frames)",
+            "wrote {} ({} particles, {} types, {} links{couplings}; simulate {} frames)",
             out.display(),
             scene.num_particles(),
             scene.types.len(),
             scene.links.len(),
-            examples::default_frames(&a.name)
+            frames
         );
     }
     Ok(())

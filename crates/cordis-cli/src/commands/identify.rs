@@ -13,6 +13,8 @@ use cordis_es::identify::{
 };
 use cordis_es::problem::Problem;
 
+use super::Output;
+
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Scene whose unknown parameters are written as {"min": …, "max": …}.
@@ -87,14 +89,11 @@ pub struct Args {
     /// Time step of the trajectory when its file does not give one (default: the scene's dt).
     #[arg(long)]
     dt: Option<f64>,
-    /// No progress bar and no table; only the JSON summary line.
-    #[arg(long, short = 'q')]
-    quiet: bool,
 }
 
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
-pub fn run(a: Args) -> Result<()> {
+pub fn run(a: Args, output: Output) -> Result<()> {
     let scene = Scene::from_json_path(&a.scene)?;
     if !scene.has_unknowns() {
         bail!(
@@ -187,7 +186,7 @@ pub fn run(a: Args) -> Result<()> {
         Some(p) => Some(LogWriter::create(p)?),
         None => None,
     };
-    let mut progress = Progress::new(generations, a.quiet);
+    let mut progress = Progress::new(generations, output.quiet);
     let mut observers: Vec<&mut dyn Observer> = vec![&mut progress];
     if let Some(l) = log.as_mut() {
         observers.push(l);
@@ -216,7 +215,7 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(out) = &a.out {
         super::write_scene(&identified, Some(out))?;
     }
-    if !a.quiet {
+    if output.human() {
         eprintln!(
             "{ran}: {} generations, {} evaluations in {:.2} s; cost {:.6e}, rmse {:.6e}{}",
             result.generations,
@@ -244,32 +243,31 @@ pub fn run(a: Args) -> Result<()> {
         }
     }
     let report = strategy.report();
-    if !a.quiet {
-        if let Some(e) = report.get("error").and_then(|v| v.as_str()) {
-            eprintln!("warning: {e}");
-        }
-        for (key, what) in [
-            (
-                "undetermined",
-                "not determined by the data (held at the starting value)",
-            ),
-            (
-                "poorly_determined",
-                "poorly determined (large condition number)",
-            ),
-            (
-                "clamped",
-                "unconstrained solution outside the box (clamped onto it)",
-            ),
-        ] {
-            let names: Vec<&str> = report
-                .get(key)
-                .and_then(|v| v.as_array())
-                .map(|a| a.iter().filter_map(|v| v.as_str()).collect())
-                .unwrap_or_default();
-            if !names.is_empty() {
-                eprintln!("warning: {}: {what}", names.join(", "));
-            }
+    // Warnings print even with --quiet: they say the answer is not to be trusted as it is.
+    if let Some(e) = report.get("error").and_then(|v| v.as_str()) {
+        eprintln!("warning: {e}");
+    }
+    for (key, what) in [
+        (
+            "undetermined",
+            "not determined by the data (held at the starting value)",
+        ),
+        (
+            "poorly_determined",
+            "poorly determined (large condition number)",
+        ),
+        (
+            "clamped",
+            "unconstrained solution outside the box (clamped onto it)",
+        ),
+    ] {
+        let names: Vec<&str> = report
+            .get(key)
+            .and_then(|v| v.as_array())
+            .map(|a| a.iter().filter_map(|v| v.as_str()).collect())
+            .unwrap_or_default();
+        if !names.is_empty() {
+            eprintln!("warning: {}: {what}", names.join(", "));
         }
     }
     let mut summary = serde_json::json!({
@@ -288,7 +286,10 @@ pub fn run(a: Args) -> Result<()> {
     if !report.is_null() {
         summary["solver"] = report;
     }
-    println!("{summary}");
+    output.json_line(&summary)?;
+    if result.stopped_by == executor::StopReason::Interrupted {
+        return Err(super::Interrupted.into());
+    }
     Ok(())
 }
 

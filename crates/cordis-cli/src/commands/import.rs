@@ -2,6 +2,8 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 
+use super::Output;
+
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Base name of the thesis files: NAME.mas, NAME.cat, NAME.ini, NAME.tra, NAME.lock.
@@ -17,14 +19,38 @@ pub struct Args {
     trajectory: Option<PathBuf>,
 }
 
-pub fn run(a: Args) -> Result<()> {
+pub fn run(a: Args, output: Output) -> Result<()> {
     let model = cordis_core::thesis::import(&a.name, a.dt)?;
-    super::write_scene(&model.scene, a.out.as_deref())?;
-    if let Some(path) = &a.trajectory {
-        match &model.trajectory {
-            Some(t) => cordis_core::io::write_trajectory(path, t)?,
-            None => anyhow::bail!("{}.tra: no trajectory to write", a.name.display()),
-        }
+    // The trajectory is checked before anything is written: a failed import writes nothing.
+    let traj = match (&a.trajectory, &model.trajectory) {
+        (Some(_), None) => anyhow::bail!("{}.tra: no trajectory to write", a.name.display()),
+        (Some(path), Some(t)) => Some((path, t)),
+        (None, _) => None,
+    };
+    let s = &model.scene;
+    let summary = serde_json::json!({
+        "particles": s.num_particles(),
+        "types": s.types.len(),
+        "links": s.links.len(),
+        "unknowns": s.has_unknowns(),
+        "dt": s.dt,
+        "trajectory": traj.map(|(p, _)| p.display().to_string()),
+        "frames": model.trajectory.as_ref().map(|t| t.frames()),
+    });
+    if let Some((path, t)) = traj {
+        cordis_core::io::write_trajectory(path, t)?;
+    }
+    output.scene_result(s, a.out.as_deref(), summary)?;
+    if let (Some(out), true) = (&a.out, output.human()) {
+        eprintln!(
+            "wrote {} ({} particles, {} types, {} links){}",
+            out.display(),
+            s.num_particles(),
+            s.types.len(),
+            s.links.len(),
+            traj.map(|(p, _)| format!(" and {}", p.display()))
+                .unwrap_or_default()
+        );
     }
     Ok(())
 }

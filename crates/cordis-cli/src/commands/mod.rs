@@ -13,6 +13,69 @@ use std::path::Path;
 use anyhow::Result;
 use cordis_core::Scene;
 
+/// The global output switches, shared by every subcommand.
+///
+/// stdout carries results: a command's JSON summary line (simulate, identify, cost, check,
+/// bench), or a scene when it is written to stdout (example, import, discover without
+/// `--out`). With `--json` stdout carries only JSON objects, one per line, for every command
+/// (a scene is then embedded in the summary object). The human-readable report, progress
+/// bars and "wrote …" lines go to stderr unless `--quiet`; warnings and errors always do.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Output {
+    /// `--json`: stdout holds JSON objects only, one per line.
+    pub json: bool,
+    /// `--quiet`: no human-readable report or progress on stderr.
+    pub quiet: bool,
+}
+
+impl Output {
+    /// Whether to write the human-readable report on stderr.
+    pub fn human(&self) -> bool {
+        !self.quiet
+    }
+
+    /// Prints one JSON object on one line of stdout.
+    pub fn json_line(&self, v: &serde_json::Value) -> Result<()> {
+        print_stdout(&format!("{v}\n"))
+    }
+
+    /// Ends a command that writes a scene (example, import, discover): to `out` when given,
+    /// else to stdout; then with `--json`, `summary` as one line (with the scene embedded as
+    /// `"scene"` when it had no file to go to, and the file as `"out"`).
+    pub fn scene_result(
+        &self,
+        scene: &Scene,
+        out: Option<&Path>,
+        mut summary: serde_json::Value,
+    ) -> Result<()> {
+        if self.json {
+            if let Some(path) = out {
+                write_scene(scene, Some(path))?;
+            }
+            summary["out"] = out.map(|p| p.display().to_string()).into();
+            if out.is_none() {
+                summary["scene"] = scene.to_json_value();
+            }
+            self.json_line(&summary)
+        } else {
+            write_scene(scene, out)
+        }
+    }
+}
+
+/// A run stopped by Ctrl-C after writing its best result so far: exit code 130 (128 + SIGINT),
+/// as shells expect, so that `cordis identify … && next-step` does not go on.
+#[derive(Debug)]
+pub struct Interrupted;
+
+impl std::fmt::Display for Interrupted {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("interrupted (Ctrl-C); the best result so far was written")
+    }
+}
+
+impl std::error::Error for Interrupted {}
+
 /// Refuses a trajectory whose time step (from its file, or `--dt`) is not the scene's: the
 /// costs predict with the scene's dt.
 pub fn check_dt(scene: &Scene, traj_dt: Option<f64>, traj_path: &Path) -> Result<()> {

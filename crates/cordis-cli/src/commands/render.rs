@@ -4,6 +4,8 @@ use anyhow::Result;
 use cordis_core::io::{read_trajectory, write_atomic};
 use cordis_core::{CordisError, Scene};
 
+use super::Output;
+
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Scene file (JSON, cordis-scene/1): gives the links to draw and the time step.
@@ -23,7 +25,7 @@ pub struct Args {
     title: Option<String>,
 }
 
-pub fn run(a: Args) -> Result<()> {
+pub fn run(a: Args, output: Output) -> Result<()> {
     let scene = Scene::from_json_path(&a.scene)?;
     let traj = read_trajectory(&a.trajectory)?;
     let compare = a.compare.as_deref().map(read_trajectory).transpose()?;
@@ -52,13 +54,24 @@ pub fn run(a: Args) -> Result<()> {
     } else {
         format!("{:.1} MB", page.len() as f64 / 1e6)
     };
-    eprintln!(
-        "wrote {} ({size}; {} frames of {} particles{})",
-        a.html.display(),
-        traj.frames(),
-        traj.particles(),
-        if compare.is_some() { ", 2 motions" } else { "" }
-    );
+    if output.human() {
+        eprintln!(
+            "wrote {} ({size}; {} frames of {} particles{})",
+            a.html.display(),
+            traj.frames(),
+            traj.particles(),
+            if compare.is_some() { ", 2 motions" } else { "" }
+        );
+    }
+    if output.json {
+        output.json_line(&serde_json::json!({
+            "html": a.html.display().to_string(),
+            "bytes": page.len(),
+            "frames": traj.frames(),
+            "particles": traj.particles(),
+            "motions": if compare.is_some() { 2 } else { 1 },
+        }))?;
+    }
     Ok(())
 }
 

@@ -4,6 +4,8 @@ use std::time::Instant;
 use anyhow::{bail, Result};
 use cordis_core::{stability::stability, Scene, Simulator};
 
+use super::Output;
+
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Scene file (JSON, cordis-scene/1).
@@ -14,12 +16,9 @@ pub struct Args {
     /// Output trajectory; the format follows the extension: .csv, .npy or .tra.
     #[arg(long, short = 'o')]
     out: Option<PathBuf>,
-    /// Print only the JSON summary line.
-    #[arg(long, short = 'q')]
-    quiet: bool,
 }
 
-pub fn run(a: Args) -> Result<()> {
+pub fn run(a: Args, output: Output) -> Result<()> {
     let scene = Scene::from_json_path(&a.scene)?;
     check_frames(a.frames, scene.num_particles())?;
     let r = stability(&scene)?;
@@ -41,7 +40,7 @@ pub fn run(a: Args) -> Result<()> {
         cordis_core::io::write_trajectory(out, &traj)?;
     }
     let link_steps = (sim.plan().num_links() * a.frames.saturating_sub(1)) as f64;
-    if !a.quiet {
+    if output.human() {
         eprintln!(
             "simulated {} frames of {} particles and {} links in {:.3} s ({:.1} M link-steps/s){}",
             a.frames,
@@ -55,17 +54,14 @@ pub fn run(a: Args) -> Result<()> {
                 .unwrap_or_default()
         );
     }
-    println!(
-        "{}",
-        serde_json::json!({
+    output.json_line(&serde_json::json!({
             "frames": a.frames,
             "particles": scene.num_particles(),
             "links": sim.plan().num_links(),
             "seconds": seconds,
             "scale": traj.scale(),
-        })
-    );
-    Ok(())
+            "out": a.out.as_ref().map(|p| p.display().to_string()),
+    }))
 }
 
 /// Refuses a frame count whose trajectory cannot be held in memory, before anything is
