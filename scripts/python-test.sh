@@ -19,7 +19,13 @@ trap 'rm -rf "$venv"' EXIT
 "$venv/bin/python" -m pip install --quiet "maturin>=1.7,<2"
 wheels="$venv/wheels"
 (cd python && "$venv/bin/maturin" build --release --out "$wheels" --quiet)
-"$venv/bin/python" -m pip install --quiet "$wheels"/cordis_anima-*.whl pytest mypy
+wheel=("$wheels"/cordis_anima-*.whl)
+# With the ray extra, for the Ray executor's tests (python/tests/test_ray.py, about a minute
+# with Ray's start-up); if Ray has no wheel for this Python, without it (those tests then skip).
+if ! "$venv/bin/python" -m pip install --quiet "${wheel[0]}[ray]" pytest mypy; then
+    echo "python-test: the ray extra could not be installed; test_ray.py will be skipped" >&2
+    "$venv/bin/python" -m pip install --quiet "${wheel[0]}" pytest mypy
+fi
 (cd "$venv" && "$venv/bin/python" -c 'import cordis; print("python-test: installed cordis", cordis.__version__, "from", cordis.__file__)')
 # The plot extra, for cordis.plot's tests and the examples/ scripts (a wheel: a few seconds).
 "$venv/bin/python" -m pip install --quiet matplotlib

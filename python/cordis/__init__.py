@@ -33,6 +33,11 @@ Errors are subclasses of :class:`CordisError` (:class:`SceneError`, :class:`Traj
 :class:`CostKindError`…) and name the place of the fault, e.g.
 ``links[3].particles[1]: particle 40 does not exist``. The GIL is released during
 ``simulate``, ``identify``, batch evaluations and file I/O.
+
+Scaling out (``pip install cordis-anima[ray]``): ``cordis.identify(..., executor="ray")`` or
+``executor=cordis.RayExecutor(num_workers=8)`` evaluates populations on Ray actors with the same
+result as a local run; :func:`cordis.ray.identify_many` fans one identification per trajectory
+out as Ray tasks. Ray is imported only when used.
 """
 
 from ._cordis import (
@@ -52,6 +57,7 @@ from ._cordis import (
     ParamLengthError,
     Particle,
     ParticleList,
+    PopulationEvaluator,
     Scene,
     SceneError,
     SceneIndexError,
@@ -87,6 +93,8 @@ __all__ = [
     "ParamLengthError",
     "Particle",
     "ParticleList",
+    "PopulationEvaluator",
+    "RayExecutor",
     "Scene",
     "SceneError",
     "SceneIndexError",
@@ -104,3 +112,13 @@ __all__ = [
     "read_trajectory",
     "write_trajectory",
 ]
+
+
+def __getattr__(name: str):
+    # Ray is an optional extra and slow to import: `cordis.RayExecutor` imports it on first use
+    # (and says how to install it when it is missing).
+    if name == "RayExecutor":
+        from .ray import RayExecutor
+
+        return RayExecutor
+    raise AttributeError(f"module 'cordis' has no attribute {name!r}")

@@ -22,6 +22,7 @@ __version__: str
 EXAMPLES: Tuple[str, ...]
 __all__ = [
     "__version__",
+    "PopulationEvaluator",
     "CordisError",
     "SceneError",
     "TrajectoryError",
@@ -223,6 +224,14 @@ class LinkType:
     @property
     def num_links(self) -> int:
         """Number of listed links of this type."""
+    @property
+    def max_elongation(self) -> Optional[float]:
+        """Provot's critical deformation rate τc (springs only), or None: no limit.
+
+        Settable; ``None`` removes the limit, a value on another kind raises SceneError.
+        """
+    @max_elongation.setter
+    def max_elongation(self, value: Optional[float]) -> None: ...
     def __len__(self) -> int: ...
     def __getitem__(self, key: str, /) -> _Param: ...
     def __setitem__(self, key: str, value: _ParamIn, /) -> None: ...
@@ -415,6 +424,29 @@ def cost(scene: Scene, traj: _ArrayLike, kind: str = "short") -> CostReport:
     """
 
 @final
+class PopulationEvaluator:
+    """A problem compiled once that evaluates populations of genomes (internal coordinates):
+    what an executor's remote worker holds (one per Ray actor).
+
+    >>> ev = cordis.PopulationEvaluator(scene, traj, "short", threads=1)
+    >>> costs = ev.evaluate(genomes, generation=0)            # (M,) for genomes (M, ev.dim)
+    """
+
+    def __new__(
+        cls, scene: Scene, traj: _ArrayLike, cost: str = "short", threads: int = 1
+    ) -> "PopulationEvaluator": ...
+    @property
+    def dim(self) -> int:
+        """Number of unknowns (length of a genome)."""
+    @property
+    def num_particles(self) -> int:
+        """Number of particles (length of a row of local costs)."""
+    def evaluate(
+        self, genomes: _ArrayLike, generation: int = 0, local: bool = False
+    ) -> Any:
+        """Costs ``(M,)`` of genomes ``(M, dim)``; with ``local=True``, ``(costs, local (M, N))``."""
+
+@final
 class Objective:
     """A cost compiled once; ``f(params) -> float`` on vectors laid out as ``param_names()``.
 
@@ -513,8 +545,17 @@ def identify(
     checkpoint: Optional[_PathLike] = None,
     resume: Optional[_PathLike] = None,
     dt: Optional[float] = None,
+    executor: Optional[Any] = None,
+    islands: Optional[int] = None,
+    migrate_every: int = 10,
+    migrants: int = 2,
 ) -> IdentifyResult:
     """Identifies the unknowns of ``scene`` from the observed positions ``traj`` (GIL released).
+
+    ``executor``: None/``"local"``, ``"ray"`` or an executor object (``cordis.RayExecutor``):
+    where populations are evaluated; the result is the same on every executor. ``islands``:
+    that many thesis populations exchanging their ``migrants`` best every ``migrate_every``
+    generations (deterministic given the seed and the island count).
 
     ``callback(generation, best_cost, params)`` runs after every generation; returning False
     stops the run, an exception stops it and is raised again. Ctrl-C stops cleanly and raises

@@ -478,14 +478,17 @@ def _records(records_or_path: Any) -> List[Dict[str, Any]]:
     return records
 
 
-def pareto(records_or_path: Any, ax: Any = None) -> "Figure":
+def pareto(records_or_path: Any, ax: Any = None,
+           strategies: Optional[Sequence[str]] = None) -> "Figure":
     """Run time against parameter error, one marker per strategy, both on log scales.
 
     ``records_or_path`` is a list of dicts or a JSON-lines file, each with the keys
     ``strategy, scene, seconds, param_error_pct`` (what ``cordis bench pareto`` writes).
     Runs of several scenes are told apart by a label beside each marker; the runs that no
     other run of the same scene beats on both time and error are joined by a dotted line.
-    An error of 0 is drawn one decade under the least positive error.
+    An error of 0 is drawn one decade under the least positive error. ``strategies`` fixes
+    each strategy's marker and colour by its place in that list (default: order of
+    appearance), so that panels of several scenes agree.
 
     >>> cordis.plot.pareto([{"strategy": "thesis", "scene": "rigid", "seconds": 1.2,
     ...                      "param_error_pct": 0.01}]).savefig("pareto.png")
@@ -503,10 +506,13 @@ def pareto(records_or_path: Any, ax: Any = None) -> "Figure":
                     for r in records])
     pos = err[np.isfinite(err) & (err > 0)]
     err = np.where(np.isfinite(err) & (err <= 0), (pos.min() / 10) if len(pos) else 1e-12, err)
-    strategies = list(dict.fromkeys(str(r["strategy"]) for r in records))
+    present = list(dict.fromkeys(str(r["strategy"]) for r in records))
+    order = list(dict.fromkeys([str(s) for s in strategies or []] + present))
     scenes = list(dict.fromkeys(str(r["scene"]) for r in records))
     markers = "osD^vP*Xh<>p"
-    for k, s in enumerate(strategies):
+    for k, s in enumerate(order):
+        if s not in present:
+            continue
         idx = [i for i, r in enumerate(records) if str(r["strategy"]) == s]
         ax.scatter(secs[idx], err[idx], marker=markers[k % len(markers)], s=55, label=s,
                    zorder=3, color=f"C{k % 10}")

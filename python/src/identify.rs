@@ -8,15 +8,16 @@
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc;
+use std::sync::{mpsc, Arc};
 use std::time::Duration;
 
 use cordis_es::executor::{
     self, HistoryRow, Observer, RunConfig, RunResult, StopReason, StopRules,
 };
-use cordis_es::identify::{add_noise, make_strategy, StrategyName, StrategyOptions};
+use cordis_es::identify::{add_noise, make_islands, make_strategy, StrategyName, StrategyOptions};
 use cordis_es::problem::Problem;
 use cordis_es::space::ParameterSpace;
+use cordis_es::strategies::islands::IslandConfig;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2};
 use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
@@ -24,8 +25,9 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::errors::{checkpoint_error, cost_to_py, SceneError};
+use crate::evaluator::PyEvaluator;
 use crate::scene::Scene;
-use crate::trajectory::{check_dt, traj_from_py};
+use crate::trajectory::{check_dt, traj_from_py, traj_to_py};
 
 /// Columns of `IdentifyResult.history`, as in the CLI's CSV log.
 const HISTORY_COLUMNS: [&str; 8] = [
@@ -211,6 +213,16 @@ fn bad(what: &str, message: impl std::fmt::Display) -> PyErr {
 ///   (default: all cores); `truth`: the true scene, to report `param_error_pct`;
 ///   `checkpoint`/`resume`: a checkpoint file written every 50 generations and at the end, and
 ///   one to continue from; `dt` (s): the trajectory's time step, checked against the scene's.
+/// - `executor`: where populations are evaluated: None or `"local"` (this process' threads),
+///   `"ray"` (a `cordis.RayExecutor()` on the current or a new local Ray instance: `pip install
+///   cordis-anima[ray]`), or an executor object (`cordis.RayExecutor(num_workers=…)`, or any
+///   object whose `evaluator(scene_json, traj, cost)` returns a callable `(genomes, generation,
+///   local) -> costs | (costs, local)`, with an optional `close()`). The result is the same,
+///   bit for bit, on any executor.
+/// - `islands` (≥ 2): an island model of that many `thesis` populations of `population` each,
+///   seeded from `seed` and the island index, the `migrants` best of each island copied to the
+///   next every `migrate_every` generations (a ring); deterministic given the seed and the
+///   island count.
 ///
 /// Ctrl-C stops the run cleanly (checkpoint written) and raises `KeyboardInterrupt`, whose
 /// `result` attribute holds the `IdentifyResult` so far.
@@ -224,12 +236,14 @@ fn bad(what: &str, message: impl std::fmt::Display) -> PyErr {
 #[pyo3(signature = (
     scene, traj, strategy = "auto", generations = Some(1000), population = 100, seed = 0,
     callback = None, *, noise = 0.0, cost = "short", time_limit = None, target_cost = None,
-    max_evals = None, threads = None, truth = None, checkpoint = None, resume = None, dt = None
+    max_evals = None, threads = None, truth = None, checkpoint = None, resume = None, dt = None,
+    executor = None, islands = None, migrate_every = 10, migrants = 2
 ))]
 #[pyo3(
     text_signature = "(scene, traj, strategy='auto', generations=1000, population=100, \
     seed=0, callback=None, *, noise=0.0, cost='short', time_limit=None, target_cost=None, \
-    max_evals=None, threads=None, truth=None, checkpoint=None, resume=None, dt=None)"
+    max_evals=None, threads=None, truth=None, checkpoint=None, resume=None, dt=None, \
+    executor=None, islands=None, migrate_every=10, migrants=2)"
 )]
 #[allow(clippy::too_many_arguments)]
 pub fn identify(
@@ -251,6 +265,10 @@ pub fn identify(
     checkpoint: Option<PathBuf>,
     resume: Option<PathBuf>,
     dt: Option<f64>,
+    executor: Option<Bound<'_, PyAny>>,
+    islands: Option<i64>,
+    migrate_every: i64,
+    migrants: i64,
 ) -> PyResult<IdentifyResult> {
     let name: StrategyName = strategy.parse().map_err(|e| bad("strategy", e))?;
     let generations: Option<u64> = generations.map(|g| count(g, "generations")).transpose()?;
@@ -258,6 +276,15 @@ pub fn identify(
     let seed: u64 = count(seed, "seed")?;
     let max_evals: Option<u64> = max_evals.map(|m| count(m, "max_evals")).transpose()?;
     let threads: Option<usize> = threads.map(|t| count(t, "threads")).transpose()?;
+    let islands = match islands {
+        Some(k) => Some(IslandConfig {
+            islands: count(k, "islands")?,
+            migrate_every: count(migrate_every, "migrate_every")?,
+            migrants: count(migrants, "migrants")?,
+        }),
+        None => None,
+    };
+    let executor = executor_object(py, executor)?;
     if population < 2 {
         return Err(bad(
             "population",
@@ -325,7 +352,24 @@ pub fn identify(
         population,
         ..StrategyOptions::default()
     };
-    let (mut strategy, _) = make_strategy(name, &problem, &options);
+    let (mut strategy, _) = match islands {
+        Some(config) => {
+            make_islands(name, &problem, &options, config).map_err(|e| bad("islands", e))?
+        }
+        None => make_strategy(name, &problem, &options),
+    };
+    // The executor's workers compile the same problem from the same data (the noisy
+    // trajectory, not the caller's): only genomes and costs travel from here on.
+    let evaluator = match &executor {
+        Some(ex) => {
+            let traj = traj_to_py(py, traj.clone())?;
+            let ev = ex.call_method1("evaluator", (scene.to_json_string(), traj, cost))?;
+            let remote = Arc::new(PyEvaluator::new(ev.clone().unbind()));
+            problem = problem.with_evaluator(remote.clone());
+            Some((ev, remote))
+        }
+        None => None,
+    };
     let config = RunConfig {
         seed,
         stop: StopRules {
@@ -381,9 +425,21 @@ pub fn identify(
             (worker.join(), signal)
         })
     });
+    // The executor's workers are released whatever happened.
+    let mut remote_error = None;
+    if let Some((ev, remote)) = evaluator {
+        remote_error = remote.take_error();
+        if ev.hasattr("close")? {
+            ev.call_method0("close")?;
+        }
+    }
     let outcome = outcome
         .map_err(|_| PyRuntimeError::new_err("identify: the run panicked (a bug in cordis)"))?;
     if let Some(e) = observer.error.take() {
+        return Err(e);
+    }
+    // The executor's own exception (a lost cluster, a bad return value), not a string of it.
+    if let Some(e) = remote_error {
         return Err(e);
     }
     let run = outcome.map_err(checkpoint_error)?;
@@ -394,6 +450,37 @@ pub fn identify(
         return Err(e);
     }
     Ok(result)
+}
+
+/// The executor object for `executor`: None for the local pool, `"ray"` for a default
+/// `cordis.RayExecutor` (a clear error when Ray is not installed), any other object as is.
+fn executor_object<'py>(
+    py: Python<'py>,
+    executor: Option<Bound<'py, PyAny>>,
+) -> PyResult<Option<Bound<'py, PyAny>>> {
+    let Some(ex) = executor else {
+        return Ok(None);
+    };
+    if let Ok(name) = ex.extract::<String>() {
+        return match name.as_str() {
+            "local" => Ok(None),
+            "ray" => Ok(Some(
+                py.import("cordis.ray")?.getattr("RayExecutor")?.call0()?,
+            )),
+            other => Err(bad(
+                "executor",
+                format!("unknown executor `{other}` (expected \"local\", \"ray\" or an executor object)"),
+            )),
+        };
+    }
+    if !ex.hasattr("evaluator")? {
+        return Err(PyTypeError::new_err(format!(
+            "executor: expected \"local\", \"ray\" or an object with an evaluator(scene_json, \
+             traj, cost) method, got {}",
+            ex.get_type().name()?
+        )));
+    }
+    Ok(Some(ex))
 }
 
 fn build_result(

@@ -8,7 +8,8 @@
 //! Modules: `scene.rs` (core `Scene`), `scene_edit.rs` (its editing views), `unknown.rs`
 //! (`Param::Unknown`), `trajectory.rs` (`cordis_core::io`), `examples.rs`
 //! (`cordis_core::examples`), `cost.rs` (`cordis_es::cost`), `identify.rs` (`cordis_es::problem`,
-//! `identify`, `executor`), `discover.rs` (`cordis_es::discover`), `cli.rs` (`cordis_cli`), `errors.rs` (both error enums).
+//! `identify`, `executor`), `evaluator.rs` (`cordis_es::evaluator`: populations evaluated by
+//! a Python executor such as Ray), `discover.rs` (`cordis_es::discover`), `cli.rs` (`cordis_cli`), `errors.rs` (both error enums).
 
 use pyo3::prelude::*;
 
@@ -16,6 +17,7 @@ pub mod cli;
 pub mod cost;
 pub mod discover;
 pub mod errors;
+pub mod evaluator;
 pub mod examples;
 pub mod identify;
 pub mod json;
@@ -38,6 +40,7 @@ fn _cordis(m: &Bound<'_, PyModule>) -> PyResult<()> {
     examples::register(m)?;
     cost::register(m)?;
     identify::register(m)?;
+    evaluator::register(m)?;
     discover::register(m)?;
     cli::register(m)?;
     Ok(())

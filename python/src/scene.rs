@@ -14,7 +14,7 @@ use std::path::PathBuf;
 use std::sync::{Arc, PoisonError, RwLock, RwLockWriteGuard};
 
 use cordis_core::Scene as CoreScene;
-use numpy::{PyArray1, PyArray2, PyArray3};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3};
 use pyo3::exceptions::{PyMemoryError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString, PyTuple, PyType};
@@ -27,7 +27,17 @@ use crate::scene_edit::{self, Particles, Types};
 /// particles, with its time step `dt` (s) and `gravity` (m/s²). Read one with
 /// `Scene.from_json` or `Scene.from_dict`; run it with `simulate`; edit it in place
 /// (`scene.dt`, `scene.gravity`, `scene.types[NAME][PARAM]`, `scene.particles[i].mass`,
-/// `scene.masses`, `scene.positions`, `scene.velocities`), every edit validated.
+/// `scene.masses`, `scene.positions`, `scene.velocities`), every edit validated: a refused
+/// value raises `SceneError` naming the place and leaves the scene unchanged.
+///
+/// >>> scene = cordis.example("rigid")
+/// >>> scene.dt = 0.005
+/// >>> scene.types["brace"]["stiffness"] = 120.0
+/// >>> scene.types["brace"]["damping"] = cordis.Unknown(0.0, 2.0)
+/// >>> scene.particles[3].mass = 2.0
+/// >>> print(scene)
+/// Scene: 15 particles (0 fixed), 31 links, 10 types; dt = 0.005 s, …
+/// >>> open("edited.json", "w").write(scene.to_json())
 #[pyclass(frozen, eq, module = "cordis", name = "Scene")]
 pub struct Scene {
     inner: RwLock<Arc<CoreScene>>,
@@ -269,16 +279,8 @@ impl Scene {
     /// Initial positions x(0), m, float64 `(N, 3)`, read-only; assign an `(N, 3)` array to
     /// change them.
     #[getter]
-    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let rows: Vec<Vec<f64>> = self
-            .core()
-            .particles
-            .iter()
-            .map(|p| p.pos.to_vec())
-            .collect();
-        Ok(read_only(PyArray2::from_vec2(py, &rows).map_err(|e| {
-            PyValueError::new_err(format!("positions: {e}"))
-        })?))
+    fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        rows(py, &self.core(), |p| p.pos)
     }
 
     #[setter]
@@ -289,16 +291,8 @@ impl Scene {
     /// Initial velocities v(0), m/s, float64 `(N, 3)`, read-only; assign an `(N, 3)` array
     /// to change them.
     #[getter]
-    fn velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let rows: Vec<Vec<f64>> = self
-            .core()
-            .particles
-            .iter()
-            .map(|p| p.vel.to_vec())
-            .collect();
-        Ok(read_only(PyArray2::from_vec2(py, &rows).map_err(|e| {
-            PyValueError::new_err(format!("velocities: {e}"))
-        })?))
+    fn velocities<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        rows(py, &self.core(), |p| p.vel)
     }
 
     #[setter]
@@ -408,6 +402,19 @@ impl Scene {
             |s| (0..s.num_particles()).try_for_each(|i| s.validate_particle(i)),
         )
     }
+}
+
+/// One 3-vector per particle as a read-only `(N, 3)` array.
+fn rows<'py>(
+    py: Python<'py>,
+    scene: &CoreScene,
+    field: fn(&cordis_core::Particle) -> [f64; 3],
+) -> Bound<'py, PyArray2<f64>> {
+    let flat: Vec<f64> = scene.particles.iter().flat_map(field).collect();
+    let n = scene.num_particles();
+    let array = numpy::ndarray::Array2::from_shape_vec((n, 3), flat)
+        .expect("3 values per particle make an (N, 3) array");
+    read_only(array.into_pyarray(py))
 }
 
 /// Marks an array read-only, so that `scene.masses[3] = 2.0` raises instead of changing a copy.

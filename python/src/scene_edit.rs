@@ -198,6 +198,12 @@ impl Particles {
 /// One particle of a scene: `mass` (kg, or `Unknown`), `pos` = x(0) (m), `vel` = v(0) (m/s),
 /// `fixed`, `group`. Every attribute can be set; a value the scene refuses raises `SceneError`
 /// (`particles[3].mass: must be a positive number, got 0`) and changes nothing.
+///
+/// >>> p = scene.particles[3]
+/// >>> p.mass = 2.0
+/// >>> p.pos = (0.0, 0.0, 1.5)
+/// >>> p
+/// Particle(3, mass=2.0, pos=(0.0, 0.0, 1.5))
 #[pyclass(frozen, module = "cordis", name = "Particle")]
 pub struct ParticleView {
     scene: Py<Scene>,
@@ -422,12 +428,10 @@ impl Types {
 
     /// The view of type `name`, or `default` when there is none.
     #[pyo3(signature = (name, default = None))]
-    fn get(&self, py: Python<'_>, name: &str, default: Option<Py<PyAny>>) -> Py<PyAny> {
+    fn get(&self, py: Python<'_>, name: &str, default: Option<Py<PyAny>>) -> PyResult<Py<PyAny>> {
         match self.names(py).iter().position(|n| n == name) {
-            Some(i) => Py::new(py, self.view(py, i))
-                .map(Py::into_any)
-                .unwrap_or_else(|_| py.None()),
-            None => default.unwrap_or_else(|| py.None()),
+            Some(i) => Ok(Py::new(py, self.view(py, i))?.into_any()),
+            None => Ok(default.unwrap_or_else(|| py.None())),
         }
     }
 
@@ -443,6 +447,13 @@ impl Types {
 /// `damping`…, and a muscle's `w_len[k]`, `w_rate[k]`) to its value, shared by every link of
 /// the type. Values are floats, or `cordis.Unknown(min, max)` for parameters to identify;
 /// assignments write through to the scene and are validated.
+///
+/// >>> rib = scene.types["rib"]
+/// >>> rib["stiffness"] = 120.0
+/// >>> rib["damping"] = cordis.Unknown(0.0, 5.0)
+/// >>> dict(rib)
+/// {'stiffness': 120.0, 'rest_length': 1.0, 'damping': Unknown(0.0, 5.0)}
+/// >>> rib["stifness"]   # SceneKeyError (a KeyError) listing the type's parameters
 #[pyclass(frozen, mapping, module = "cordis", name = "LinkType")]
 pub struct TypeView {
     scene: Py<Scene>,
@@ -498,6 +509,31 @@ impl TypeView {
             .iter()
             .filter(|l| l.type_index == self.index)
             .count()
+    }
+
+    /// Provot's critical deformation rate τc (springs only; None: no limit). Settable:
+    /// `scene.types["rib"].max_elongation = None` removes the limit.
+    #[getter]
+    fn max_elongation(&self, py: Python<'_>) -> Option<f64> {
+        self.read(py, |t| t.max_elongation)
+    }
+
+    #[setter]
+    fn set_max_elongation(&self, py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        let tau = if value.is_none() {
+            None
+        } else {
+            let place = format!("types.{}.max_elongation", self.name(py));
+            Some(number(value, &place)?)
+        };
+        let ti = self.index;
+        self.scene.bind(py).get().edit(
+            |s| {
+                let old = std::mem::replace(&mut s.types[ti].max_elongation, tau);
+                Ok(move |s: &mut CoreScene| s.types[ti].max_elongation = old)
+            },
+            |s| s.validate_type(ti),
+        )
     }
 
     fn __len__(&self, py: Python<'_>) -> usize {

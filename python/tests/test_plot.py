@@ -139,6 +139,10 @@ def test_pareto_from_records_and_from_a_jsonl_file(tmp_path):
     assert [t.get_text() for t in fig.axes[0].get_legend().get_texts()] == \
         ["thesis", "least-squares", "cmaes"]
     save(fig, tmp_path / "p2.png")
+    # A fixed order keeps a strategy's colour across panels that lack some strategies.
+    fig = cordis.plot.pareto(records[2:3], strategies=["thesis", "least-squares", "cmaes"])
+    from matplotlib.colors import to_hex
+    assert to_hex(fig.axes[0].collections[0].get_facecolor()[0]) == to_hex("C2")
     with pytest.raises(ValueError, match=r"records\[0\]: missing seconds"):
         cordis.plot.pareto([{"strategy": "x", "scene": "y", "param_error_pct": 1}])
     path.write_text("{nope\n")

@@ -518,3 +518,26 @@ def test_edit_during_simulate_does_not_affect_it():
     assert np.array_equal(result["traj"], before) or np.array_equal(result["traj"], after)
     assert not np.array_equal(before, after)
     assert s == edited
+
+
+def test_max_elongation_is_settable_on_springs_only():
+    cloth = cordis.Scene.from_dict(scenes.cloth(tau=0.05))
+    springs = [t for t in cloth.types.values() if t.kind == "spring"]
+    assert springs and all(t.max_elongation == 0.05 for t in springs)
+    for t in springs:
+        t.max_elongation = None
+    want = scenes.cloth()
+    for t in want["types"].values():
+        t.pop("max_elongation", None)
+    assert cloth == cordis.Scene.from_dict(want)
+    springs[0].max_elongation = 0.1
+    assert cloth.to_dict()["types"][springs[0].name]["max_elongation"] == 0.1
+    with pytest.raises(cordis.SceneError, match="must be a positive number") as e:
+        springs[0].max_elongation = 0.0
+    assert e.value.place == f"types.{springs[0].name}.max_elongation"
+    assert springs[0].max_elongation == 0.1
+    chain = cordis.Scene.from_dict(scenes.anchors())
+    other = next(t for t in chain.types.values() if t.kind != "spring")
+    with pytest.raises(cordis.SceneError, match="only springs have it"):
+        other.max_elongation = 0.1
+    assert other.max_elongation is None

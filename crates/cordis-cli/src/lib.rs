@@ -18,7 +18,7 @@ use clap::{Parser, Subcommand};
     name = "cordis",
     version,
     about = "Simulate Cordis-Anima mass-interaction networks and identify their parameters",
-    after_help = "Example:\n  cordis example rigid --out rigid.json\n  cordis simulate rigid.json --frames 100 --out rigid.csv"
+    after_help = "Example:\n  cordis example rigid --out rigid.json\n  cordis simulate rigid.json --frames 100 --out rigid.csv\n\nExit codes: 0 success, 1 the run failed (a file, a divergence), 2 bad input or usage,\n130 interrupted by Ctrl-C (identify writes its best result first)."
 )]
 struct Cli {
     /// Machine-readable output: stdout holds only JSON objects, one per line (each command's

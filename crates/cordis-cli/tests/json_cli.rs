@@ -229,3 +229,78 @@ fn errors_are_one_line_a_json_object_and_a_shell_exit_code() {
     assert_eq!(cordis(d, &["no-such-command"]).status.code(), Some(2));
     assert_eq!(cordis(d, &["--help"]).status.code(), Some(0));
 }
+
+/// Ctrl-C stops `identify` after it writes its best result: the summary says so and the exit
+/// code is 130 (128 + SIGINT), so `cordis identify … && next` does not go on.
+#[cfg(unix)]
+#[test]
+fn an_interrupted_identification_exits_130_after_writing_its_result() {
+    use std::process::Stdio;
+    use std::time::{Duration, Instant};
+
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for args in [
+        &["example", "rigid", "--out", "rigid.json"][..],
+        &[
+            "simulate",
+            "rigid.json",
+            "--frames",
+            "100",
+            "--out",
+            "r.csv",
+        ][..],
+        &["example", "rigid", "--unknowns", "--out", "u.json"][..],
+    ] {
+        assert!(cordis(d, args).status.success());
+    }
+    // The evolution strategy with a long time limit: only the interrupt ends it early.
+    let child = Command::new(env!("CARGO_BIN_EXE_cordis"))
+        .current_dir(d)
+        .args([
+            "identify",
+            "u.json",
+            "--trajectory",
+            "r.csv",
+            "--strategy",
+            "thesis",
+        ])
+        .args([
+            "--generations",
+            "100000000",
+            "--time-limit",
+            "120",
+            "--out",
+            "best.json",
+        ])
+        .args(["--log", "log.csv", "--json", "-q"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Wait until it has run a few generations (the log has rows), then send SIGINT.
+    let start = Instant::now();
+    while std::fs::read_to_string(d.join("log.csv")).map_or(0, |t| t.lines().count()) < 3 {
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "identify never started"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(130),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let lines = json_lines(&out);
+    assert_eq!(lines[0]["stopped_by"], "interrupted", "{lines:?}");
+    assert_eq!(lines.last().unwrap()["exit_code"], 130);
+    Scene::from_json_path(d.join("best.json")).unwrap();
+}

@@ -558,3 +558,41 @@ fn no_input_panics() {
         }
     }
 }
+
+/// The per-part checks an editor uses (`validate_globals`, `validate_particle`,
+/// `validate_type`) give the error `validate` gives for a fault in that part, and accept the
+/// parts that are fine.
+#[test]
+fn partial_validation_agrees_with_validate() {
+    let good = read(&base()).unwrap();
+    good.validate_globals().unwrap();
+    for i in 0..good.num_particles() {
+        good.validate_particle(i).unwrap();
+    }
+    for t in 0..good.types.len() {
+        good.validate_type(t).unwrap();
+    }
+    let same = |s: &Scene, part: cordis_core::Result<()>, place: &str| {
+        let (whole, part) = (s.validate().unwrap_err(), part.unwrap_err());
+        assert_eq!(whole.to_string(), part.to_string());
+        assert!(whole.to_string().starts_with(place), "{whole}");
+    };
+    let mut s = good.clone();
+    s.dt = -0.5;
+    same(&s, s.validate_globals(), "dt:");
+    let mut s = good.clone();
+    s.gravity[1] = f64::NAN;
+    same(&s, s.validate_globals(), "gravity[1]:");
+    let mut s = good.clone();
+    s.particles[2].mass = cordis_core::Param::Known(0.0);
+    same(&s, s.validate_particle(2), "particles[2].mass:");
+    s.validate_particle(1).unwrap();
+    let mut s = good.clone();
+    s.particles[1].vel[2] = f64::INFINITY;
+    same(&s, s.validate_particle(1), "particles[1].vel[2]:");
+    let mut s = good.clone();
+    s.types[1].params[0] = cordis_core::Param::Known(-2.0);
+    let bend = s.types[1].name.clone();
+    same(&s, s.validate_type(1), &format!("types.{bend}."));
+    s.validate_type(0).unwrap();
+}

@@ -142,6 +142,8 @@ pub fn run(
     let mut history = Vec::new();
     let mut generation = 0;
     let mut seconds_before = 0.0;
+    // A failure left over from an earlier run on this problem is not this run's.
+    problem.take_eval_error();
     if let Some(path) = &config.resume {
         let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
         let cp: Checkpoint = serde_json::from_str(&text)
@@ -179,6 +181,9 @@ pub fn run(
         problem.set_evals(0);
         problem.objective.set_generation(0);
         strategy.init(problem, config.seed);
+        if let Some(e) = problem.take_eval_error() {
+            return Err(format!("generation 0: {e}"));
+        }
         let row = make_row(
             problem,
             &*strategy,
@@ -225,6 +230,11 @@ pub fn run(
             strategy.reevaluate(problem);
         }
         strategy.next_generation(problem, config.seed, generation);
+        // A failed evaluation left +inf costs in the strategy's state: stop before that state
+        // reaches a checkpoint, which keeps the last good generation.
+        if let Some(e) = problem.take_eval_error() {
+            return Err(format!("generation {generation}: {e}"));
+        }
         let row = make_row(problem, &*strategy, generation, elapsed(&start));
         let mut go_on = true;
         for o in observers.iter_mut() {

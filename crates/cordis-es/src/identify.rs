@@ -11,6 +11,7 @@ use crate::rng;
 use crate::strategies::annealing::{Annealing, AnnealingConfig};
 use crate::strategies::cmaes::{Cmaes, CmaesConfig};
 use crate::strategies::exact;
+use crate::strategies::islands::{IslandConfig, Islands};
 use crate::strategies::parisian::{Parisian, ParisianConfig};
 use crate::strategies::self_adaptive::{SelfAdaptive, SelfAdaptiveConfig};
 use crate::strategies::thesis::{Thesis, ThesisConfig};
@@ -137,6 +138,26 @@ pub fn make_strategy(
             (Box::new(Parisian::new(c)), "parisian")
         }
     }
+}
+
+/// `config.islands` copies of the named strategy run as an island model
+/// ([`Islands`]), each with `options.population` individuals; errors when that strategy
+/// cannot exchange individuals. Returns the strategy with the name of what each island runs.
+pub fn make_islands(
+    name: StrategyName,
+    problem: &Problem,
+    options: &StrategyOptions,
+    config: IslandConfig,
+) -> Result<(Box<dyn Strategy>, &'static str), String> {
+    let mut ran = "islands";
+    let islands = (0..config.islands)
+        .map(|_| {
+            let (s, r) = make_strategy(name, problem, options);
+            ran = r;
+            s
+        })
+        .collect();
+    Ok((Box::new(Islands::new(config, islands)?), ran))
 }
 
 /// Whether the strategy that will run (as named by [`make_strategy`]) can run on `problem`:

@@ -8,6 +8,7 @@ pub mod cost;
 pub mod descent;
 pub mod discover;
 pub mod error;
+pub mod evaluator;
 pub mod executor;
 pub mod identify;
 pub mod problem;

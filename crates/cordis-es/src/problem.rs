@@ -2,12 +2,14 @@
 //! the strategies' heuristics need to know about them.
 
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 
 use cordis_core::forces::angle::cos_angle;
 use cordis_core::{LinkKind, Scene, Trajectory};
 
 use crate::cost::{CostKind, CostScratch, Objective};
 use crate::error::CostError;
+use crate::evaluator::{Evaluator, Local};
 use crate::space::{ParameterSpace, Role};
 
 pub struct Problem {
@@ -26,6 +28,10 @@ pub struct Problem {
     evals: AtomicU64,
     /// Wall time spent in [`Problem::timed`] sections (population evaluations), ns.
     eval_nanos: AtomicU64,
+    /// Where [`Problem::evaluate_population`] computes costs ([`Local`] by default).
+    evaluator: Arc<dyn Evaluator>,
+    /// The first evaluator failure, for the run loop to report.
+    eval_error: Mutex<Option<String>>,
 }
 
 /// Scratch of one evaluating thread.
@@ -61,7 +67,15 @@ impl Problem {
             num_particles: scene.num_particles(),
             evals: AtomicU64::new(0),
             eval_nanos: AtomicU64::new(0),
+            evaluator: Arc::new(Local),
+            eval_error: Mutex::new(None),
         })
+    }
+
+    /// Computes populations' costs with `evaluator` instead of the local rayon pool.
+    pub fn with_evaluator(mut self, evaluator: Arc<dyn Evaluator>) -> Self {
+        self.evaluator = evaluator;
+        self
     }
 
     /// Sets the truth from a scene with the same layout (known values).
@@ -103,11 +117,62 @@ impl Problem {
     /// Global cost of a genome (internal coordinates); per-particle local costs into `local`.
     pub fn evaluate(&self, genome: &[f64], s: &mut EvalScratch, local: &mut [f64]) -> f64 {
         self.evals.fetch_add(1, Ordering::Relaxed);
+        self.evaluate_uncounted(genome, s, local)
+    }
+
+    /// [`Problem::evaluate`] without counting the evaluation: for evaluators, whose batches
+    /// [`Problem::evaluate_population`] counts.
+    pub fn evaluate_uncounted(
+        &self,
+        genome: &[f64],
+        s: &mut EvalScratch,
+        local: &mut [f64],
+    ) -> f64 {
         self.space.fill_params(genome, &mut s.params);
         match self.objective.evaluate(&s.params, &mut s.cost, local) {
             Ok(c) if !c.is_nan() => c,
             _ => f64::INFINITY,
         }
+    }
+
+    /// Global costs of a population of genomes (row-major, [`Problem::dim`] values each) into
+    /// `costs`, and their per-particle local costs (row-major, `num_particles` each) into
+    /// `local` when given, by this problem's [`Evaluator`]. Counts `costs.len()` evaluations.
+    /// Should the evaluator fail, every cost is +inf and the failure is kept for the run loop
+    /// ([`Problem::take_eval_error`]), which then stops.
+    pub fn evaluate_population(
+        &self,
+        genomes: &[f64],
+        costs: &mut [f64],
+        mut local: Option<&mut [f64]>,
+    ) {
+        self.evals.fetch_add(costs.len() as u64, Ordering::Relaxed);
+        let outcome = self
+            .evaluator
+            .evaluate(self, genomes, costs, local.as_deref_mut());
+        match outcome {
+            // A remote evaluator's NaN is the same +inf a local one gives.
+            Ok(()) => costs
+                .iter_mut()
+                .filter(|c| c.is_nan())
+                .for_each(|c| *c = f64::INFINITY),
+            Err(e) => {
+                costs.fill(f64::INFINITY);
+                if let Some(l) = local {
+                    l.fill(0.0);
+                }
+                let mut slot = self.eval_error.lock().unwrap_or_else(|p| p.into_inner());
+                slot.get_or_insert(e);
+            }
+        }
+    }
+
+    /// The first evaluator failure since the last call, if any.
+    pub fn take_eval_error(&self) -> Option<String> {
+        self.eval_error
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .take()
     }
 
     /// Root mean square prediction error (m) of a global cost: sqrt(C / terms).

@@ -47,6 +47,31 @@ pub trait Strategy: Send {
     /// Restores a state written by [`Strategy::save_state`].
     fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String>;
 
+    /// Whether [`Strategy::emigrants`] and [`Strategy::immigrate`] work: the strategy can run
+    /// as an island of [`crate::strategies::islands::Islands`].
+    fn migrates(&self) -> bool {
+        false
+    }
+
+    /// Copies of the `count` best individuals (fewer if the population is smaller), best
+    /// first, in the strategy's own format: what [`Strategy::immigrate`] of another island
+    /// running the same strategy on the same problem reads.
+    fn emigrants(&self, count: usize) -> Vec<serde_json::Value> {
+        let _ = count;
+        Vec::new()
+    }
+
+    /// Replaces the worst individuals by `migrants` (from [`Strategy::emigrants`]), costs
+    /// included: no evaluation, so the run stays deterministic and cheap.
+    fn immigrate(
+        &mut self,
+        problem: &Problem,
+        migrants: &[serde_json::Value],
+    ) -> Result<(), String> {
+        let _ = (problem, migrants);
+        Err(format!("strategy `{}` cannot run on islands", self.name()))
+    }
+
     /// What the strategy wants the run summary to say beside the numbers (an exact solver's
     /// condition number and warnings); `null` for nothing.
     fn report(&self) -> serde_json::Value {

@@ -2,6 +2,7 @@
 //! readable table on stderr. One file per mode under `bench/`.
 
 mod cost;
+mod pareto;
 mod stability;
 
 use anyhow::Result;
@@ -19,13 +20,19 @@ pub enum Mode {
     /// The stability bound against measured limits, long undamped runs, large scenes and
     /// extreme values.
     Stability(stability::Args),
+    /// Every identification strategy on every shipped example at several budgets: run time,
+    /// evaluations, cost and parameter error, and the speed-up over the thesis' strategy.
+    Pareto(pareto::Args),
 }
 
-/// Benchmarks print JSON lines whatever `--json` says; `--quiet` is not honoured by their
-/// tables (a benchmark run is read by a person or a script that keeps stdout only).
-pub fn run(a: Args, _output: super::Output) -> Result<()> {
+/// `cost` and `stability` print JSON lines on stdout whatever `--json` says, and their table
+/// on stderr even with `--quiet` (a script keeps stdout only; docs/cli.md says so). `pareto`
+/// writes its records to a file and its tables on stdout; with `--json`, the records on stdout
+/// and the tables on stderr.
+pub fn run(a: Args, output: super::Output) -> Result<()> {
     match a.mode {
         Mode::Cost(a) => cost::run(a),
         Mode::Stability(a) => stability::run(a),
+        Mode::Pareto(a) => pareto::run(a, output),
     }
 }

@@ -1,20 +1,16 @@
 //! What the strategies beyond the thesis share: parallel evaluation of plain genomes, the
 //! heuristic starting point, and the unit box every one of them searches in.
 
-use rayon::prelude::*;
-
 use crate::problem::Problem;
 use crate::strategy::GenerationStats;
 
-/// Global costs of `genomes` (internal coordinates), evaluated in parallel. Each evaluation is
-/// a pure function of its genome, so the result does not depend on the thread count.
+/// Global costs of `genomes` (internal coordinates), by the problem's evaluator (in parallel).
+/// Each evaluation is a pure function of its genome, so the result does not depend on the
+/// thread count nor on where the costs are computed.
 pub(crate) fn evaluate_genomes(problem: &Problem, genomes: &[Vec<f64>]) -> Vec<f64> {
-    let n = problem.num_particles;
+    let flat: Vec<f64> = genomes.concat();
     let mut costs = vec![f64::INFINITY; genomes.len()];
-    genomes.par_iter().zip(costs.par_iter_mut()).for_each_init(
-        || (problem.scratch(), vec![0.0; n]),
-        |(s, local), (g, c)| *c = problem.evaluate(g, s, local),
-    );
+    problem.evaluate_population(&flat, &mut costs, None);
     costs
 }
 

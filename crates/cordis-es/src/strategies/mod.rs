@@ -5,6 +5,7 @@ pub mod cmaes;
 mod common;
 pub mod exact;
 pub mod hybrid;
+pub mod islands;
 pub mod least_squares;
 pub mod parisian;
 pub mod self_adaptive;

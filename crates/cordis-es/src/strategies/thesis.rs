@@ -188,15 +188,19 @@ impl Thesis {
         }
     }
 
+    /// Costs and local costs of `inds`, by the problem's evaluator (one batch: one round trip
+    /// for a remote one).
     fn evaluate(problem: &Problem, inds: &mut [Individual]) {
-        problem.timed(|| {
-            inds.par_iter_mut().for_each_init(
-                || problem.scratch(),
-                |s, ind| {
-                    ind.cost = problem.evaluate(&ind.genes, s, &mut ind.local);
-                },
-            )
-        });
+        let n = problem.num_particles;
+        let genomes: Vec<f64> = inds.iter().flat_map(|i| i.genes.iter().copied()).collect();
+        let mut costs = vec![f64::INFINITY; inds.len()];
+        let mut local = vec![0.0; inds.len() * n];
+        problem.timed(|| problem.evaluate_population(&genomes, &mut costs, Some(&mut local)));
+        for (k, ind) in inds.iter_mut().enumerate() {
+            ind.cost = costs[k];
+            ind.local.clear();
+            ind.local.extend_from_slice(&local[k * n..(k + 1) * n]);
+        }
     }
 
     fn sort(&mut self) {
@@ -483,6 +487,40 @@ impl Strategy for Thesis {
     fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String> {
         self.setup(problem);
         self.state = serde_json::from_value(state.clone()).map_err(|e| e.to_string())?;
+        Ok(())
+    }
+
+    fn migrates(&self) -> bool {
+        true
+    }
+
+    fn emigrants(&self, count: usize) -> Vec<serde_json::Value> {
+        // The population is sorted by cost: its head is the best.
+        self.state
+            .population
+            .iter()
+            .take(count)
+            .map(|i| serde_json::to_value(i).expect("individual serialises"))
+            .collect()
+    }
+
+    fn immigrate(
+        &mut self,
+        problem: &Problem,
+        migrants: &[serde_json::Value],
+    ) -> Result<(), String> {
+        let size = self.state.population.len();
+        // The elite stays: at most the non-elite tail is replaced.
+        let room = size - ((self.config.elite * size as f64).ceil() as usize).clamp(1, size);
+        for (k, m) in migrants.iter().take(room).enumerate() {
+            let ind: Individual =
+                serde_json::from_value(m.clone()).map_err(|e| format!("migrant {k}: {e}"))?;
+            if ind.genes.len() != problem.dim() || ind.local.len() != problem.num_particles {
+                return Err(format!("migrant {k}: does not match the problem"));
+            }
+            self.state.population[size - 1 - k] = ind;
+        }
+        self.sort();
         Ok(())
     }
 }
