@@ -8,6 +8,7 @@
 
 mod cloth;
 mod fluid;
+mod follower;
 mod frog;
 mod horse;
 mod horse_gait;
@@ -18,6 +19,10 @@ mod tadpole;
 
 pub use cloth::{cloth, CLOTH_FRAMES};
 pub use fluid::{fluid, FLUID_FRAMES};
+pub use follower::{
+    follower, follower_distance, follower_moving, follower_with_target, FOLLOWER_BODY_LENGTH,
+    FOLLOWER_FRAMES,
+};
 pub use frog::{frog, frog_heading, frog_with, FROG_FRAMES};
 pub use horse::{horse, HORSE_FRAMES};
 pub use horse_gait::{horse_gait, GAIT_GAIN, GAIT_RATE_WEIGHT};
@@ -40,6 +45,7 @@ pub const NAMES: &[&str] = &[
     "horse-gait",
     "tadpole",
     "frog",
+    "follower",
 ];
 
 /// The example of that name at its default size, or `None` for a name not in [`NAMES`].
@@ -53,6 +59,7 @@ pub fn by_name(name: &str) -> Option<Scene> {
         "horse-gait" => Some(horse_gait()),
         "tadpole" => Some(tadpole()),
         "frog" => Some(frog()),
+        "follower" => Some(follower()),
         _ => None,
     }
 }
@@ -68,6 +75,7 @@ pub fn default_frames(name: &str) -> usize {
         "muscle" => MUSCLE_FRAMES,
         "tadpole" => TADPOLE_FRAMES,
         "frog" => FROG_FRAMES,
+        "follower" => FOLLOWER_FRAMES,
         _ => 0,
     }
 }
