@@ -16,7 +16,22 @@ fn probe() {
             .simulate(FOLLOWER_FRAMES)
             .unwrap();
         let ds: Vec<String> = (0..=8)
-            .map(|k| format!("{:.2}", follower_distance(&traj, (k * 1000).min(FOLLOWER_FRAMES - 1))))
+            .map(|k| {
+                let t = (k * 1000).min(FOLLOWER_FRAMES - 1);
+                let ax = traj.pos(t, 0) - traj.pos(t, 1);
+                let to = traj.pos(t, 5) - traj.pos(t, 0);
+                let g = traj.pos(t, 11) - traj.pos(t, 6);
+                let vt = traj.pos(t, 10) - traj.pos(t, 6);
+                format!(
+                    "{:.2}[ax{:.0} to{:.0} g{:.0} vt{:.0} {:.1}]",
+                    follower_distance(&traj, t),
+                    ax.y.atan2(ax.x).to_degrees(),
+                    to.y.atan2(to.x).to_degrees(),
+                    g.y.atan2(g.x).to_degrees(),
+                    vt.y.atan2(vt.x).to_degrees(),
+                    vt.norm()
+                )
+            })
             .collect();
         println!("{deg}: {}", ds.join(" "));
     }

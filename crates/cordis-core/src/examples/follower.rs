@@ -140,17 +140,18 @@ fn build(target: [f64; 3], fixed_target: bool) -> Scene {
     let vneck = s.add_particle(mind(Particle::new(1.0, o).fixed()));
     let veyes: Vec<usize> = eye_angles
         .iter()
-        .map(|&a| s.add_particle(mind(Particle::new(1.0, eye(o, a)).fixed())))
+        .map(|&a| s.add_particle(mind(Particle::new(1.0, eye(o, a + MIRROR)).fixed())))
         .collect();
+    let sg = MIRROR.cos();
     let vtarget = s.add_particle(mind(Particle::new(
         1.0,
-        [o[0] + rel.x, o[1] + rel.y, o[2] + rel.z],
+        [o[0] + sg * rel.x, o[1] + sg * rel.y, o[2] + rel.z],
     )));
     let gaze = s.add_particle(mind(Particle::new(
         0.2,
         [
-            o[0] + GAZE_RADIUS * dir.x,
-            o[1] + GAZE_RADIUS * dir.y,
+            o[0] + sg * GAZE_RADIUS * dir.x,
+            o[1] + sg * GAZE_RADIUS * dir.y,
             o[2] + GAZE_RADIUS * dir.z,
         ],
     )));
@@ -164,6 +165,9 @@ fn build(target: [f64; 3], fixed_target: bool) -> Scene {
     );
     s.add_link("water", &[idx::NECK]);
     s.add_link("water", &[idx::FOOT]);
+    for k in 0..3 {
+        s.add_link("water", &[idx::EYE0 + k]);
+    }
     s.add_type(
         LinkType::new("skull", LinkKind::Spring)
             .with("stiffness", 100.0)
@@ -205,7 +209,9 @@ fn build(target: [f64; 3], fixed_target: bool) -> Scene {
             .with("damping", 2.0),
     );
     s.add_link("leash", &[vneck, gaze]);
-    s.add_type(LinkType::new("follow", LinkKind::Spring).with("stiffness", p.follow));
+    s.add_type(LinkType::new("follow", LinkKind::Spring)
+            .with("stiffness", p.follow)
+            .with("rest_length", 0.0));
     s.add_link("follow", &[gaze, vtarget]);
     s.add_type(LinkType::new("mind_drag", LinkKind::Drag).with("damping", p.mind_drag));
     s.add_link("mind_drag", &[gaze]);
@@ -236,6 +242,8 @@ fn build(target: [f64; 3], fixed_target: bool) -> Scene {
     s
 }
 
+const MIRROR: f64 = 0.0;
+
 struct Tuning {
     neck_mass: f64,
     follow: f64,
@@ -253,7 +261,7 @@ const PARAMS: (Tuning, Stroke) = (
         neck_mass: 0.15,
         follow: 1.0,
         mind_drag: 5.0,
-        gain: 2.0,
+        gain: 4.0,
     },
     Stroke {
         amplitude: 3.5,
