@@ -265,7 +265,7 @@ const PARAMS: (Tuning, Stroke) = (
     },
     Stroke {
         amplitude: 3.5,
-        period: 2.0,
+        period: 1.2,
     },
 );
 
