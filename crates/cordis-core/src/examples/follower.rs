@@ -39,6 +39,9 @@ use crate::{LinkKind, LinkType, Particle, Scene, Trajectory, Vec3};
 /// The follower is meant to be simulated for 8000 frames (80 s).
 pub const FOLLOWER_FRAMES: usize = 8000;
 
+/// Time step of both worlds, s.
+const DT: f64 = 0.01;
+
 /// Eye circle radius around the neck, m.
 const EYE_RADIUS: f64 = 0.3;
 
@@ -112,11 +115,15 @@ pub fn follower_moving(target: [f64; 3], pole_offset: [f64; 3], sweep: f64, peri
 /// The mobile (0-4), the target (5), the controller (6-11), their links and couplings.
 fn build(target: [f64; 3], fixed_target: bool) -> Scene {
     let (p, e) = PARAMS;
-    let mut s = Scene::new(0.01);
-    s.add_world("mind", 0.01);
+    let mut s = Scene::new(DT);
+    s.add_world("mind", DT);
     let eye_angles = [90f64, 210.0, 330.0].map(f64::to_radians);
     let eye = |o: [f64; 3], a: f64| {
-        [o[0] + EYE_RADIUS * a.cos(), o[1] + EYE_RADIUS * a.sin(), o[2]]
+        [
+            o[0] + EYE_RADIUS * a.cos(),
+            o[1] + EYE_RADIUS * a.sin(),
+            o[2],
+        ]
     };
 
     // Mobile: neck, foot, three eyes.
@@ -209,9 +216,11 @@ fn build(target: [f64; 3], fixed_target: bool) -> Scene {
             .with("damping", 2.0),
     );
     s.add_link("leash", &[vneck, gaze]);
-    s.add_type(LinkType::new("follow", LinkKind::Spring)
+    s.add_type(
+        LinkType::new("follow", LinkKind::Spring)
             .with("stiffness", p.follow)
-            .with("rest_length", 0.0));
+            .with("rest_length", 0.0),
+    );
     s.add_link("follow", &[gaze, vtarget]);
     s.add_type(LinkType::new("mind_drag", LinkKind::Drag).with("damping", p.mind_drag));
     s.add_link("mind_drag", &[gaze]);
