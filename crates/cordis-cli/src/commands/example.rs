@@ -7,7 +7,8 @@ use super::Output;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Example name: rigid | cloth | fluid | horse | muscle | horse-gait | tadpole | frog.
+    /// Example name: rigid | cloth | fluid | horse | muscle | horse-gait | tadpole | frog
+    /// | follower.
     name: String,
     /// Replace every muscle by a spring with its stiffness, rest length and damping (the
     /// passive model of thesis §6.2; applied before `--unknowns`).

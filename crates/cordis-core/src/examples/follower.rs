@@ -250,12 +250,12 @@ fn build(target: [f64; 3], fixed_target: bool) -> Scene {
             .with("stiffness", 500.0)
             .with("damping", 0.5),
     );
-    for k in 0..3 {
-        s.add_coupling("vision", &[idx::EYE0 + k, idx::TARGET, veyes[k], vtarget]);
+    for (k, &v) in veyes.iter().enumerate() {
+        s.add_coupling("vision", &[idx::EYE0 + k, idx::TARGET, v, vtarget]);
     }
     s.add_type(LinkType::new("steer", LinkKind::ForceTransmitter).with("gain", p.gain));
-    for k in 0..3 {
-        s.add_force_transmitter("steer", [idx::FOOT, idx::EYE0 + k], sources[k]);
+    for (k, &source) in sources.iter().enumerate() {
+        s.add_force_transmitter("steer", [idx::FOOT, idx::EYE0 + k], source);
     }
     s
 }
