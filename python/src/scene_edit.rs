@@ -99,6 +99,9 @@ pub fn summary(py: Python<'_>, s: &CoreScene) -> PyResult<String> {
         }
         let links = if t.kind == cordis_core::LinkKind::Conditional {
             "pairs found while simulating".to_string()
+        } else if t.kind.is_coupling() {
+            let n = s.couplings.iter().filter(|c| c.type_index == ti).count();
+            format!("{n} coupling{}", if n == 1 { "" } else { "s" })
         } else {
             format!("{count} link{}", if count == 1 { "" } else { "s" })
         };

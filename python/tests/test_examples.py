@@ -6,7 +6,9 @@ import cordis
 
 
 def test_examples_are_the_shipped_names():
-    assert cordis.EXAMPLES == ("rigid", "cloth", "fluid", "horse", "muscle", "horse-gait")
+    assert cordis.EXAMPLES == (
+        "rigid", "cloth", "fluid", "horse", "muscle", "horse-gait", "tadpole", "frog",
+    )
 
 
 @pytest.mark.parametrize("name", cordis.EXAMPLES)
@@ -44,7 +46,7 @@ def test_width_sets_the_box_ratio():
 
 
 def test_unknown_name_lists_the_names():
-    with pytest.raises(ValueError, match="unknown example `tadpol`.*rigid, cloth, fluid, horse"):
+    with pytest.raises(ValueError, match="unknown example `tadpol`.*rigid, cloth, fluid, horse, muscle, tadpole, frog"):
         cordis.example("tadpol")
 
 
@@ -52,3 +54,17 @@ def test_unknown_name_lists_the_names():
 def test_bad_width_is_a_value_error(width):
     with pytest.raises(ValueError, match="width"):
         cordis.example("rigid", unknowns=True, width=width)
+
+
+def test_tadpole_couplings_round_trip_and_it_swims():
+    s = cordis.example("tadpole")
+    d = s.to_dict()
+    assert d["couplings"] == [{"type": "muscle", "particles": [0, 1]}]
+    assert d["signals"]["stroke"]["shape"] == "sawtooth"
+    assert cordis.Scene.from_dict(d) == s
+    x = s.simulate(4000)
+    assert x.mean(axis=1)[-1, 0] - x.mean(axis=1)[0, 0] >= 2.0  # body lengths (1 m)
+    # The symmetric control: same amplitude, a triangle.
+    d["signals"]["stroke"] = {"shape": "triangle", "amplitude": 3.5, "period": 4.0, "phase": 0.75}
+    x = cordis.Scene.from_dict(d).simulate(4000)
+    assert abs(x.mean(axis=1)[-1, 0] - x.mean(axis=1)[0, 0]) < 0.2

@@ -223,11 +223,22 @@ fn types(scene: &Scene) -> Vec<Value> {
             let mut v = json!({
                 "name": ty.name,
                 "kind": ty.kind.name(),
-                "count": links.clone().count(),
+                "count": links.clone().count()
+                    + scene.couplings.iter().filter(|c| c.type_index == t).count(),
             });
             match ty.kind {
                 LinkKind::Spring | LinkKind::Damper | LinkKind::Muscle => {
                     let seg: Vec<usize> = links.flat_map(|l| l.particles.clone()).collect();
+                    v["segments"] = json!(seg);
+                }
+                LinkKind::Tgr => {
+                    // A TGR's link is drawn as a segment between its two masses.
+                    let seg: Vec<usize> = scene
+                        .couplings
+                        .iter()
+                        .filter(|c| c.type_index == t)
+                        .flat_map(|c| c.particles.clone())
+                        .collect();
                     v["segments"] = json!(seg);
                 }
                 LinkKind::Angle => {

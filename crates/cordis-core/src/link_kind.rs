@@ -22,10 +22,14 @@ pub enum LinkKind {
     /// Binary local-control muscle (thesis §5.5): a spring plus `G · out · u`, where a neuron's
     /// `out = tanh(Σ w_len e + w_rate s - θ)` observes the other muscle links (SPEC §2.4).
     Muscle,
+    /// Coupling (thesis §5.4.1, SPEC §2.5): a sensori-motor link between M1 and M2 whose rest
+    /// length `l0 + y` follows a tendon (a 1-D mass at y, m) driven by a command signal; the
+    /// tendon feels the link's tension as feedback. Listed in `couplings`, stateful.
+    Tgr,
 }
 
 impl LinkKind {
-    pub const ALL: [LinkKind; 8] = [
+    pub const ALL: [LinkKind; 9] = [
         LinkKind::Spring,
         LinkKind::Damper,
         LinkKind::Anchor,
@@ -34,6 +38,7 @@ impl LinkKind {
         LinkKind::Angle,
         LinkKind::Conditional,
         LinkKind::Muscle,
+        LinkKind::Tgr,
     ];
 
     /// The name used in scene files.
@@ -47,6 +52,7 @@ impl LinkKind {
             LinkKind::Angle => "angle",
             LinkKind::Conditional => "conditional",
             LinkKind::Muscle => "muscle",
+            LinkKind::Tgr => "tgr",
         }
     }
 
@@ -57,7 +63,7 @@ impl LinkKind {
     /// Number of particles a link instance names (0 for `conditional`: pairs are found).
     pub fn arity(self) -> usize {
         match self {
-            LinkKind::Spring | LinkKind::Damper | LinkKind::Muscle => 2,
+            LinkKind::Spring | LinkKind::Damper | LinkKind::Muscle | LinkKind::Tgr => 2,
             LinkKind::Anchor | LinkKind::Drag | LinkKind::NonlinearDrag => 1,
             LinkKind::Angle => 3,
             LinkKind::Conditional => 0,
@@ -66,7 +72,8 @@ impl LinkKind {
 
     /// Scalar parameters of the kind, in parameter-vector order, with their default when the
     /// scene omits them (`None`: required). Units: stiffness N/m (angle: N·m, on a cosine),
-    /// lengths m, damping N·s/m, speeds m/s, muscle gain N, threshold dimensionless.
+    /// lengths m, damping N·s/m, speeds m/s, muscle gain N, threshold dimensionless, tendon
+    /// mass kg.
     ///
     /// A `muscle` type's parameter list is longer than its specs: the five scalars are followed
     /// by its neural weights (see [`crate::LinkType::w_len`]).
@@ -99,6 +106,14 @@ impl LinkKind {
                 ("gain", Some(1.0)),
                 ("threshold", Some(0.0)),
             ],
+            LinkKind::Tgr => &[
+                ("stiffness", None),
+                ("rest_length", None),
+                ("damping", Some(0.0)),
+                ("tendon_mass", None),
+                ("tendon_stiffness", Some(0.0)),
+                ("tendon_damping", Some(0.0)),
+            ],
         }
     }
 
@@ -111,6 +126,12 @@ impl LinkKind {
         self.param_specs().iter().position(|(n, _)| *n == name)
     }
 
+    /// Coupling kinds (SPEC §2.5) are listed in the scene's `couplings`, not in `links`: they
+    /// may join worlds and some carry state between steps.
+    pub fn is_coupling(self) -> bool {
+        matches!(self, LinkKind::Tgr)
+    }
+
     /// Keys a type of this kind may carry besides its scalar parameters.
     pub fn extra_keys(self) -> &'static [&'static str] {
         match self {
@@ -118,6 +139,7 @@ impl LinkKind {
             LinkKind::Anchor => &["point"],
             LinkKind::Conditional => &["groups"],
             LinkKind::Muscle => &["w_len", "w_rate", "observes"],
+            LinkKind::Tgr => &["signal"],
             _ => &[],
         }
     }

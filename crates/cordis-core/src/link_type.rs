@@ -28,6 +28,8 @@ pub struct LinkType {
     /// Muscles only: the link indices every instance of the type observes, in weight order
     /// (overridden by a link's own `observes`). Default: every other muscle link, file order.
     pub observes: Option<Vec<usize>>,
+    /// TGR types only: the name of the scene signal that drives their tendons.
+    pub signal: Option<String>,
 }
 
 impl LinkType {
@@ -45,7 +47,14 @@ impl LinkType {
             point: None,
             groups: Vec::new(),
             observes: None,
+            signal: None,
         }
+    }
+
+    /// Sets the driving signal of a TGR type (builder style).
+    pub fn with_signal(mut self, signal: impl Into<String>) -> Self {
+        self.signal = Some(signal.into());
+        self
     }
 
     /// Sets a muscle's weights (builder style): `w_len` in N/m-free units of 1/m, `w_rate` in
@@ -134,4 +143,14 @@ pub struct Link {
     pub point: Option<[f64; 3]>,
     /// Muscles only: link indices this instance observes (overrides the type's `observes`).
     pub observes: Option<Vec<usize>>,
+}
+
+/// One instance of a coupling kind (SPEC §2.5: `tgr`…), listed in the scene's `couplings`.
+/// Couplings are kept apart from [`Link`]s because they may join particles of different worlds
+/// and because some of them carry state from step to step.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Coupling {
+    /// Index of the type in the scene's catalogue.
+    pub type_index: usize,
+    pub particles: Vec<usize>,
 }

@@ -9,7 +9,7 @@ use crate::forces::{
     anchor::AnchorPass, angle::AnglePass, conditional::ConditionalPass, damper::DamperPass,
     drag::DragPass, grid::Grid, muscle::MuscleBuf, muscle::MusclePass,
     nonlinear_drag::NonlinearDragPass, provot::ProvotLink, provot::ProvotPass, runs_by_type,
-    spring::SpringPass,
+    spring::SpringPass, stateful::Stateful, tgr::TgrPass,
 };
 use crate::{LinkKind, ParamLayout, Scene, Vec3};
 
@@ -33,6 +33,9 @@ pub struct Plan {
     pub angles: AnglePass,
     pub muscles: MusclePass,
     pub conditionals: Vec<ConditionalPass>,
+    /// Passes with state carried between steps (TGR tendons…): see [`Stateful`]. Not part of
+    /// [`Plan::forces`]; [`Plan::step`] runs them after it.
+    pub stateful: Stateful,
     pub provot: ProvotPass,
     /// Some pass reads velocities (a damper, a drag, or a damping that is not known to be 0).
     /// When false, [`Plan::velocities`] skips its work, so a parameter vector must keep every
@@ -72,6 +75,11 @@ pub struct Scratch {
     pub ready: Vec<bool>,
     /// Every muscle's elongation, rate and direction, read by the neurons.
     pub muscles: MuscleBuf,
+    /// State of the stateful passes ([`Stateful`]) at frame `frame`: per simulation, like the
+    /// positions, so it lives here and not in the shared plan. Set by [`Plan::reset_state`].
+    pub state: Vec<f64>,
+    /// Index n of the frame the next [`Plan::step`] starts from (signals read `t = n dt`).
+    pub frame: usize,
 }
 
 impl Plan {
@@ -87,6 +95,7 @@ impl Plan {
         let mut nl_items = Vec::new();
         let mut angle_items = Vec::new();
         let mut muscle_items = Vec::new();
+        let mut tgr_items = Vec::new();
         let mut provot = ProvotPass::default();
         let mut needs_velocity = false;
         let damping_matters = |t: usize| {
@@ -139,6 +148,18 @@ impl Plan {
                         damping_matters(t) || ty.w_rate().iter().any(|w| !w.is_known_zero());
                 }
                 LinkKind::Conditional => unreachable!("validated: conditional types have no links"),
+                LinkKind::Tgr => unreachable!("validated: couplings are not links"),
+            }
+        }
+        for c in &scene.couplings {
+            let t = c.type_index;
+            let ps: Vec<u32> = c.particles.iter().map(|&i| i as u32).collect();
+            match scene.types[t].kind {
+                LinkKind::Tgr => {
+                    tgr_items.push((t, [ps[0], ps[1]]));
+                    needs_velocity |= damping_matters(t);
+                }
+                k => unreachable!("validated: `{k}` is not a coupling kind"),
             }
         }
         let (runs, pairs) = runs_by_type(&spring_items, off);
@@ -158,6 +179,28 @@ impl Plan {
         let (runs, triples) = runs_by_type(&angle_items, off);
         let angles = AnglePass { runs, triples };
         let muscles = muscle_pass(scene, &muscle_items, off);
+        let (runs, pairs) = runs_by_type(&tgr_items, off);
+        let signal_of = |r: &crate::forces::Run| {
+            let t = off
+                .iter()
+                .position(|&o| o == r.param)
+                .expect("a run's type");
+            let name = scene.types[t]
+                .signal
+                .as_deref()
+                .expect("validated: tgr has a signal");
+            scene
+                .signal_index(name)
+                .expect("validated: the signal exists")
+        };
+        let stateful = Stateful {
+            signals: scene.signals.clone(),
+            tgrs: TgrPass {
+                signals: runs.iter().map(signal_of).collect(),
+                runs,
+                pairs,
+            },
+        };
 
         let members = |g: &str| -> Vec<u32> {
             (0..scene.particles.len() as u32)
@@ -211,6 +254,7 @@ impl Plan {
             angles,
             muscles,
             conditionals,
+            stateful,
             provot,
             needs_velocity,
             has_gravity: scene.gravity != [0.0; 3],
@@ -263,7 +307,18 @@ impl Plan {
             },
             ready: vec![false; self.conditionals.len()],
             muscles: MuscleBuf::new(self.muscles.len()),
+            state: vec![0.0; self.stateful.state_len()],
+            frame: 0,
         }
+    }
+
+    /// Puts the stateful passes' state of `s` at frame 0 for parameters `p` (a new scratch
+    /// starts at frame 0 with zero state, which is frame 0's for tendons but not for every
+    /// stateful kind: call this before stepping with parameters).
+    pub fn reset_state(&self, p: &[f64], s: &mut Scratch) {
+        s.frame = 0;
+        s.state.resize(self.stateful.state_len(), 0.0);
+        self.stateful.reset(p, &self.x0, &mut s.state);
     }
 
     /// Number of link instances (conditional pairs not counted: they change every step).
@@ -275,6 +330,7 @@ impl Plan {
             + self.nonlinear_drags.particles.len()
             + self.angles.triples.len()
             + self.muscles.len()
+            + self.stateful.len()
     }
 
     /// Velocities `v(n) = (x(n) - x(n-1)) / dt` into `scratch.v`, when some pass reads them.
@@ -287,7 +343,8 @@ impl Plan {
         }
     }
 
-    /// `f = F(x, v)`: the sum of every pass's link forces. `grids` and `muscles` are scratch
+    /// `f = F(x, v)`: the sum of every stateless pass's link forces (the stateful ones need
+    /// their state: [`Plan::step`] adds them). `grids` and `muscles` are scratch
     /// ([`Scratch::grids`], [`Scratch::muscles`]).
     pub fn forces(
         &self,
@@ -349,8 +406,9 @@ impl Plan {
         }
     }
 
-    /// One step of the CORDIS scheme (SPEC §2.1): on entry `x` = x(n), `x_prev` = x(n-1); on
-    /// exit `x` = x(n+1), `x_prev` = x(n). Returns the first particle whose new position is not
+    /// One step of the CORDIS scheme (SPEC §2.1): on entry `x` = x(n), `x_prev` = x(n-1),
+    /// `s.state` the stateful passes' state at n = `s.frame`; on exit `x` = x(n+1), `x_prev` =
+    /// x(n), the state and `s.frame` at n+1. Returns the first particle whose new position is not
     /// finite, if any (the step is still completed).
     pub fn step(
         &self,
@@ -364,6 +422,12 @@ impl Plan {
             None => self.forces(p, x, &s.v, &mut s.f, &mut s.grids, &mut s.muscles),
             Some(split) => self.forces_split(split, p, x, s),
         }
+        if !self.stateful.is_empty() {
+            let (n, dt) = (s.frame, self.dt);
+            self.stateful
+                .accumulate(p, n, dt, x, &s.v, &mut s.f, &mut s.state);
+        }
+        s.frame += 1;
         let bad = self.integrate(p, x, x_prev, &s.f);
         std::mem::swap(x, x_prev);
         self.provot.apply(p, x, &self.free);

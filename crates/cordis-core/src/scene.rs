@@ -1,7 +1,8 @@
 //! The scene: particles, the link catalogue and link instances (thesis `.mas` + `.cat` + `.ini`).
 
 use crate::error::{CordisError, Result};
-use crate::{Link, LinkKind, LinkType, Param, Particle};
+use crate::signal::{Shape, Signal};
+use crate::{Coupling, Link, LinkKind, LinkType, Param, Particle};
 
 /// A Cordis-Anima network and its time step. Build one in code with [`Scene::new`] and the
 /// `add_*` methods, or read one with [`Scene::from_json_str`]; run [`Scene::validate`] before
@@ -16,6 +17,10 @@ pub struct Scene {
     /// The catalogue, in file order.
     pub types: Vec<LinkType>,
     pub links: Vec<Link>,
+    /// Command signals, by name (known inputs: never identified).
+    pub signals: Vec<Signal>,
+    /// Instances of the coupling kinds ([`LinkKind::is_coupling`]), in file order.
+    pub couplings: Vec<Coupling>,
 }
 
 impl Scene {
@@ -26,6 +31,8 @@ impl Scene {
             particles: Vec::new(),
             types: Vec::new(),
             links: Vec::new(),
+            signals: Vec::new(),
+            couplings: Vec::new(),
         }
     }
 
@@ -59,6 +66,34 @@ impl Scene {
         self.links.len() - 1
     }
 
+    /// Adds a signal, replacing one of the same name.
+    pub fn add_signal(&mut self, s: Signal) -> usize {
+        if let Some(i) = self.signal_index(&s.name) {
+            self.signals[i] = s;
+            i
+        } else {
+            self.signals.push(s);
+            self.signals.len() - 1
+        }
+    }
+
+    pub fn signal_index(&self, name: &str) -> Option<usize> {
+        self.signals.iter().position(|s| s.name == name)
+    }
+
+    /// Adds a coupling of the named type. Panics on an unknown type name (code-built scenes
+    /// only).
+    pub fn add_coupling(&mut self, type_name: &str, particles: &[usize]) -> usize {
+        let type_index = self
+            .type_index(type_name)
+            .unwrap_or_else(|| panic!("no link type named {type_name}"));
+        self.couplings.push(Coupling {
+            type_index,
+            particles: particles.to_vec(),
+        });
+        self.couplings.len() - 1
+    }
+
     pub fn type_index(&self, name: &str) -> Option<usize> {
         self.types.iter().position(|t| t.name == name)
     }
@@ -82,10 +117,12 @@ impl Scene {
         for i in 0..self.particles.len() {
             self.validate_particle(i)?;
         }
+        self.validate_signals()?;
         for ti in 0..self.types.len() {
             self.validate_type(ti)?;
         }
-        self.validate_links()
+        self.validate_links()?;
+        self.validate_couplings()
     }
 
     /// The rules on `dt` and `gravity` alone (part of [`Scene::validate`]), for editors that
@@ -152,7 +189,7 @@ impl Scene {
         for ((name, _), p) in specs.iter().zip(&t.params) {
             let sign = match *name {
                 "rest_cos" => Sign::UnitInterval,
-                "range" => Sign::Positive,
+                "range" | "tendon_mass" => Sign::Positive,
                 "threshold" => Sign::Any,
                 _ => Sign::NonNegative,
             };
@@ -167,6 +204,29 @@ impl Scene {
                 format!("{at}.observes"),
                 "only muscle types have it",
             ));
+        }
+        match (&t.signal, t.kind == LinkKind::Tgr) {
+            (Some(name), true) => {
+                if self.signal_index(name).is_none() {
+                    return Err(CordisError::scene(
+                        format!("{at}.signal"),
+                        format!("no signal named `{name}` in `signals`"),
+                    ));
+                }
+            }
+            (None, true) => {
+                return Err(CordisError::scene(
+                    at,
+                    "a `tgr` type needs `signal` (the name of its command signal)",
+                ))
+            }
+            (Some(_), false) => {
+                return Err(CordisError::scene(
+                    format!("{at}.signal"),
+                    "only tgr types have it",
+                ))
+            }
+            (None, false) => {}
         }
         if let Some(tau) = t.max_elongation {
             if t.kind != LinkKind::Spring {
@@ -227,31 +287,16 @@ impl Scene {
                     ),
                 ));
             }
-            if l.particles.len() != t.kind.arity() {
+            if t.kind.is_coupling() {
                 return Err(CordisError::scene(
-                    format!("{at}.particles"),
+                    format!("{at}.type"),
                     format!(
-                        "`{}` links join {} particle(s), got {}",
-                        t.kind,
-                        t.kind.arity(),
-                        l.particles.len()
+                        "`{}` is a `{}` type, a coupling kind: list it in `couplings`",
+                        t.name, t.kind
                     ),
                 ));
             }
-            for (k, &p) in l.particles.iter().enumerate() {
-                if p >= self.particles.len() {
-                    return Err(CordisError::scene(
-                        format!("{at}.particles[{k}]"),
-                        format!("particle {p} does not exist"),
-                    ));
-                }
-                if l.particles[..k].contains(&p) {
-                    return Err(CordisError::scene(
-                        format!("{at}.particles[{k}]"),
-                        format!("particle {p} is linked to itself"),
-                    ));
-                }
-            }
+            self.check_particles(&at, t.kind, &l.particles)?;
             if let Some(point) = &l.point {
                 if t.kind != LinkKind::Anchor {
                     return Err(CordisError::scene(
@@ -267,6 +312,91 @@ impl Scene {
                 return Err(CordisError::scene(
                     format!("{at}.observes"),
                     "only muscle links have it",
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The rules on the couplings (types exist and are coupling kinds, arity, particles).
+    fn validate_couplings(&self) -> Result<()> {
+        for (ci, c) in self.couplings.iter().enumerate() {
+            let at = format!("couplings[{ci}]");
+            let Some(t) = self.types.get(c.type_index) else {
+                return Err(CordisError::scene(
+                    format!("{at}.type"),
+                    format!("type index {} does not exist", c.type_index),
+                ));
+            };
+            if !t.kind.is_coupling() {
+                return Err(CordisError::scene(
+                    format!("{at}.type"),
+                    format!(
+                        "`{}` is a `{}` type, not a coupling kind: list it in `links`",
+                        t.name, t.kind
+                    ),
+                ));
+            }
+            self.check_particles(&at, t.kind, &c.particles)?;
+        }
+        Ok(())
+    }
+
+    /// A link's or coupling's particles: as many as the kind joins, existing, distinct.
+    fn check_particles(&self, at: &str, kind: LinkKind, particles: &[usize]) -> Result<()> {
+        if particles.len() != kind.arity() {
+            return Err(CordisError::scene(
+                format!("{at}.particles"),
+                format!(
+                    "`{}` links join {} particle(s), got {}",
+                    kind,
+                    kind.arity(),
+                    particles.len()
+                ),
+            ));
+        }
+        for (k, &p) in particles.iter().enumerate() {
+            if p >= self.particles.len() {
+                return Err(CordisError::scene(
+                    format!("{at}.particles[{k}]"),
+                    format!("particle {p} does not exist"),
+                ));
+            }
+            if particles[..k].contains(&p) {
+                return Err(CordisError::scene(
+                    format!("{at}.particles[{k}]"),
+                    format!("particle {p} is linked to itself"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Every signal: a unique non-empty name, finite numbers, a positive period, and a rise in
+    /// (0, 1) for sawtooths.
+    fn validate_signals(&self) -> Result<()> {
+        for (k, s) in self.signals.iter().enumerate() {
+            let at = format!("signals.{}", s.name);
+            if s.name.is_empty() {
+                return Err(CordisError::scene(
+                    format!("signals[{k}]"),
+                    "a signal needs a non-empty name",
+                ));
+            }
+            if self.signals[..k].iter().any(|o| o.name == s.name) {
+                return Err(CordisError::scene(at, "the name is used twice"));
+            }
+            check_value(&format!("{at}.amplitude"), s.amplitude, Sign::Any)?;
+            check_value(&format!("{at}.period"), s.period, Sign::Positive)?;
+            check_value(&format!("{at}.phase"), s.phase, Sign::Any)?;
+            check_value(&format!("{at}.offset"), s.offset, Sign::Any)?;
+            if s.shape == Shape::Sawtooth && !(s.rise > 0.0 && s.rise < 1.0) {
+                return Err(CordisError::scene(
+                    format!("{at}.rise"),
+                    format!(
+                        "must be in (0, 1) (the fraction of the period spent rising), got {}",
+                        s.rise
+                    ),
                 ));
             }
         }

@@ -8,7 +8,8 @@ use std::path::Path;
 use serde_json::{Map, Value};
 
 use crate::error::{CordisError, Result};
-use crate::{Bounds, Link, LinkKind, LinkType, Param, Particle, Scene};
+use crate::signal::{Shape, Signal, DEFAULT_RISE};
+use crate::{Bounds, Coupling, Link, LinkKind, LinkType, Param, Particle, Scene};
 
 pub const FORMAT: &str = "cordis-scene/1";
 
@@ -87,6 +88,26 @@ impl Scene {
             })
             .collect();
         root.insert("particles".into(), Value::Array(particles));
+        if !self.signals.is_empty() {
+            let mut signals = Map::new();
+            for sg in &self.signals {
+                let mut o = Map::new();
+                o.insert("shape".into(), sg.shape.name().into());
+                o.insert("amplitude".into(), sg.amplitude.into());
+                o.insert("period".into(), sg.period.into());
+                if sg.phase != 0.0 {
+                    o.insert("phase".into(), sg.phase.into());
+                }
+                if sg.shape == Shape::Sawtooth {
+                    o.insert("rise".into(), sg.rise.into());
+                }
+                if sg.offset != 0.0 {
+                    o.insert("offset".into(), sg.offset.into());
+                }
+                signals.insert(sg.name.clone(), Value::Object(o));
+            }
+            root.insert("signals".into(), Value::Object(signals));
+        }
         let mut types = Map::new();
         for t in &self.types {
             let mut o = Map::new();
@@ -111,6 +132,9 @@ impl Scene {
             if let Some(obs) = &t.observes {
                 o.insert("observes".into(), obs.clone().into());
             }
+            if let Some(sg) = &t.signal {
+                o.insert("signal".into(), sg.clone().into());
+            }
             types.insert(t.name.clone(), Value::Object(o));
         }
         root.insert("types".into(), Value::Object(types));
@@ -131,6 +155,19 @@ impl Scene {
             })
             .collect();
         root.insert("links".into(), Value::Array(links));
+        if !self.couplings.is_empty() {
+            let couplings = self
+                .couplings
+                .iter()
+                .map(|c| {
+                    let mut o = Map::new();
+                    o.insert("type".into(), self.types[c.type_index].name.clone().into());
+                    o.insert("particles".into(), c.particles.clone().into());
+                    Value::Object(o)
+                })
+                .collect();
+            root.insert("couplings".into(), Value::Array(couplings));
+        }
         Value::Object(root)
     }
 
@@ -267,7 +304,16 @@ fn read_scene(v: &Value) -> Result<Scene> {
     let root = as_object(
         v,
         "",
-        &["format", "dt", "gravity", "particles", "types", "links"],
+        &[
+            "format",
+            "dt",
+            "gravity",
+            "particles",
+            "signals",
+            "types",
+            "links",
+            "couplings",
+        ],
     )
     .map_err(|e| match e {
         CordisError::Scene { place, message } if place.is_empty() => {
@@ -329,6 +375,20 @@ fn read_scene(v: &Value) -> Result<Scene> {
         }
         scene.particles.push(p);
     }
+    if let Some(signals) = root.get("signals") {
+        let Value::Object(signals) = signals else {
+            return Err(err(
+                "signals",
+                format!(
+                    "expected an object of named signals, got {}",
+                    kind_of(signals)
+                ),
+            ));
+        };
+        for (name, sv) in signals {
+            scene.signals.push(read_signal(name, sv)?);
+        }
+    }
     let mut weights_given = Vec::new();
     if let Some(types) = root.get("types") {
         let Value::Object(types) = types else {
@@ -353,34 +413,8 @@ fn read_scene(v: &Value) -> Result<Scene> {
         for (i, lv) in links.iter().enumerate() {
             let at = format!("links[{i}]");
             let o = as_object(lv, &at, &["type", "particles", "point", "observes"])?;
-            let tname = string(
-                o.get("type").ok_or_else(|| err(&at, "missing `type`"))?,
-                &join(&at, "type"),
-            )?;
-            let type_index = scene.type_index(&tname).ok_or_else(|| {
-                err(
-                    &join(&at, "type"),
-                    format!("no type named `{tname}` in `types`"),
-                )
-            })?;
-            let pl = join(&at, "particles");
-            let particles = match o.get("particles") {
-                Some(Value::Array(a)) => a
-                    .iter()
-                    .enumerate()
-                    .map(|(k, x)| index(x, &format!("{pl}[{k}]")))
-                    .collect::<Result<Vec<_>>>()?,
-                Some(other) => {
-                    return Err(err(
-                        &pl,
-                        format!(
-                            "expected an array of particle indices, got {}",
-                            kind_of(other)
-                        ),
-                    ))
-                }
-                None => return Err(err(&at, "missing `particles`")),
-            };
+            let type_index = type_ref(&scene, o, &at)?;
+            let particles = particle_list(o, &at)?;
             let point = o
                 .get("point")
                 .map(|p| vector3(p, &join(&at, "point")))
@@ -397,6 +431,24 @@ fn read_scene(v: &Value) -> Result<Scene> {
             });
         }
     }
+    if let Some(couplings) = root.get("couplings") {
+        let Value::Array(couplings) = couplings else {
+            return Err(err(
+                "couplings",
+                format!("expected an array, got {}", kind_of(couplings)),
+            ));
+        };
+        for (i, cv) in couplings.iter().enumerate() {
+            let at = format!("couplings[{i}]");
+            let o = as_object(cv, &at, &["type", "particles"])?;
+            let type_index = type_ref(&scene, o, &at)?;
+            let particles = particle_list(o, &at)?;
+            scene.couplings.push(Coupling {
+                type_index,
+                particles,
+            });
+        }
+    }
     // A muscle type without weights gets zero weights, as many as its first instance observes
     // (a plain spring until identification gives them values).
     for (t, given) in weights_given.into_iter().enumerate() {
@@ -410,6 +462,77 @@ fn read_scene(v: &Value) -> Result<Scene> {
         scene.types[t] = scene.types[t].clone().with_weights(&zeros, &zeros);
     }
     Ok(scene)
+}
+
+/// The catalogue index of the `type` a link or coupling names.
+fn type_ref(scene: &Scene, o: &Map<String, Value>, at: &str) -> Result<usize> {
+    let tname = string(
+        o.get("type").ok_or_else(|| err(at, "missing `type`"))?,
+        &join(at, "type"),
+    )?;
+    scene.type_index(&tname).ok_or_else(|| {
+        err(
+            &join(at, "type"),
+            format!("no type named `{tname}` in `types`"),
+        )
+    })
+}
+
+/// The `particles` array of a link or coupling.
+fn particle_list(o: &Map<String, Value>, at: &str) -> Result<Vec<usize>> {
+    let pl = join(at, "particles");
+    match o.get("particles") {
+        Some(Value::Array(a)) => a
+            .iter()
+            .enumerate()
+            .map(|(k, x)| index(x, &format!("{pl}[{k}]")))
+            .collect(),
+        Some(other) => Err(err(
+            &pl,
+            format!(
+                "expected an array of particle indices, got {}",
+                kind_of(other)
+            ),
+        )),
+        None => Err(err(at, "missing `particles`")),
+    }
+}
+
+/// A named signal: `{"shape", "amplitude", "period"[, "phase", "rise", "offset"]}`.
+fn read_signal(name: &str, v: &Value) -> Result<Signal> {
+    let at = format!("signals.{name}");
+    let Value::Object(o) = v else {
+        return Err(err(&at, format!("expected an object, got {}", kind_of(v))));
+    };
+    let sname = string(
+        o.get("shape").ok_or_else(|| err(&at, "missing `shape`"))?,
+        &join(&at, "shape"),
+    )?;
+    let shape = Shape::from_name(&sname).ok_or_else(|| {
+        let all: Vec<_> = Shape::ALL.iter().map(|s| s.name()).collect();
+        err(
+            &join(&at, "shape"),
+            format!(
+                "unknown shape `{sname}` (expected one of: {})",
+                all.join(", ")
+            ),
+        )
+    })?;
+    let mut allowed = vec!["shape", "amplitude", "period", "phase", "offset"];
+    if shape == Shape::Sawtooth {
+        // Only the sawtooth has a free rise fraction (the triangle's is ½).
+        allowed.push("rise");
+    }
+    as_object(v, &at, &allowed)?;
+    let get = |k: &str| o.get(k).map(|x| number(x, &join(&at, k))).transpose();
+    let need = |k: &str| get(k)?.ok_or_else(|| err(&at, format!("a signal needs `{k}`")));
+    let mut s = Signal::new(name, shape, need("amplitude")?, need("period")?);
+    s.phase = get("phase")?.unwrap_or(0.0);
+    s.offset = get("offset")?.unwrap_or(0.0);
+    if shape == Shape::Sawtooth {
+        s.rise = get("rise")?.unwrap_or(DEFAULT_RISE);
+    }
+    Ok(s)
 }
 
 /// An array of link indices.
@@ -498,6 +621,9 @@ fn read_type(name: &str, v: &Value) -> Result<(LinkType, bool)> {
             }
             None => return Err(err(&at, "a conditional needs `groups`")),
         };
+    }
+    if let Some(sg) = o.get("signal") {
+        t.signal = Some(string(sg, &join(&at, "signal"))?);
     }
     let mut has_weights = false;
     if kind == LinkKind::Muscle {

@@ -14,6 +14,8 @@ pub struct Simulator {
     scratch: Scratch,
     /// x(n-1) kept by [`Simulator::step`] to undo a diverged step (the step overwrites it).
     undo: Vec<Vec3>,
+    /// The stateful passes' state before the step, for the same undo (empty without them).
+    undo_state: Vec<f64>,
     /// Index n of the current frame x(n).
     frame: usize,
 }
@@ -32,10 +34,13 @@ impl Simulator {
             plan.layout.len,
             "parameter vector of the wrong length"
         );
+        let mut scratch = plan.scratch();
+        plan.reset_state(&params, &mut scratch);
         Simulator {
             x: plan.x0.clone(),
             x_prev: plan.x_minus1.clone(),
-            scratch: plan.scratch(),
+            undo_state: scratch.state.clone(),
+            scratch,
             undo: plan.x0.clone(),
             plan,
             params,
@@ -57,15 +62,24 @@ impl Simulator {
         self.frame
     }
 
+    /// State of the stateful passes at the current frame (TGR tendons: `[y(n), y(n-1)]` per
+    /// instance; see [`crate::forces::stateful`]).
+    pub fn state(&self) -> &[f64] {
+        &self.scratch.state
+    }
+
     /// Advances one step; a non-finite or runaway position is an error naming the frame and
     /// particle (the state is then left as it was).
     pub fn step(&mut self) -> Result<()> {
         // A step leaves x(n) in `x_prev` and overwrites x(n-1): keep only that one (no
         // allocation), and undo by swapping back.
         self.undo.copy_from_slice(&self.x_prev);
+        self.undo_state.copy_from_slice(&self.scratch.state);
         if let Some(i) = self.step_unchecked() {
             std::mem::swap(&mut self.x, &mut self.x_prev);
             self.x_prev.copy_from_slice(&self.undo);
+            self.scratch.state.copy_from_slice(&self.undo_state);
+            self.scratch.frame -= 1;
             self.frame -= 1;
             return Err(diverged(self.frame + 1, i));
         }

@@ -45,6 +45,8 @@
 //!   `|a|`, `|b|`. The curvature part `K (c - c0) ∇²c` vanishes at rest and is not counted, so
 //!   for angles the bound is that of small motions around the rest angle.
 //! - conditional types: one spring per pair within `range` at the initial positions.
+//! - tgr: its link like a spring (K, Z). The tendon (a 1-D mass m_t under K + K_t) is not a
+//!   particle and is not reported: keep `(K + K_t) dt² + 2 Z_t dt < 4 m_t` by hand.
 //! - Provot's elongation limit is a projection, not a force: it only removes energy.
 //!
 //! Fixed particles have no ratio. Unknown parameters count at [`crate::Param::value`].
@@ -166,6 +168,15 @@ fn row_sums(plan: &Plan, p: &[f64], ws: &mut StabilityScratch) {
     for r in &plan.springs.runs {
         let w = g(p[r.param], p[r.param + 2]);
         for &[i, j] in &plan.springs.pairs[r.start..r.end] {
+            acc.pair(i as usize, j as usize, w);
+        }
+    }
+    // A TGR's link is a spring whose rest length moves: the same local stiffness. Its tendon
+    // is a 1-D mass outside the particle system and is not reported.
+    let tgrs = &plan.stateful.tgrs;
+    for r in &tgrs.runs {
+        let w = g(p[r.param], p[r.param + 2]);
+        for &[i, j] in &tgrs.pairs[r.start..r.end] {
             acc.pair(i as usize, j as usize, w);
         }
     }

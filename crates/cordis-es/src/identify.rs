@@ -201,7 +201,7 @@ pub fn add_noise(traj: &Trajectory, sigma: f64, seed: u64) -> Trajectory {
 /// from `seed` (not at the centre: a strategy must not find the truth by starting in the
 /// middle). Zero-valued parameters (an absent damping) stay known. A muscle's weights (and a
 /// non-zero threshold) get additive boxes `4|v| + 2` wide, since they may be negative or 0;
-/// its gain stays known. The input is the truth.
+/// its gain stays known, and so do a TGR's tendon parameters. The input is the truth.
 pub fn with_unknown_boxes(scene: &cordis_core::Scene, width: f64, seed: u64) -> cordis_core::Scene {
     use cordis_core::{Bounds, Param};
     let mut out = scene.clone();
@@ -226,7 +226,14 @@ pub fn with_unknown_boxes(scene: &cordis_core::Scene, width: f64, seed: u64) -> 
                 });
                 continue;
             }
-            if v <= 0.0 || name == "rest_cos" || name == "gain" || name == "threshold" {
+            // A TGR's tendon is the experimenter's transducer, not the body: it stays known
+            // (thesis Table 6.1 identifies the link and the medium).
+            if v <= 0.0
+                || name == "rest_cos"
+                || name == "gain"
+                || name == "threshold"
+                || name.starts_with("tendon_")
+            {
                 continue;
             }
             let u = 0.1 + 0.8 * rng::uniform(&mut r);

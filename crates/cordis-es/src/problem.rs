@@ -271,11 +271,12 @@ fn type_particles(scene: &Scene, t: usize) -> Vec<u32> {
             .map(|(i, _)| i as u32)
             .collect()
     } else {
-        scene
-            .links
-            .iter()
-            .filter(|l| l.type_index == t)
-            .flat_map(|l| l.particles.iter().map(|&i| i as u32))
+        let links = scene.links.iter().filter(|l| l.type_index == t);
+        let couplings = scene.couplings.iter().filter(|c| c.type_index == t);
+        links
+            .map(|l| &l.particles)
+            .chain(couplings.map(|c| &c.particles))
+            .flat_map(|ps| ps.iter().map(|&i| i as u32))
             .collect()
     };
     out.sort_unstable();
@@ -298,6 +299,15 @@ fn mean_length(scene: &Scene, traj: &Trajectory, t: usize) -> Option<f64> {
             };
             sum += (xj - xi).norm();
             n += 1;
+        }
+    }
+    // Binary couplings (a TGR's link) too.
+    for c in scene.couplings.iter().filter(|c| c.type_index == t) {
+        if let [i, j] = c.particles[..] {
+            for f in 0..traj.frames() {
+                sum += (traj.pos(f, j) - traj.pos(f, i)).norm();
+                n += 1;
+            }
         }
     }
     (n > 0).then(|| sum / n as f64)

@@ -7,7 +7,7 @@ use super::Output;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Example name: rigid | cloth | fluid | horse | muscle | horse-gait.
+    /// Example name: rigid | cloth | fluid | horse | muscle | horse-gait | tadpole | frog.
     name: String,
     /// Replace every muscle by a spring with its stiffness, rest length and damping (the
     /// passive model of thesis §6.2; applied before `--unknowns`).
@@ -75,12 +75,17 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         "particles": scene.num_particles(),
         "types": scene.types.len(),
         "links": scene.links.len(),
+        "couplings": scene.couplings.len(),
         "frames": frames,
     });
     output.scene_result(&scene, a.out.as_deref(), summary)?;
     if let (Some(out), true) = (&a.out, output.human()) {
+        let couplings = match scene.couplings.len() {
+            0 => String::new(),
+            n => format!(", {n} couplings"),
+        };
         eprintln!(
-            "wrote {} ({} particles, {} types, {} links; simulate {} frames)",
+            "wrote {} ({} particles, {} types, {} links{couplings}; simulate {} frames)",
             out.display(),
             scene.num_particles(),
             scene.types.len(),

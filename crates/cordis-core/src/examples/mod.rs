@@ -8,24 +8,32 @@
 
 mod cloth;
 mod fluid;
+mod frog;
 mod horse;
 mod horse_gait;
 mod muscle;
 mod random;
 mod rigid;
+mod tadpole;
 
 pub use cloth::{cloth, CLOTH_FRAMES};
 pub use fluid::{fluid, FLUID_FRAMES};
+pub use frog::{frog, frog_heading, frog_with, FROG_FRAMES};
 pub use horse::{horse, HORSE_FRAMES};
 pub use horse_gait::{horse_gait, GAIT_GAIN, GAIT_RATE_WEIGHT};
 pub use muscle::{muscle, MUSCLE_FRAMES, MUSCLE_GAIN};
 pub use random::random_network;
 pub use rigid::{rigid, RIGID_FRAMES};
+pub use tadpole::{
+    tadpole, tadpole_vmax_bracket, tadpole_with, TADPOLE_BODY_LENGTH, TADPOLE_FRAMES,
+};
 
 use crate::{LinkKind, LinkType, Scene};
 
 /// Names accepted by [`by_name`], in the order the thesis presents them.
-pub const NAMES: &[&str] = &["rigid", "cloth", "fluid", "horse", "muscle", "horse-gait"];
+pub const NAMES: &[&str] = &[
+    "rigid", "cloth", "fluid", "horse", "muscle", "horse-gait", "tadpole", "frog",
+];
 
 /// The example of that name at its default size, or `None` for a name not in [`NAMES`].
 pub fn by_name(name: &str) -> Option<Scene> {
@@ -36,6 +44,8 @@ pub fn by_name(name: &str) -> Option<Scene> {
         "horse" => Some(horse()),
         "muscle" => Some(muscle()),
         "horse-gait" => Some(horse_gait()),
+        "tadpole" => Some(tadpole()),
+        "frog" => Some(frog()),
         _ => None,
     }
 }
@@ -49,6 +59,8 @@ pub fn default_frames(name: &str) -> usize {
         "fluid" => FLUID_FRAMES,
         "horse" | "horse-gait" => HORSE_FRAMES,
         "muscle" => MUSCLE_FRAMES,
+        "tadpole" => TADPOLE_FRAMES,
+        "frog" => FROG_FRAMES,
         _ => 0,
     }
 }

@@ -12,6 +12,8 @@ pub mod muscle;
 pub mod nonlinear_drag;
 pub mod provot;
 pub mod spring;
+pub mod stateful;
+pub mod tgr;
 
 use crate::Vec3;
 

@@ -129,6 +129,8 @@ impl LinearShortCost {
                 LinkKind::NonlinearDrag => &[], // no links (checked above): no effect
                 // A neuron's tanh makes the muscle force nonlinear in its weights.
                 LinkKind::Muscle => return None,
+                // A tendon's hidden state depends on the parameters through its feedback.
+                LinkKind::Tgr => return None,
                 _ => return None,
             };
             theta_at[o] = entries.len();

@@ -1,7 +1,7 @@
 //! The objective of identification: a compiled scene, an observed trajectory and a cost kind,
 //! evaluated on parameter vectors (SPEC §3).
 
-use super::hidden::HiddenState;
+use super::hidden::{HiddenState, PlanStateful};
 use super::kernels::{SpringBuf, GEOMETRY_BUDGET_BYTES};
 use super::kind::CostKind;
 use super::linear::LinearShortCost;
@@ -52,7 +52,7 @@ pub struct Objective {
     pub(crate) geometry_budget: usize,
     /// The caller's generation counter (progressive horizon).
     pub(crate) generation: usize,
-    /// Stateful passes advanced along the observed frames (none yet: see [`HiddenState`]).
+    /// Stateful passes advanced along the observed frames (see [`HiddenState`]).
     pub(crate) hidden: Vec<Box<dyn HiddenState>>,
 }
 
@@ -72,8 +72,13 @@ pub struct CostScratch {
     pub(crate) inv: Vec<f64>,
     /// θ of the linear path.
     pub(crate) theta: Vec<f64>,
-    /// State of the hidden passes.
+    /// State of the hidden passes (the short cost's, or a rollout window's).
     pub(crate) hidden: Vec<f64>,
+    /// Rollouts: the hidden state driven along the observed frames, copied into `hidden` at
+    /// the start of each window.
+    pub(crate) hidden_obs: Vec<f64>,
+    /// Forces of hidden passes advanced along observed frames, not used (N).
+    pub(crate) discard: Vec<Vec3>,
     /// Arrays of the spring kernel (boxed: 3 KiB that need not move with the scratch).
     pub(crate) springs: Box<SpringBuf>,
     /// `Σ e` over every term of the last evaluation (the harmonic kind's total is not it).
@@ -103,6 +108,13 @@ impl Objective {
         let plan = Plan::compile(scene)?;
         let obs = Observed::new(scene, &plan, traj)?;
         let free = (0..plan.n).filter(|&i| plan.free[i]).collect();
+        let mut hidden: Vec<Box<dyn HiddenState>> = Vec::new();
+        if !plan.stateful.is_empty() {
+            hidden.push(Box::new(PlanStateful {
+                passes: plan.stateful.clone(),
+                dt: plan.dt,
+            }));
+        }
         let linear = if kind.window(obs.frames, 0) == Some(1) {
             LinearShortCost::build(scene, &plan, &obs)
         } else {
@@ -117,7 +129,7 @@ impl Objective {
             geometry: OnceLock::new(),
             geometry_budget: GEOMETRY_BUDGET_BYTES,
             generation: 0,
-            hidden: Vec::new(),
+            hidden,
             plan,
         })
     }
@@ -133,7 +145,13 @@ impl Objective {
             per: vec![0.0; n],
             inv: vec![0.0; n],
             theta: vec![0.0; self.linear.as_ref().map_or(0, |l| l.dim())],
-            hidden: vec![0.0; self.hidden.iter().map(|h| h.state_len()).sum()],
+            hidden: vec![0.0; self.hidden_len()],
+            hidden_obs: vec![0.0; self.hidden_len()],
+            discard: if self.hidden.is_empty() {
+                Vec::new()
+            } else {
+                vec![Vec3::zeros(); n]
+            },
             springs: Box::default(),
             plain: 0.0,
         }
@@ -141,6 +159,11 @@ impl Objective {
 
     pub fn plan(&self) -> &Plan {
         &self.plan
+    }
+
+    /// f64 of hidden state of all the stateful passes.
+    fn hidden_len(&self) -> usize {
+        self.hidden.iter().map(|h| h.state_len()).sum()
     }
 
     pub fn kind(&self) -> CostKind {

@@ -4,8 +4,8 @@
 //! A rollout step is `Plan::step` with one difference: fixed particles take their observed
 //! position at the predicted frame ("fixed ones are exact"), which for a fixed particle that
 //! really is still is the same thing. Conditional pairs come from the grid, since the positions
-//! are predicted. Hidden state (none yet, see [`super::hidden`]) is reset at frame 0; a later
-//! issue must start each window from the state advanced along the observed frames.
+//! are predicted. Hidden state ([`super::hidden`]) is driven along the observed frames, and each
+//! window starts from a copy of it at the window's last real frame.
 
 use super::objective::{CostScratch, Objective};
 use cordis_core::plan::RUNAWAY;
@@ -14,8 +14,15 @@ use std::ops::Range;
 
 impl Objective {
     /// One step of the rollout state `s.x` = x(n), `s.x_prev` = x(n-1) to x(n+1), with fixed
-    /// particles at `obs_next`.
-    fn rollout_step(&self, p: &[f64], m: &[f64], g: Vec3, obs_next: &[Vec3], s: &mut CostScratch) {
+    /// particles at `obs_next` (`mg`: masses and gravity).
+    fn rollout_step(
+        &self,
+        p: &[f64],
+        n: usize,
+        (m, g): (&[f64], Vec3),
+        obs_next: &[Vec3],
+        s: &mut CostScratch,
+    ) {
         let plan = &self.plan;
         let dt = plan.dt;
         let dt2 = dt * dt;
@@ -31,11 +38,8 @@ impl Objective {
             &mut core.grids,
             &mut core.muscles,
         );
-        let mut at = 0;
-        for h in &self.hidden {
-            let len = h.state_len();
-            h.add_forces(p, &s.x, &core.v, &mut core.f, &mut s.hidden[at..at + len]);
-            at += len;
+        if !self.hidden.is_empty() {
+            self.hidden_forces(p, n, &s.x, &core.v, &mut core.f, &mut s.hidden);
         }
         for i in 0..plan.n {
             s.x_prev[i] = if plan.free[i] {
@@ -61,13 +65,24 @@ impl Objective {
     ) {
         let (m, g) = self.masses_gravity(p);
         let frames = self.obs.frames;
+        // The observed-driven hidden state is at frame `driven` (see `super::hidden`).
+        let mut driven = 0;
+        if !self.hidden.is_empty() {
+            self.reset_hidden(p, &mut s.hidden_obs);
+        }
         for t0 in starts {
             s.x.copy_from_slice(self.obs.frame(t0 - 1));
             s.x_prev.copy_from_slice(self.obs.frame(t0 - 2));
-            self.reset_hidden(p, &mut s.hidden);
+            if !self.hidden.is_empty() {
+                while driven < t0 - 1 {
+                    self.advance_hidden_observed(p, driven, &mut s.hidden_obs, &mut s.discard);
+                    driven += 1;
+                }
+                s.hidden.copy_from_slice(&s.hidden_obs);
+            }
             for t in t0..(t0 + h).min(frames) {
                 let obs = self.obs.frame(t);
-                self.rollout_step(p, m, g, obs, s);
+                self.rollout_step(p, t - 1, (m, g), obs, s);
                 let mut diverged = false;
                 for &i in &self.free {
                     let x = &s.x[i];

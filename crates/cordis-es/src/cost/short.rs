@@ -87,19 +87,46 @@ impl Objective {
                 _ => c.accumulate(p, x, v, f, grid),
             }
         }
+        self.hidden_forces(p, t, x, v, f, &mut s.hidden);
+    }
+
+    /// Every hidden pass's forces at frame `n` into `f`, advancing `state` to n+1.
+    pub(crate) fn hidden_forces(
+        &self,
+        p: &[f64],
+        n: usize,
+        x: &[Vec3],
+        v: &[Vec3],
+        f: &mut [Vec3],
+        state: &mut [f64],
+    ) {
         let mut at = 0;
         for h in &self.hidden {
             let len = h.state_len();
-            h.add_forces(p, x, v, f, &mut s.hidden[at..at + len]);
+            h.add_forces(p, n, x, v, f, &mut state[at..at + len]);
             at += len;
         }
     }
 
+    /// Advances `state` by the step from observed frame `n` (its forces are discarded).
+    pub(crate) fn advance_hidden_observed(
+        &self,
+        p: &[f64],
+        n: usize,
+        state: &mut [f64],
+        discard: &mut [Vec3],
+    ) {
+        let (x, v) = (self.obs.frame(n), self.obs.velocity(n));
+        self.hidden_forces(p, n, x, v, discard, state);
+    }
+
+    /// The hidden state of frame 0.
     pub(crate) fn reset_hidden(&self, p: &[f64], state: &mut [f64]) {
+        let x0 = self.obs.frame(0);
         let mut at = 0;
         for h in &self.hidden {
             let len = h.state_len();
-            h.reset(p, &mut state[at..at + len]);
+            h.reset(p, x0, &mut state[at..at + len]);
             at += len;
         }
     }
@@ -111,7 +138,12 @@ impl Objective {
         let (m, g) = self.masses_gravity(p);
         let provot = !self.plan.provot.links.is_empty();
         let geo = self.geometry();
-        self.reset_hidden(p, &mut s.hidden);
+        if !self.hidden.is_empty() {
+            // Frame 1's state: one step along observed frame 0 (frame t's prediction below
+            // advances it from t-1 to t).
+            self.reset_hidden(p, &mut s.hidden);
+            self.advance_hidden_observed(p, 0, &mut s.hidden, &mut s.discard);
+        }
         for t in 2..self.obs.frames {
             self.observed_forces(p, t - 1, s, geo);
             let (x1, x2, x0) = (

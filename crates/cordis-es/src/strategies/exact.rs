@@ -165,6 +165,13 @@ pub(crate) fn generic_cols(scene: &Scene) -> Result<Vec<Col>, String> {
                     ty.name
                 ))
             }
+            LinkKind::Tgr => {
+                return Err(format!(
+                    "types.{}: a tgr's tendon is hidden state driven by a signal, not a \
+                     linear function of the parameters: the exact solvers do not model it",
+                    ty.name
+                ))
+            }
             #[allow(unreachable_patterns)]
             other => {
                 return Err(format!(

@@ -1,0 +1,95 @@
+//! `tgr`: the force-feedback gesture transducer (thesis §5.4.1, SPEC §2.5), the central-control
+//! muscle. A sensori-motor link between M1 (i) and M2 (j) whose rest length `l0 + y` follows a
+//! tendon, a 1-D mass at position y (m) driven by a command signal S (N):
+//!
+//! ```text
+//! f(n)   = K (L(n) - (l0 + y(n))) + Z s(n)                          link tension, N
+//! F_i   += f u,  F_j -= f u                                          as a spring
+//! y(n+1) = 2y(n) - y(n-1) + dt²/m_t (S(t_n) + f(n) - K_t y(n) - Z_t (y(n) - y(n-1))/dt)
+//! ```
+//!
+//! with `t_n = n dt` and `y(0) = y(-1) = 0`. The tendon feels the tension f: a stretched link
+//! pulls its rest length longer, so the command "feels" the environment (proprioception).
+//! With `K_t > 0` the tendon settles where `S + f = K_t y`, so a slow signal sets the rest
+//! length `l0 + S/K_t` of a link at rest (a position command); with `K_t = 0` it is a force
+//! command, `f ≈ -S`.
+//!
+//! The tendon's `(y(n), y(n-1))` is state carried from step to step: it lives in the caller's
+//! state vector ([`crate::plan::Scratch::state`]), two f64 per instance, never in the plan.
+
+use super::{unit_and_length, Run};
+use crate::signal::Signal;
+use crate::Vec3;
+
+/// TGR instances in runs of one type. A run's parameters are `p[run.param..]` = stiffness K
+/// (N/m), rest length l0 (m), damping Z (N·s/m), tendon mass m_t (kg), tendon stiffness K_t
+/// (N/m), tendon damping Z_t (N·s/m).
+#[derive(Clone, Debug, Default)]
+pub struct TgrPass {
+    pub runs: Vec<Run>,
+    /// Index into the plan's signals of each run's type's signal.
+    pub signals: Vec<usize>,
+    pub pairs: Vec<[u32; 2]>,
+}
+
+/// f64 of state per TGR instance: `y(n)`, `y(n-1)`.
+pub const STATE_PER_TGR: usize = 2;
+
+impl TgrPass {
+    pub fn len(&self) -> usize {
+        self.pairs.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.pairs.is_empty()
+    }
+
+    pub fn state_len(&self) -> usize {
+        STATE_PER_TGR * self.pairs.len()
+    }
+
+    /// Tendons at rest at 0: `y(0) = y(-1) = 0`.
+    pub fn reset(&self, state: &mut [f64]) {
+        state.fill(0.0);
+    }
+
+    /// Adds every TGR's link force at positions `x`, velocities `v` to `f`, and advances each
+    /// tendon from step n to n+1 (`t` = n dt, s; `dt`, s). `state` = `[y, y_prev]` per
+    /// instance, in pass order.
+    #[allow(clippy::too_many_arguments)]
+    pub fn accumulate(
+        &self,
+        p: &[f64],
+        signals: &[Signal],
+        t: f64,
+        dt: f64,
+        x: &[Vec3],
+        v: &[Vec3],
+        f: &mut [Vec3],
+        state: &mut [f64],
+    ) {
+        let dt2 = dt * dt;
+        for (r, &sg) in self.runs.iter().zip(&self.signals) {
+            let q = &p[r.param..r.param + 6];
+            let (k, l0, z, mt, kt, zt) = (q[0], q[1], q[2], q[3], q[4], q[5]);
+            // One signal per type: evaluated once per run.
+            let command = signals[sg].value(t);
+            for m in r.start..r.end {
+                let [i, j] = self.pairs[m];
+                let (i, j) = (i as usize, j as usize);
+                let (u, l) = unit_and_length(&(x[j] - x[i]));
+                let (y, y_prev) = (state[2 * m], state[2 * m + 1]);
+                let mut tension = k * (l - (l0 + y));
+                if z != 0.0 {
+                    tension += z * (v[j] - v[i]).dot(&u);
+                }
+                let fi = u * tension;
+                f[i] += fi;
+                f[j] -= fi;
+                let force = command + tension - kt * y - zt * (y - y_prev) / dt;
+                state[2 * m + 1] = y;
+                state[2 * m] = (2.0 * y - y_prev) + dt2 / mt * force;
+            }
+        }
+    }
+}
