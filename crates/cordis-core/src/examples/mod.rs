@@ -32,7 +32,14 @@ use crate::{LinkKind, LinkType, Scene};
 
 /// Names accepted by [`by_name`], in the order the thesis presents them.
 pub const NAMES: &[&str] = &[
-    "rigid", "cloth", "fluid", "horse", "muscle", "horse-gait", "tadpole", "frog",
+    "rigid",
+    "cloth",
+    "fluid",
+    "horse",
+    "muscle",
+    "horse-gait",
+    "tadpole",
+    "frog",
 ];
 
 /// The example of that name at its default size, or `None` for a name not in [`NAMES`].
