@@ -34,6 +34,7 @@ mod simulator;
 pub mod stability;
 pub mod thesis;
 mod trajectory;
+pub mod world;
 
 pub use error::{CordisError, Result};
 pub use link_kind::LinkKind;
@@ -47,6 +48,7 @@ pub use signal::{Shape, Signal};
 pub use simulator::Simulator;
 pub use stability::{stability, StabilityReport, StabilityScratch};
 pub use trajectory::Trajectory;
+pub use world::World;
 
 /// 3-vector of f64 (positions in m, velocities in m/s, forces in N).
 pub type Vec3 = nalgebra::Vector3<f64>;

@@ -26,10 +26,17 @@ pub enum LinkKind {
     /// length `l0 + y` follows a tendon (a 1-D mass at y, m) driven by a command signal; the
     /// tendon feels the link's tension as feedback. Listed in `couplings`, stateful.
     Tgr,
+    /// Coupling of two dipoles (a, b) and (c, d), usually in two worlds (thesis eq 5.1-5.2):
+    /// `Δ = L1 - r L2`, `F = -K Δ - Z (Δ(n) - Δ(n-1))` on both dipoles. Stateful (Δ(n-1)).
+    Quadripole,
+    /// A quadripole whose force on dipole 1 is cut: dipole 2's length follows dipole 1's.
+    PositionTransmitter,
+    /// A dipole (a, b) that receives `gain` × the tension of a `source` spring link.
+    ForceTransmitter,
 }
 
 impl LinkKind {
-    pub const ALL: [LinkKind; 9] = [
+    pub const ALL: [LinkKind; 12] = [
         LinkKind::Spring,
         LinkKind::Damper,
         LinkKind::Anchor,
@@ -39,6 +46,9 @@ impl LinkKind {
         LinkKind::Conditional,
         LinkKind::Muscle,
         LinkKind::Tgr,
+        LinkKind::Quadripole,
+        LinkKind::PositionTransmitter,
+        LinkKind::ForceTransmitter,
     ];
 
     /// The name used in scene files.
@@ -53,6 +63,9 @@ impl LinkKind {
             LinkKind::Conditional => "conditional",
             LinkKind::Muscle => "muscle",
             LinkKind::Tgr => "tgr",
+            LinkKind::Quadripole => "quadripole",
+            LinkKind::PositionTransmitter => "position_transmitter",
+            LinkKind::ForceTransmitter => "force_transmitter",
         }
     }
 
@@ -63,7 +76,12 @@ impl LinkKind {
     /// Number of particles a link instance names (0 for `conditional`: pairs are found).
     pub fn arity(self) -> usize {
         match self {
-            LinkKind::Spring | LinkKind::Damper | LinkKind::Muscle | LinkKind::Tgr => 2,
+            LinkKind::Spring
+            | LinkKind::Damper
+            | LinkKind::Muscle
+            | LinkKind::Tgr
+            | LinkKind::ForceTransmitter => 2,
+            LinkKind::Quadripole | LinkKind::PositionTransmitter => 4,
             LinkKind::Anchor | LinkKind::Drag | LinkKind::NonlinearDrag => 1,
             LinkKind::Angle => 3,
             LinkKind::Conditional => 0,
@@ -114,6 +132,12 @@ impl LinkKind {
                 ("tendon_stiffness", Some(0.0)),
                 ("tendon_damping", Some(0.0)),
             ],
+            LinkKind::Quadripole | LinkKind::PositionTransmitter => &[
+                ("stiffness", None),
+                ("damping", Some(0.0)),
+                ("ratio", Some(1.0)),
+            ],
+            LinkKind::ForceTransmitter => &[("gain", Some(1.0))],
         }
     }
 
@@ -129,7 +153,13 @@ impl LinkKind {
     /// Coupling kinds (SPEC §2.5) are listed in the scene's `couplings`, not in `links`: they
     /// may join worlds and some carry state between steps.
     pub fn is_coupling(self) -> bool {
-        matches!(self, LinkKind::Tgr)
+        matches!(
+            self,
+            LinkKind::Tgr
+                | LinkKind::Quadripole
+                | LinkKind::PositionTransmitter
+                | LinkKind::ForceTransmitter
+        )
     }
 
     /// Keys a type of this kind may carry besides its scalar parameters.

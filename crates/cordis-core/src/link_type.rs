@@ -153,4 +153,6 @@ pub struct Coupling {
     /// Index of the type in the scene's catalogue.
     pub type_index: usize,
     pub particles: Vec<usize>,
+    /// `force_transmitter` only: index in `links` of the spring whose tension it transmits.
+    pub source: Option<usize>,
 }

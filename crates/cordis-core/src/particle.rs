@@ -14,6 +14,8 @@ pub struct Particle {
     pub fixed: bool,
     /// Group name, used by conditional link types.
     pub group: Option<String>,
+    /// World name (`None` = the main world, see [`crate::world`]).
+    pub world: Option<String>,
 }
 
 impl Particle {
@@ -24,6 +26,7 @@ impl Particle {
             vel: [0.0; 3],
             fixed: false,
             group: None,
+            world: None,
         }
     }
 
@@ -39,6 +42,13 @@ impl Particle {
 
     pub fn in_group(mut self, group: impl Into<String>) -> Self {
         self.group = Some(group.into());
+        self
+    }
+
+    /// Puts the particle in the named world (`"main"` is the scene's own world).
+    pub fn in_world(mut self, world: impl Into<String>) -> Self {
+        let w = world.into();
+        self.world = (w != crate::world::MAIN_WORLD).then_some(w);
         self
     }
 }

@@ -7,18 +7,22 @@ use crate::error::Result;
 use crate::forces::conditional::Part;
 use crate::forces::{
     anchor::AnchorPass, angle::AnglePass, conditional::ConditionalPass, damper::DamperPass,
-    drag::DragPass, grid::Grid, muscle::MuscleBuf, muscle::MusclePass,
-    nonlinear_drag::NonlinearDragPass, provot::ProvotLink, provot::ProvotPass, runs_by_type,
-    spring::SpringPass, stateful::Stateful, tgr::TgrPass,
+    drag::DragPass, force_transmitter::ForceTransmitterPass, grid::Grid, muscle::MuscleBuf,
+    muscle::MusclePass, nonlinear_drag::NonlinearDragPass, provot::ProvotLink, provot::ProvotPass,
+    quadripole::QuadripolePass, runs_by_type, spring::SpringPass, stateful::Stateful, tgr::TgrPass,
 };
+use crate::world::{Clock, OneClock, WorldClock, WorldSteps};
 use crate::{LinkKind, ParamLayout, Scene, Vec3};
 
 #[derive(Clone, Debug)]
 pub struct Plan {
     /// Number of particles.
     pub n: usize,
-    /// Time step, s.
+    /// Time step of the main world, s (the trajectory's frame interval).
     pub dt: f64,
+    /// Per-particle time steps when some particle is outside the main world; `None` (every
+    /// particle steps with `dt`) keeps the one-world loops.
+    pub worlds: Option<WorldSteps>,
     pub layout: ParamLayout,
     /// `free[i]` is false for fixed particles.
     pub free: Vec<bool>,
@@ -96,6 +100,9 @@ impl Plan {
         let mut angle_items = Vec::new();
         let mut muscle_items = Vec::new();
         let mut tgr_items = Vec::new();
+        let mut quad_items = Vec::new();
+        let mut pos_items = Vec::new();
+        let mut force_items = Vec::new();
         let mut provot = ProvotPass::default();
         let mut needs_velocity = false;
         let damping_matters = |t: usize| {
@@ -148,7 +155,10 @@ impl Plan {
                         damping_matters(t) || ty.w_rate().iter().any(|w| !w.is_known_zero());
                 }
                 LinkKind::Conditional => unreachable!("validated: conditional types have no links"),
-                LinkKind::Tgr => unreachable!("validated: couplings are not links"),
+                LinkKind::Tgr
+                | LinkKind::Quadripole
+                | LinkKind::PositionTransmitter
+                | LinkKind::ForceTransmitter => unreachable!("validated: couplings are not links"),
             }
         }
         for c in &scene.couplings {
@@ -158,6 +168,15 @@ impl Plan {
                 LinkKind::Tgr => {
                     tgr_items.push((t, [ps[0], ps[1]]));
                     needs_velocity |= damping_matters(t);
+                }
+                LinkKind::Quadripole => quad_items.push((t, [ps[0], ps[1], ps[2], ps[3]])),
+                LinkKind::PositionTransmitter => pos_items.push((t, [ps[0], ps[1], ps[2], ps[3]])),
+                LinkKind::ForceTransmitter => {
+                    let src = &scene.links[c.source.expect("validated: a source")];
+                    let ends = [src.particles[0] as u32, src.particles[1] as u32];
+                    force_items.push((t, ([ps[0], ps[1]], (ends, off[src.type_index]))));
+                    // The source's tension reads its rate when its damping may be non-zero.
+                    needs_velocity |= damping_matters(src.type_index);
                 }
                 k => unreachable!("validated: `{k}` is not a coupling kind"),
             }
@@ -200,6 +219,22 @@ impl Plan {
                 runs,
                 pairs,
             },
+            quadripoles: {
+                let (runs, quads) = runs_by_type(&quad_items, off);
+                QuadripolePass { runs, quads }
+            },
+            position_transmitters: {
+                let (runs, quads) = runs_by_type(&pos_items, off);
+                QuadripolePass { runs, quads }
+            },
+            force_transmitters: {
+                let (runs, items) = runs_by_type(&force_items, off);
+                ForceTransmitterPass {
+                    runs,
+                    pairs: items.iter().map(|i| i.0).collect(),
+                    sources: items.iter().map(|i| i.1).collect(),
+                }
+            },
         };
 
         let members = |g: &str| -> Vec<u32> {
@@ -227,21 +262,26 @@ impl Plan {
 
         let free: Vec<bool> = scene.particles.iter().map(|p| !p.fixed).collect();
         let x0: Vec<Vec3> = scene.particles.iter().map(|p| Vec3::from(p.pos)).collect();
+        let worlds = WorldSteps::of(scene);
         let x_minus1 = scene
             .particles
             .iter()
-            .map(|p| {
+            .enumerate()
+            .map(|(i, p)| {
                 let x = Vec3::from(p.pos);
                 if p.fixed {
                     x
                 } else {
-                    x - Vec3::from(p.vel) * scene.dt
+                    // Each particle's own world dt: v0 is a velocity in its world's time.
+                    let dt = worlds.as_ref().map_or(scene.dt, |w| w.dt[i]);
+                    x - Vec3::from(p.vel) * dt
                 }
             })
             .collect();
         Ok(Plan {
             n: scene.particles.len(),
             dt: scene.dt,
+            worlds,
             layout,
             free,
             x0,
@@ -333,13 +373,25 @@ impl Plan {
             + self.stateful.len()
     }
 
-    /// Velocities `v(n) = (x(n) - x(n-1)) / dt` into `scratch.v`, when some pass reads them.
+    /// Time step of particle `i`'s world, s.
+    pub fn dt_of(&self, i: usize) -> f64 {
+        self.worlds.as_ref().map_or(self.dt, |w| w.dt[i])
+    }
+
+    /// Velocities `v(n) = (x(n) - x(n-1)) / dt` into `scratch.v` (each particle's world dt),
+    /// when some pass reads them.
     pub fn velocities(&self, x: &[Vec3], x_prev: &[Vec3], v: &mut [Vec3]) {
-        if self.needs_velocity {
-            let dt = self.dt;
-            for ((v, x), xp) in v.iter_mut().zip(x).zip(x_prev) {
-                *v = (x - xp) / dt;
+        if !self.needs_velocity {
+            return;
+        }
+        match &self.worlds {
+            None => {
+                let dt = self.dt;
+                for ((v, x), xp) in v.iter_mut().zip(x).zip(x_prev) {
+                    *v = (x - xp) / dt;
+                }
             }
+            Some(w) => w.velocities(x, x_prev, v),
         }
     }
 
@@ -435,18 +487,48 @@ impl Plan {
     }
 
     /// Writes x(n+1) into `x_prev` (so a swap completes the step): `2x - x_prev + dt² (F/m + g)`
-    /// for free particles, `x` for fixed ones.
+    /// for free particles (each with its world's dt; gravity on the main world only), `x` for
+    /// fixed ones.
     fn integrate(&self, p: &[f64], x: &[Vec3], x_prev: &mut [Vec3], f: &[Vec3]) -> Option<usize> {
-        let dt2 = self.dt * self.dt;
-        let m = &p[self.layout.mass_offset..self.layout.mass_offset + self.n];
         // Gravity is read from `p` even when the scene had none: the plan must follow any
         // parameter vector of its layout, and adding a zero vector costs what skipping did.
         let o = self.layout.gravity_offset;
         let g = Vec3::new(p[o], p[o + 1], p[o + 2]);
+        match &self.worlds {
+            None => self.integrate_with(OneClock::new(self.dt, g), p, x, x_prev, f),
+            Some(steps) => self.integrate_worlds(WorldClock { steps, g }, p, x, x_prev, f),
+        }
+    }
+
+    /// The several-worlds integrator, kept out of line (like [`WorldSteps::velocities`]) so
+    /// that the one-world step compiles as before worlds existed: inlined, the two loops cost
+    /// the one-world path a register spill, one more load per particle (callgrind).
+    #[inline(never)]
+    fn integrate_worlds(
+        &self,
+        clock: WorldClock<'_>,
+        p: &[f64],
+        x: &[Vec3],
+        x_prev: &mut [Vec3],
+        f: &[Vec3],
+    ) -> Option<usize> {
+        self.integrate_with(clock, p, x, x_prev, f)
+    }
+
+    #[inline(always)]
+    fn integrate_with<C: Clock>(
+        &self,
+        clock: C,
+        p: &[f64],
+        x: &[Vec3],
+        x_prev: &mut [Vec3],
+        f: &[Vec3],
+    ) -> Option<usize> {
+        let m = &p[self.layout.mass_offset..self.layout.mass_offset + self.n];
         let mut finite = true;
         for i in 0..self.n {
             let next = if self.free[i] {
-                (x[i] * 2.0 - x_prev[i]) + (f[i] / m[i] + g) * dt2
+                (x[i] * 2.0 - x_prev[i]) + clock.kick(i, f[i] / m[i])
             } else {
                 x[i]
             };

@@ -2,7 +2,7 @@
 
 use crate::error::{CordisError, Result};
 use crate::signal::{Shape, Signal};
-use crate::{Coupling, Link, LinkKind, LinkType, Param, Particle};
+use crate::{Coupling, Link, LinkKind, LinkType, Param, Particle, World};
 
 /// A Cordis-Anima network and its time step. Build one in code with [`Scene::new`] and the
 /// `add_*` methods, or read one with [`Scene::from_json_str`]; run [`Scene::validate`] before
@@ -21,6 +21,8 @@ pub struct Scene {
     pub signals: Vec<Signal>,
     /// Instances of the coupling kinds ([`LinkKind::is_coupling`]), in file order.
     pub couplings: Vec<Coupling>,
+    /// Extra worlds with their own time step ([`crate::world`]); the main world is implicit.
+    pub worlds: Vec<World>,
 }
 
 impl Scene {
@@ -33,6 +35,7 @@ impl Scene {
             links: Vec::new(),
             signals: Vec::new(),
             couplings: Vec::new(),
+            worlds: Vec::new(),
         }
     }
 
@@ -90,8 +93,22 @@ impl Scene {
         self.couplings.push(Coupling {
             type_index,
             particles: particles.to_vec(),
+            source: None,
         });
         self.couplings.len() - 1
+    }
+
+    /// Adds a `force_transmitter` coupling of the named type on dipole `particles`, fed by the
+    /// tension of spring link `source`. Panics on an unknown type name (code-built scenes only).
+    pub fn add_force_transmitter(
+        &mut self,
+        type_name: &str,
+        particles: [usize; 2],
+        source: usize,
+    ) -> usize {
+        let c = self.add_coupling(type_name, &particles);
+        self.couplings[c].source = Some(source);
+        c
     }
 
     pub fn type_index(&self, name: &str) -> Option<usize> {
@@ -114,6 +131,7 @@ impl Scene {
     /// Checks every semantic rule of SPEC §5.1 and names the place of the first violation.
     pub fn validate(&self) -> Result<()> {
         self.validate_globals()?;
+        self.validate_worlds()?;
         for i in 0..self.particles.len() {
             self.validate_particle(i)?;
         }
@@ -144,7 +162,8 @@ impl Scene {
         let at = format!("particles[{i}]");
         check_param(&format!("{at}.mass"), &p.mass, Sign::Positive)?;
         check_finite3(&format!("{at}.pos"), &p.pos)?;
-        check_finite3(&format!("{at}.vel"), &p.vel)
+        check_finite3(&format!("{at}.vel"), &p.vel)?;
+        self.check_particle_world(i)
     }
 
     /// The rules on catalogue entry `ti` alone (name, parameter count and signs, kind-specific
@@ -258,6 +277,7 @@ impl Scene {
                     format!("names one or two groups, got {}", t.groups.len()),
                 ));
             }
+            self.check_groups_world(ti)?;
         } else if !t.groups.is_empty() {
             return Err(CordisError::scene(
                 format!("{at}.groups"),
@@ -297,6 +317,7 @@ impl Scene {
                 ));
             }
             self.check_particles(&at, t.kind, &l.particles)?;
+            self.check_link_world(&at, &l.particles)?;
             if let Some(point) = &l.point {
                 if t.kind != LinkKind::Anchor {
                     return Err(CordisError::scene(
@@ -338,8 +359,36 @@ impl Scene {
                 ));
             }
             self.check_particles(&at, t.kind, &c.particles)?;
+            self.check_source(&at, t.kind, c.source)?;
         }
         Ok(())
+    }
+
+    /// A force transmitter names an existing spring link as `source`; other couplings do not.
+    fn check_source(&self, at: &str, kind: LinkKind, source: Option<usize>) -> Result<()> {
+        let place = format!("{at}.source");
+        match (kind == LinkKind::ForceTransmitter, source) {
+            (false, Some(_)) => Err(CordisError::scene(
+                place,
+                "only force_transmitter couplings have it",
+            )),
+            (true, None) => Err(CordisError::scene(
+                at,
+                "a force_transmitter needs `source`: the index in `links` of a spring",
+            )),
+            (true, Some(li)) => match self.links.get(li).map(|l| self.types[l.type_index].kind) {
+                Some(LinkKind::Spring) => Ok(()),
+                Some(k) => Err(CordisError::scene(
+                    place,
+                    format!("link {li} is a `{k}`: a force transmitter reads a spring's tension"),
+                )),
+                None => Err(CordisError::scene(
+                    place,
+                    format!("link {li} does not exist ({} links)", self.links.len()),
+                )),
+            },
+            (false, None) => Ok(()),
+        }
     }
 
     /// A link's or coupling's particles: as many as the kind joins, existing, distinct.

@@ -9,7 +9,7 @@ use serde_json::{Map, Value};
 
 use crate::error::{CordisError, Result};
 use crate::signal::{Shape, Signal, DEFAULT_RISE};
-use crate::{Bounds, Coupling, Link, LinkKind, LinkType, Param, Particle, Scene};
+use crate::{Bounds, Coupling, Link, LinkKind, LinkType, Param, Particle, Scene, World};
 
 pub const FORMAT: &str = "cordis-scene/1";
 
@@ -68,6 +68,15 @@ impl Scene {
         if self.gravity != [0.0; 3] {
             root.insert("gravity".into(), vec3(&self.gravity));
         }
+        if !self.worlds.is_empty() {
+            let mut worlds = Map::new();
+            for w in &self.worlds {
+                let mut o = Map::new();
+                o.insert("dt".into(), w.dt.into());
+                worlds.insert(w.name.clone(), Value::Object(o));
+            }
+            root.insert("worlds".into(), Value::Object(worlds));
+        }
         let particles = self
             .particles
             .iter()
@@ -83,6 +92,9 @@ impl Scene {
                 }
                 if let Some(g) = &p.group {
                     o.insert("group".into(), g.clone().into());
+                }
+                if let Some(w) = &p.world {
+                    o.insert("world".into(), w.clone().into());
                 }
                 Value::Object(o)
             })
@@ -163,6 +175,9 @@ impl Scene {
                     let mut o = Map::new();
                     o.insert("type".into(), self.types[c.type_index].name.clone().into());
                     o.insert("particles".into(), c.particles.clone().into());
+                    if let Some(src) = c.source {
+                        o.insert("source".into(), src.into());
+                    }
                     Value::Object(o)
                 })
                 .collect();
@@ -308,6 +323,7 @@ fn read_scene(v: &Value) -> Result<Scene> {
             "format",
             "dt",
             "gravity",
+            "worlds",
             "particles",
             "signals",
             "types",
@@ -336,6 +352,30 @@ fn read_scene(v: &Value) -> Result<Scene> {
     if let Some(g) = root.get("gravity") {
         scene.gravity = vector3(g, "gravity")?;
     }
+    if let Some(worlds) = root.get("worlds") {
+        let Value::Object(worlds) = worlds else {
+            return Err(err(
+                "worlds",
+                format!(
+                    "expected an object of named worlds, got {}",
+                    kind_of(worlds)
+                ),
+            ));
+        };
+        for (name, wv) in worlds {
+            let at = format!("worlds.{name}");
+            let o = as_object(wv, &at, &["dt"])?;
+            let dt = number(
+                o.get("dt")
+                    .ok_or_else(|| err(&at, "missing `dt`: the world's time step in s"))?,
+                &join(&at, "dt"),
+            )?;
+            scene.worlds.push(World {
+                name: name.clone(),
+                dt,
+            });
+        }
+    }
     let particles = match root.get("particles") {
         Some(Value::Array(a)) => a,
         Some(other) => {
@@ -348,7 +388,7 @@ fn read_scene(v: &Value) -> Result<Scene> {
     };
     for (i, pv) in particles.iter().enumerate() {
         let at = format!("particles[{i}]");
-        let o = as_object(pv, &at, &["mass", "pos", "vel", "fixed", "group"])?;
+        let o = as_object(pv, &at, &["mass", "pos", "vel", "fixed", "group", "world"])?;
         let mass = param(
             o.get("mass").ok_or_else(|| err(&at, "missing `mass`"))?,
             &join(&at, "mass"),
@@ -372,6 +412,10 @@ fn read_scene(v: &Value) -> Result<Scene> {
         }
         if let Some(g) = o.get("group") {
             p.group = Some(string(g, &join(&at, "group"))?);
+        }
+        if let Some(w) = o.get("world") {
+            // `"main"` is the default: store it as `None` so a scene round-trips.
+            p = p.in_world(string(w, &join(&at, "world"))?);
         }
         scene.particles.push(p);
     }
@@ -440,12 +484,17 @@ fn read_scene(v: &Value) -> Result<Scene> {
         };
         for (i, cv) in couplings.iter().enumerate() {
             let at = format!("couplings[{i}]");
-            let o = as_object(cv, &at, &["type", "particles"])?;
+            let o = as_object(cv, &at, &["type", "particles", "source"])?;
             let type_index = type_ref(&scene, o, &at)?;
             let particles = particle_list(o, &at)?;
+            let source = o
+                .get("source")
+                .map(|v| link_index(v, &join(&at, "source")))
+                .transpose()?;
             scene.couplings.push(Coupling {
                 type_index,
                 particles,
+                source,
             });
         }
     }
@@ -462,6 +511,17 @@ fn read_scene(v: &Value) -> Result<Scene> {
         scene.types[t] = scene.types[t].clone().with_weights(&zeros, &zeros);
     }
     Ok(scene)
+}
+
+/// A link index (a non-negative integer).
+fn link_index(v: &Value, place: &str) -> Result<usize> {
+    match v.as_u64().and_then(|i| usize::try_from(i).ok()) {
+        Some(i) => Ok(i),
+        None => Err(err(
+            place,
+            format!("expected a link index (a non-negative integer), got {v}"),
+        )),
+    }
 }
 
 /// The catalogue index of the `type` a link or coupling names.

@@ -147,7 +147,6 @@ fn row_sums(plan: &Plan, p: &[f64], ws: &mut StabilityScratch) {
         "parameter vector of the wrong length"
     );
     let n = plan.n;
-    let dt = plan.dt;
     let mass = &p[plan.layout.mass_offset..plan.layout.mass_offset + n];
     // √m once per particle: √(m_i/m_j) as a quotient of roots cannot overflow where the
     // quotient itself would (masses span the whole f64 range).
@@ -163,76 +162,87 @@ fn row_sums(plan: &Plan, p: &[f64], ws: &mut StabilityScratch) {
         free: &plan.free,
         root: &ws.root,
     };
-    let g = |k: f64, z: f64| mul(k, dt * dt) + mul(2.0 * z, dt);
+    // A link lies inside one world (validated), so its first particle's dt is the link's.
+    let g = |k: f64, z: f64, i: u32| {
+        let dt = plan.dt_of(i as usize);
+        mul(k, dt * dt) + mul(2.0 * z, dt)
+    };
 
     for r in &plan.springs.runs {
-        let w = g(p[r.param], p[r.param + 2]);
+        let (k, z) = (p[r.param], p[r.param + 2]);
         for &[i, j] in &plan.springs.pairs[r.start..r.end] {
-            acc.pair(i as usize, j as usize, w);
+            acc.pair(i as usize, j as usize, g(k, z, i));
         }
     }
     // A TGR's link is a spring whose rest length moves: the same local stiffness. Its tendon
     // is a 1-D mass outside the particle system and is not reported.
     let tgrs = &plan.stateful.tgrs;
     for r in &tgrs.runs {
-        let w = g(p[r.param], p[r.param + 2]);
+        let (k, z) = (p[r.param], p[r.param + 2]);
         for &[i, j] in &tgrs.pairs[r.start..r.end] {
-            acc.pair(i as usize, j as usize, w);
+            acc.pair(i as usize, j as usize, g(k, z, i));
         }
     }
     // A muscle is a spring (K, l0, Z first in its parameters) plus a neuron whose force is
     // bounded by its gain: the neuron adds no stiffness at large amplitude, so only K and Z
     // count, as for the angle's curvature part below.
     for r in &plan.muscles.runs {
-        let w = g(p[r.param], p[r.param + 2]);
+        let (k, z) = (p[r.param], p[r.param + 2]);
         for &[i, j] in &plan.muscles.pairs[r.start..r.end] {
-            acc.pair(i as usize, j as usize, w);
+            acc.pair(i as usize, j as usize, g(k, z, i));
         }
     }
     for r in &plan.dampers.runs {
-        let w = g(0.0, p[r.param]);
         for &[i, j] in &plan.dampers.pairs[r.start..r.end] {
-            acc.pair(i as usize, j as usize, w);
+            acc.pair(i as usize, j as usize, g(0.0, p[r.param], i));
         }
     }
     for r in &plan.anchors.runs {
-        let w = g(p[r.param], p[r.param + 2]);
+        let (k, z) = (p[r.param], p[r.param + 2]);
         for &i in &plan.anchors.particles[r.start..r.end] {
-            acc.own[i as usize] += w;
+            acc.own[i as usize] += g(k, z, i);
         }
     }
     for r in &plan.drags.runs {
-        let w = g(0.0, p[r.param]);
         for &i in &plan.drags.particles[r.start..r.end] {
-            acc.own[i as usize] += w;
+            acc.own[i as usize] += g(0.0, p[r.param], i);
         }
     }
     for r in &plan.nonlinear_drags.runs {
-        let w = g(0.0, p[r.param].max(p[r.param + 1]));
+        let z = p[r.param].max(p[r.param + 1]);
         for &i in &plan.nonlinear_drags.particles[r.start..r.end] {
-            acc.own[i as usize] += w;
+            acc.own[i as usize] += g(0.0, z, i);
         }
     }
     for r in &plan.angles.runs {
-        let w = g(p[r.param], 0.0);
         for &[i, j, k] in &plan.angles.triples[r.start..r.end] {
+            let w = g(p[r.param], 0.0, i);
             acc.angle([i as usize, j as usize, k as usize], &plan.x0, w);
         }
     }
     for c in &plan.conditionals {
-        let w = g(p[c.param], p[c.param + 2]);
-        c.for_each_active_pair(p, &plan.x0, &mut ws.grid, |i, j, _| acc.pair(i, j, w));
+        let (k, z) = (p[c.param], p[c.param + 2]);
+        c.for_each_active_pair(p, &plan.x0, &mut ws.grid, |i, j, _| {
+            acc.pair(i, j, g(k, z, i as u32))
+        });
     }
 }
 
 /// The largest time step (s) at which the bound still holds (`max_ratio < 1` just below it),
 /// the other values of the scene unchanged; `None` when no free particle has a stiffness or
 /// a damping (any step passes). Each `q_i(dt) = a_i dt² + b_i dt` is a quadratic in dt, so
-/// two reports (at dt and dt/2) give every particle's `a_i`, `b_i` and its own root.
+/// two reports (at dt and dt/2) give every particle's `a_i`, `b_i` and its own root. With
+/// several worlds each particle's `dt` is its world's, and every world's `dt` scales with the
+/// main one (the answer is the main `dt`).
 pub fn max_stable_dt(scene: &Scene) -> Result<Option<f64>> {
     let full = stability(scene)?;
     let mut half_scene = scene.clone();
     half_scene.dt = scene.dt / 2.0;
+    // Every world's dt scales with the main one: the answer is the main dt at which the bound
+    // holds when all worlds keep their ratios to it.
+    for w in &mut half_scene.worlds {
+        w.dt /= 2.0;
+    }
     let half = stability(&half_scene)?;
     let mut best: Option<f64> = None;
     for (q1, q2) in full.per_particle.iter().zip(&half.per_particle) {

@@ -152,7 +152,7 @@ fn unknown_key_in_a_particle() {
     scene_error(
         &with("/particles/1/velocity", json!([0, 0, 0])),
         "particles[1].velocity",
-        "unknown key `velocity` (expected one of: mass, pos, vel, fixed, group)",
+        "unknown key `velocity` (expected one of: mass, pos, vel, fixed, group, world)",
     );
 }
 

@@ -22,6 +22,8 @@
 //! To add a stateful kind: a pass in its own file with `state_len`, `reset` and an
 //! `accumulate` that advances its slice; a field here; one line in each method below.
 
+use super::force_transmitter::ForceTransmitterPass;
+use super::quadripole::QuadripolePass;
 use super::tgr::TgrPass;
 use crate::signal::Signal;
 use crate::Vec3;
@@ -31,29 +33,46 @@ pub struct Stateful {
     /// The scene's signals, in scene order (passes refer to them by index).
     pub signals: Vec<Signal>,
     pub tgrs: TgrPass,
+    /// Quadripoles: one f64 of state each, Δ(n-1).
+    pub quadripoles: QuadripolePass,
+    /// Position transmitters: quadripoles that push dipole 2 only; Δ(n-1) too.
+    pub position_transmitters: QuadripolePass,
+    /// Force transmitters (stateless, kept with the couplings they belong to).
+    pub force_transmitters: ForceTransmitterPass,
 }
 
 impl Stateful {
     /// True when the scene has no stateful pass: steps then skip this machinery entirely.
     pub fn is_empty(&self) -> bool {
         self.tgrs.is_empty()
+            && self.quadripoles.is_empty()
+            && self.position_transmitters.is_empty()
+            && self.force_transmitters.is_empty()
     }
 
     /// Number of instances (for link counts).
     pub fn len(&self) -> usize {
         self.tgrs.len()
+            + self.quadripoles.len()
+            + self.position_transmitters.len()
+            + self.force_transmitters.len()
     }
 
     /// Number of f64 of state.
     pub fn state_len(&self) -> usize {
         self.tgrs.state_len()
+            + self.quadripoles.state_len()
+            + self.position_transmitters.state_len()
     }
 
     /// Sets `state` (length [`Stateful::state_len`]) to frame 0's from the parameters `p` and
     /// the initial positions `x0` (m).
-    pub fn reset(&self, _p: &[f64], _x0: &[Vec3], state: &mut [f64]) {
-        let nt = self.tgrs.state_len();
-        self.tgrs.reset(&mut state[..nt]);
+    pub fn reset(&self, p: &[f64], x0: &[Vec3], state: &mut [f64]) {
+        let (tgr, rest) = state.split_at_mut(self.tgrs.state_len());
+        let (quad, pos) = rest.split_at_mut(self.quadripoles.state_len());
+        self.tgrs.reset(tgr);
+        self.quadripoles.reset(p, x0, quad);
+        self.position_transmitters.reset(p, x0, pos);
     }
 
     /// Adds the stateful passes' forces at frame `n` (positions `x`, velocities `v`) to `f`
@@ -70,8 +89,11 @@ impl Stateful {
         state: &mut [f64],
     ) {
         let t = n as f64 * dt;
-        let nt = self.tgrs.state_len();
-        self.tgrs
-            .accumulate(p, &self.signals, t, dt, x, v, f, &mut state[..nt]);
+        let (tgr, rest) = state.split_at_mut(self.tgrs.state_len());
+        let (quad, pos) = rest.split_at_mut(self.quadripoles.state_len());
+        self.tgrs.accumulate(p, &self.signals, t, dt, x, v, f, tgr);
+        self.quadripoles.accumulate::<true>(p, x, f, quad);
+        self.position_transmitters.accumulate::<false>(p, x, f, pos);
+        self.force_transmitters.accumulate(p, x, v, f);
     }
 }

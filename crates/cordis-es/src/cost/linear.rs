@@ -85,7 +85,12 @@ impl LinearShortCost {
     }
 
     pub(crate) fn build(scene: &Scene, plan: &Plan, obs: &Observed) -> Option<Self> {
-        if !plan.provot.links.is_empty() || !plan.nonlinear_drags.particles.is_empty() {
+        // Several worlds: per-particle dt and gravity on the main world only; the generic path
+        // handles them (such scenes couple worlds through nonlinear couplings anyway).
+        if !plan.provot.links.is_empty()
+            || !plan.nonlinear_drags.particles.is_empty()
+            || plan.worlds.is_some()
+        {
             return None;
         }
         let layout = &plan.layout;

@@ -68,7 +68,8 @@ impl Observed {
         for t in 1..frames {
             for i in 0..n {
                 // The same expression as `Plan::velocities`, so that the bits agree.
-                vs[t * n + i] = (xs[t * n + i] - xs[(t - 1) * n + i]) / plan.dt;
+                // (each particle's world dt)
+                vs[t * n + i] = (xs[t * n + i] - xs[(t - 1) * n + i]) / plan.dt_of(i);
             }
         }
         let layout = &plan.layout;

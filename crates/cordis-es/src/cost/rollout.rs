@@ -9,6 +9,7 @@
 
 use super::objective::{CostScratch, Objective};
 use cordis_core::plan::RUNAWAY;
+use cordis_core::world::{Clock, OneClock, WorldClock};
 use cordis_core::Vec3;
 use std::ops::Range;
 
@@ -23,12 +24,30 @@ impl Objective {
         obs_next: &[Vec3],
         s: &mut CostScratch,
     ) {
+        match &self.plan.worlds {
+            None => {
+                let clock = OneClock::new(self.plan.dt, g);
+                self.rollout_step_with(&clock, p, n, m, obs_next, s)
+            }
+            Some(steps) => self.rollout_step_with(&WorldClock { steps, g }, p, n, m, obs_next, s),
+        }
+    }
+
+    /// [`Objective::rollout_step`] with each particle's world dt and gravity from `clock`.
+    #[inline(always)]
+    fn rollout_step_with<C: Clock>(
+        &self,
+        clock: &C,
+        p: &[f64],
+        n: usize,
+        m: &[f64],
+        obs_next: &[Vec3],
+        s: &mut CostScratch,
+    ) {
         let plan = &self.plan;
-        let dt = plan.dt;
-        let dt2 = dt * dt;
         let core = &mut s.core;
-        for ((v, a), b) in core.v.iter_mut().zip(&s.x).zip(&s.x_prev) {
-            *v = (a - b) / dt;
+        for (i, ((v, a), b)) in core.v.iter_mut().zip(&s.x).zip(&s.x_prev).enumerate() {
+            *v = (a - b) / clock.dt(i);
         }
         plan.forces(
             p,
@@ -43,7 +62,7 @@ impl Objective {
         }
         for i in 0..plan.n {
             s.x_prev[i] = if plan.free[i] {
-                (s.x[i] * 2.0 - s.x_prev[i]) + (core.f[i] / m[i] + g) * dt2
+                (s.x[i] * 2.0 - s.x_prev[i]) + clock.kick(i, core.f[i] / m[i])
             } else {
                 obs_next[i]
             };

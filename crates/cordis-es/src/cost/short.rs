@@ -6,6 +6,7 @@
 
 use super::kernels::{springs, PairGeometry, SpringBuf};
 use super::objective::{CostScratch, Objective};
+use cordis_core::world::{Clock, OneClock, WorldClock};
 use cordis_core::Vec3;
 use std::ops::Range;
 
@@ -133,9 +134,24 @@ impl Objective {
 
     /// Generic short cost: local costs into `per` (zeroed by the caller), returns their sum.
     pub(crate) fn short_generic(&self, p: &[f64], s: &mut CostScratch, per: &mut [f64]) -> f64 {
+        let (_, g) = self.masses_gravity(p);
+        match &self.plan.worlds {
+            None => self.short_with(&OneClock::new(self.plan.dt, g), p, s, per),
+            Some(steps) => self.short_with(&WorldClock { steps, g }, p, s, per),
+        }
+    }
+
+    /// The short cost with each particle's world dt and gravity from `clock`.
+    #[inline(always)]
+    fn short_with<C: Clock>(
+        &self,
+        clock: &C,
+        p: &[f64],
+        s: &mut CostScratch,
+        per: &mut [f64],
+    ) -> f64 {
         let n = self.plan.n;
-        let dt2 = self.plan.dt * self.plan.dt;
-        let (m, g) = self.masses_gravity(p);
+        let (m, _) = self.masses_gravity(p);
         let provot = !self.plan.provot.links.is_empty();
         let geo = self.geometry();
         if !self.hidden.is_empty() {
@@ -156,7 +172,7 @@ impl Objective {
                 // Provot needs every predicted position (fixed ones exact) before scoring.
                 for i in 0..n {
                     s.xhat[i] = if self.plan.free[i] {
-                        (x1[i] * 2.0 - x2[i]) + (f[i] / m[i] + g) * dt2
+                        (x1[i] * 2.0 - x2[i]) + clock.kick(i, f[i] / m[i])
                     } else {
                         x0[i]
                     };
@@ -167,7 +183,7 @@ impl Objective {
                 }
             } else {
                 for &i in &self.free {
-                    let xh = (x1[i] * 2.0 - x2[i]) + (f[i] / m[i] + g) * dt2;
+                    let xh = (x1[i] * 2.0 - x2[i]) + clock.kick(i, f[i] / m[i]);
                     per[i] += squared_error(&xh, &x0[i]);
                 }
             }

@@ -144,6 +144,12 @@ impl Factor {
 
 /// The θ columns of a scene for [`assemble`], or why its short cost is not linear in θ.
 pub(crate) fn generic_cols(scene: &Scene) -> Result<Vec<Col>, String> {
+    if let Some(i) = (0..scene.particles.len()).find(|&i| scene.world_of(i) != 0) {
+        return Err(format!(
+            "particles[{i}].world: the exact solvers assume one time step and gravity on every \
+             particle, not several worlds"
+        ));
+    }
     let mut cols = Vec::new();
     for (t, ty) in scene.types.iter().enumerate() {
         if ty.max_elongation.is_some() && scene.links.iter().any(|l| l.type_index == t) {
