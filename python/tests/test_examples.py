@@ -47,7 +47,7 @@ def test_width_sets_the_box_ratio():
 
 
 def test_unknown_name_lists_the_names():
-    with pytest.raises(ValueError, match="unknown example `tadpol`.*rigid, cloth, fluid, horse, muscle, tadpole, frog"):
+    with pytest.raises(ValueError, match="unknown example `tadpol`.*rigid, cloth, fluid, horse, muscle, horse-gait, tadpole, frog"):
         cordis.example("tadpol")
 
 

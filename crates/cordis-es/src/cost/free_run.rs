@@ -2,6 +2,7 @@
 //! ([`crate::stable`]): no observed frame is used after the first two.
 
 use super::objective::{CostScratch, Objective};
+use cordis_core::plan::RUNAWAY;
 use cordis_core::Vec3;
 
 impl Objective {
@@ -14,11 +15,11 @@ impl Objective {
             .fold(0.0, f64::max)
     }
 
-    /// Runs the simulator's own step (SPEC §2.1, fixed particles held where frame 1 has them)
-    /// from the observed frames 0 and 1 up to frame `frames - 1`, as `simulate --frames`
-    /// would; returns the first frame at which a position is not finite or beyond
+    /// Runs the rollout step of the costs (the simulator's step, fixed particles held where
+    /// frame 1 has them, hidden state — TGR tendons… — driven along frame 0 then carried) from
+    /// the observed frames 0 and 1 up to frame `frames - 1`, as `simulate --frames` would;
+    /// returns the first frame at which a free particle's position is not finite or beyond
     /// [`cordis_core::plan::RUNAWAY`], or the free particles' spread exceeds `limit` (m).
-    /// The cost's hidden passes (none exist yet, see [`super::hidden`]) are not advanced.
     pub(crate) fn free_run_diverges(
         &self,
         p: &[f64],
@@ -26,14 +27,21 @@ impl Objective {
         limit: f64,
         s: &mut CostScratch,
     ) -> Option<usize> {
+        let mg = self.masses_gravity(p);
         s.x_prev.copy_from_slice(self.obs.frame(0));
         s.x.copy_from_slice(self.obs.frame(1));
+        if !self.hidden.is_empty() {
+            self.reset_hidden(p, &mut s.hidden);
+            self.advance_hidden_observed(p, 0, &mut s.hidden, &mut s.discard);
+        }
+        let hold = self.obs.frame(1);
         for t in 2..frames {
-            if self
-                .plan
-                .step(p, &mut s.x, &mut s.x_prev, &mut s.core)
-                .is_some()
-            {
+            self.rollout_step(p, t - 1, mg, hold, s);
+            let runaway = self
+                .free
+                .iter()
+                .any(|&i| !s.x[i].iter().all(|c| c.abs() <= RUNAWAY));
+            if runaway {
                 return Some(t);
             }
             // A NaN spread (it cannot be: positions are finite here) counts as diverged.

@@ -16,7 +16,7 @@ use std::ops::Range;
 impl Objective {
     /// One step of the rollout state `s.x` = x(n), `s.x_prev` = x(n-1) to x(n+1), with fixed
     /// particles at `obs_next` (`mg`: masses and gravity).
-    fn rollout_step(
+    pub(super) fn rollout_step(
         &self,
         p: &[f64],
         n: usize,
