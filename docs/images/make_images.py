@@ -94,8 +94,18 @@ def horse():
     save(fig, "horse_frames.png")
 
 
+def follower():
+    """The visio-motor loop (thesis §6.1.2): the mobile swims to its target 10 body lengths
+    away; the controller world (its mental representation, below) changes shape as the
+    virtual target comes closer."""
+    scene = cordis.example("follower")
+    path = cordis.animate(scene, scene.simulate(10000), OUT / "follower.gif", every=125, fps=15)
+    print(f"{path}: {os.path.getsize(path) // 1024} KB")
+
+
 if __name__ == "__main__":
     OUT.mkdir(parents=True, exist_ok=True)
     rigid()
     cloth()
     horse()
+    follower()
