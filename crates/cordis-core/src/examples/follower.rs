@@ -43,7 +43,7 @@
 //! springs are soft (12 N/m): a stiffer head swims slower (100 N/m: 0.11 m/s).
 
 use super::q3;
-use super::tadpole::TADPOLE_BODY_LENGTH;
+use super::tadpole::{table_6_1_medium, tadpole_muscle, TADPOLE_BODY_LENGTH};
 use crate::signal::{Shape, Signal};
 use crate::{LinkKind, LinkType, Particle, Scene, Trajectory, Vec3};
 
@@ -174,12 +174,7 @@ fn build(target: [f64; 3], fixed_target: bool) -> Scene {
     )));
 
     // Mobile links.
-    s.add_type(
-        LinkType::new("water", LinkKind::NonlinearDrag)
-            .with("z1", 0.1)
-            .with("z2", 1.0)
-            .with("v_max", 0.5),
-    );
+    s.add_type(table_6_1_medium("water"));
     s.add_link("water", &[idx::NECK]);
     s.add_link("water", &[idx::FOOT]);
     for k in 0..3 {
@@ -207,15 +202,7 @@ fn build(target: [f64; 3], fixed_target: bool) -> Scene {
             .with_rise(0.9)
             .with_phase(0.75),
     );
-    s.add_type(
-        LinkType::new("body", LinkKind::Tgr)
-            .with("stiffness", 40.0)
-            .with("rest_length", TADPOLE_BODY_LENGTH)
-            .with("tendon_mass", 0.01)
-            .with("tendon_stiffness", 20.0)
-            .with("tendon_damping", 1.0)
-            .with_signal("stroke"),
-    );
+    s.add_type(tadpole_muscle("body", "stroke").with("stiffness", 40.0));
     s.add_coupling("body", &[idx::NECK, idx::FOOT]);
 
     // Controller links.

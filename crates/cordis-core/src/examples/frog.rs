@@ -6,7 +6,7 @@
 //! light end, +x); when one side's signal runs faster, that side strokes more often, travels
 //! further, and the frog turns towards the other side, like a tracked vehicle.
 
-use super::tadpole::TADPOLE_BODY_LENGTH;
+use super::tadpole::{table_6_1_medium, tadpole_muscle, TADPOLE_BODY_LENGTH};
 use crate::signal::{Shape, Signal};
 use crate::{LinkKind, LinkType, Particle, Scene, Trajectory, Vec3};
 
@@ -38,22 +38,9 @@ pub fn frog_with(left_period: f64, right_period: f64) -> Scene {
                 .with_rise(0.9)
                 .with_phase(0.75),
         );
-        s.add_type(
-            LinkType::new(format!("{name}_muscle"), LinkKind::Tgr)
-                .with("stiffness", 20.0)
-                .with("rest_length", TADPOLE_BODY_LENGTH)
-                .with("tendon_mass", 0.01)
-                .with("tendon_stiffness", 20.0)
-                .with("tendon_damping", 1.0)
-                .with_signal(name),
-        );
+        s.add_type(tadpole_muscle(&format!("{name}_muscle"), name));
     }
-    s.add_type(
-        LinkType::new("water", LinkKind::NonlinearDrag)
-            .with("z1", 0.1)
-            .with("z2", 1.0)
-            .with("v_max", 0.5),
-    );
+    s.add_type(table_6_1_medium("water"));
     s.add_type(
         LinkType::new("rib", LinkKind::Spring)
             .with("stiffness", 20.0)

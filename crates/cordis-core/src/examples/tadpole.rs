@@ -55,21 +55,8 @@ pub fn tadpole_with(shape: Shape) -> Scene {
         signal = signal.with_rise(rise);
     }
     s.add_signal(signal);
-    s.add_type(
-        LinkType::new("water", LinkKind::NonlinearDrag)
-            .with("z1", 0.1)
-            .with("z2", 1.0)
-            .with("v_max", 0.5),
-    );
-    s.add_type(
-        LinkType::new("muscle", LinkKind::Tgr)
-            .with("stiffness", 20.0)
-            .with("rest_length", TADPOLE_BODY_LENGTH)
-            .with("tendon_mass", 0.01)
-            .with("tendon_stiffness", 20.0)
-            .with("tendon_damping", 1.0)
-            .with_signal("stroke"),
-    );
+    s.add_type(table_6_1_medium("water"));
+    s.add_type(tadpole_muscle("muscle", "stroke"));
     s.add_link("water", &[0]);
     s.add_link("water", &[1]);
     s.add_coupling("muscle", &[0, 1]);
@@ -95,4 +82,24 @@ pub fn tadpole_vmax_bracket(traj: &Trajectory, v_max: f64) -> (Option<f64>, Opti
         }
     }
     (below, above)
+}
+
+/// The thesis' Table 6.1 medium (`z1` 0.1, `z2` 1, `v_max` 0.5), shared by the mobiles.
+pub(crate) fn table_6_1_medium(name: &str) -> LinkType {
+    LinkType::new(name, LinkKind::NonlinearDrag)
+        .with("z1", 0.1)
+        .with("z2", 1.0)
+        .with("v_max", 0.5)
+}
+
+/// The tadpole's TGR (Table 6.1's stiffness 20 and rest length, a 10 g tendon) driven by
+/// `signal`, shared by the mobiles.
+pub(crate) fn tadpole_muscle(name: &str, signal: &str) -> LinkType {
+    LinkType::new(name, LinkKind::Tgr)
+        .with("stiffness", 20.0)
+        .with("rest_length", TADPOLE_BODY_LENGTH)
+        .with("tendon_mass", 0.01)
+        .with("tendon_stiffness", 20.0)
+        .with("tendon_damping", 1.0)
+        .with_signal(signal)
 }
