@@ -69,6 +69,12 @@ pub(crate) enum Col {
     Z2(usize),
     /// Gravity along an axis (m/s²), always known.
     G(usize),
+    /// Rest length l0 of TGR type t (m), at the TGR's K and tendon in `p`: its force is affine
+    /// in (l0, Z) through the tendon (see [`super::tgr_cols`]).
+    Rest(usize),
+    /// θ = 1: the forces at every linear parameter 0 with the nonlinear ones in `p` (a TGR's
+    /// `K (L - y)` at l0 = Z = 0 and the signal's push through the tendon), N.
+    Known,
 }
 
 /// Rows `[Φ | a]` (`cols + 1` columns) of one particle (`Some(i)`: a force-space block whose
@@ -171,13 +177,7 @@ pub(crate) fn generic_cols(scene: &Scene) -> Result<Vec<Col>, String> {
                     ty.name
                 ))
             }
-            LinkKind::Tgr => {
-                return Err(format!(
-                    "types.{}: a tgr's tendon is hidden state driven by a signal, not a \
-                     linear function of the parameters: the exact solvers do not model it",
-                    ty.name
-                ))
-            }
+            LinkKind::Tgr => cols.extend(super::tgr_cols::cols(t)),
             #[allow(unreachable_patterns)]
             other => {
                 return Err(format!(
@@ -187,6 +187,9 @@ pub(crate) fn generic_cols(scene: &Scene) -> Result<Vec<Col>, String> {
                 ))
             }
         }
+    }
+    if scene.types.iter().any(|ty| ty.kind == LinkKind::Tgr) {
+        cols.push(Col::Known);
     }
     Ok(cols)
 }
@@ -255,6 +258,11 @@ fn linear_slots(scene: &Scene) -> Vec<usize> {
             LinkKind::Angle | LinkKind::NonlinearDrag => 2,
             _ => 3,
         };
+        if ty.kind == LinkKind::Tgr {
+            // K stays: a TGR's force is linear in (l0, Z) only at a given K.
+            out.extend(o + 1..o + 3);
+            continue;
+        }
         out.extend(o..o + n);
     }
     out
@@ -296,6 +304,11 @@ pub(crate) fn assemble(obj: &Objective, scene: &Scene, cols: &[Col], p: &[f64]) 
                 None
             }
             Col::G(_) => None, // never a generic column: gravity is in the `a` column
+            Col::Rest(t) => {
+                q[slots(scene, t).1] = 1.0;
+                None
+            }
+            Col::Known => None, // the zero probe itself (not run again below)
         };
         probes.push((q, reference));
     }
@@ -314,11 +327,30 @@ pub(crate) fn assemble(obj: &Objective, scene: &Scene, cols: &[Col], p: &[f64]) 
     let mut f0 = vec![Vec3::zeros(); n];
     let mut raw = vec![vec![Vec3::zeros(); n]; nc];
     let mut row = vec![0.0; nc + 1];
+    // Hidden state (TGR tendons) of the zero probe (0) and of every probe (k + 1), each driven
+    // along the observed frames by its own parameters, as the short cost drives it.
+    let h = s.hidden.len();
+    let mut states = vec![0.0; h * (nc + 1)];
+    if h > 0 {
+        let all = std::iter::once(&zero).chain(probes.iter().map(|(q, _)| q));
+        for (q, st) in all.zip(states.chunks_mut(h)) {
+            obj.reset_hidden(q, st);
+            obj.advance_hidden_observed(q, 0, st, &mut s.discard);
+        }
+    }
     for t in 2..obj.obs.frames {
+        s.hidden.copy_from_slice(&states[..h]);
         obj.observed_forces(&zero, t - 1, &mut s, geo);
+        states[..h].copy_from_slice(&s.hidden);
         f0.copy_from_slice(&s.core.f);
         for (k, (q, _)) in probes.iter().enumerate() {
+            if cols[k] == Col::Known {
+                continue;
+            }
+            let st = &mut states[h * (k + 1)..h * (k + 2)];
+            s.hidden.copy_from_slice(st);
             obj.observed_forces(q, t - 1, &mut s, geo);
+            st.copy_from_slice(&s.hidden);
             raw[k].copy_from_slice(&s.core.f);
         }
         let (x1, x2, x0) = (obj.obs.frame(t - 1), obj.obs.frame(t - 2), obj.obs.frame(t));
@@ -326,6 +358,10 @@ pub(crate) fn assemble(obj: &Objective, scene: &Scene, cols: &[Col], p: &[f64]) 
             let b = (x1[i] * 2.0 - x2[i]) - x0[i];
             for r in 0..3 {
                 for (k, (_, reference)) in probes.iter().enumerate() {
+                    if cols[k] == Col::Known {
+                        row[k] = dt2 * f0[i][r];
+                        continue;
+                    }
                     let base = match reference {
                         Some(j) => raw[*j][i][r],
                         None => f0[i][r],
@@ -405,6 +441,15 @@ fn reduce(scene: &Scene, cols: &[Col], p: &[f64], free: &[bool]) -> Reduction {
                 }
             }
             Col::G(axis) => (None, p[gravity + axis]),
+            Col::Rest(t) => {
+                let s = slots(scene, t).1;
+                if free[s] {
+                    (Some((get(s, None, &mut xi), 1.0)), 0.0)
+                } else {
+                    (None, p[s])
+                }
+            }
+            Col::Known => (None, 1.0),
         };
         terms.push(term);
         consts.push(constant);
@@ -862,6 +907,7 @@ pub(crate) fn split(problem: &Problem) -> Split {
     for (k, u) in problem.space.unknowns.iter().enumerate() {
         match u.role {
             Role::Range | Role::Speed => s.nonlinear.push(k),
+            _ if super::tgr_cols::is_nonlinear(&problem.scene, u) => s.nonlinear.push(k),
             Role::Mass => {
                 if problem.scene.particles[u.slot - layout.mass_offset].fixed {
                     s.fixed_masses.push(k);

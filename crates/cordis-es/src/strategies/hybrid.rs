@@ -24,6 +24,7 @@ use cordis_core::forces::grid::Grid;
 use rayon::prelude::*;
 
 use super::exact::{self, ExactReport, OneShot, Solution, Spec, Weighting};
+use super::profile;
 use crate::problem::Problem;
 use crate::space::Role;
 
@@ -32,6 +33,9 @@ pub const MAX_CYCLES: usize = 6;
 /// Observed values kept per nonlinear unknown (more are subsampled evenly: the final
 /// interval is then wider than the data's resolution, and the report says so).
 pub const MAX_CANDIDATES: usize = 1 << 18;
+/// Profile-search tolerance (relative, internal coordinates) while the interval unknowns
+/// still move: their answer only needs the continuous ones roughly right.
+const LOOSE_TOL: f64 = 1e-4;
 
 /// The sorted distinct observed values of a nonlinear unknown inside its box: speeds of the
 /// nonlinear drag's particles, or distances of the conditional type's candidate pairs, at the
@@ -127,26 +131,44 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
     } else {
         Weighting::Position
     };
-    let dims: Vec<(usize, Vec<f64>, bool)> = split
+    let space = &problem.space;
+    // Continuous nonlinear unknowns (a TGR's K, its tendon): searched by a 1-D profile search
+    // (`profile`), in their internal coordinates; the others over observed intervals.
+    let (interval_dims, conts): (Vec<usize>, Vec<usize>) = split
         .nonlinear
+        .iter()
+        .partition(|&&k| matches!(space.unknowns[k].role, Role::Range | Role::Speed));
+    let dims: Vec<(usize, Vec<f64>, bool)> = interval_dims
         .iter()
         .map(|&k| {
             let (c, thinned) = candidates(problem, k);
             (k, c, thinned)
         })
         .collect();
-    let space = &problem.space;
-    let params_at = |at: &[usize]| {
+    // Internal coordinates of the continuous unknowns.
+    let mut vals: Vec<f64> = conts
+        .iter()
+        .map(|&k| {
+            let u = &space.unknowns[k];
+            let (lo, hi) = u.internal_bounds();
+            u.to_internal(space.base[u.slot]).clamp(lo, hi)
+        })
+        .collect();
+    let params_at = |at: &[usize], vals: &[f64]| {
         let mut p = space.base.clone();
         for ((k, c, _), &j) in dims.iter().zip(at) {
             let u = &space.unknowns[*k];
             let (lo, hi) = interval(c, u.min, u.max, j);
             p[u.slot] = 0.5 * (lo + hi);
         }
+        for (&k, &z) in conts.iter().zip(vals) {
+            let u = &space.unknowns[k];
+            p[u.slot] = u.from_internal(z);
+        }
         p
     };
-    let score = |at: &[usize]| -> f64 {
-        let p = params_at(at);
+    let score = |(at, vals): &(Vec<usize>, Vec<f64>)| -> f64 {
+        let p = params_at(at, vals);
         let system = exact::assemble(&problem.objective, &problem.scene, &cols, &p);
         let spec = Spec {
             problem,
@@ -160,22 +182,38 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
             _ => f64::INFINITY,
         }
     };
-    let mut cache: HashMap<Vec<usize>, f64> = HashMap::new();
+    type Point = (Vec<usize>, Vec<f64>);
+    let key = |(a, v): &Point| (a.clone(), v.iter().map(|x| x.to_bits()).collect::<Vec<_>>());
+    let mut cache: HashMap<(Vec<usize>, Vec<u64>), f64> = HashMap::new();
     let mut evals = 0u64;
-    let mut score_batch = |points: Vec<Vec<usize>>| -> Vec<f64> {
-        let todo: Vec<&Vec<usize>> = points.iter().filter(|a| !cache.contains_key(*a)).collect();
+    let mut score_batch = |points: Vec<Point>| -> Vec<f64> {
+        let todo: Vec<&Point> = points
+            .iter()
+            .filter(|a| !cache.contains_key(&key(a)))
+            .collect();
         evals += todo.len() as u64;
-        let scores: Vec<f64> = todo.par_iter().map(|a| score(a)).collect();
+        let scores: Vec<f64> = if todo.len() > 1 {
+            todo.par_iter().map(|a| score(a)).collect()
+        } else {
+            todo.iter().map(|a| score(a)).collect()
+        };
         for (a, v) in todo.into_iter().zip(scores) {
-            cache.insert(a.clone(), v);
+            cache.insert(key(a), v);
         }
-        points.iter().map(|a| cache[a]).collect()
+        points.iter().map(|a| cache[&key(a)]).collect()
     };
     // Start in the interval holding each unknown's starting value.
     let mut at: Vec<usize> = dims
         .iter()
         .map(|(k, c, _)| c.partition_point(|&v| v < space.base[space.unknowns[*k].slot]))
         .collect();
+    // Profile searches are loose while the intervals still move (the interval search only
+    // needs the continuous unknowns roughly right), tight once they stand still. The descent
+    // stops when an interval search at settled continuous values moves nothing (a full-box
+    // profile search depends only on the other unknowns, so one tight pass settles one
+    // continuous unknown; several must also stand still through a pass).
+    let mut tight = false;
+    let mut settled = conts.is_empty();
     for _ in 0..MAX_CYCLES {
         let before = at.clone();
         for d in 0..dims.len() {
@@ -187,22 +225,44 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
                     .map(|&j| {
                         let mut a = base.clone();
                         a[d] = j;
-                        a
+                        (a, vals.clone())
                     })
                     .collect();
                 score_batch(points)
             });
         }
-        if at == before {
+        let still = at == before;
+        if still && settled {
             break;
         }
+        tight |= still;
+        let tol = if tight { profile::TOL } else { LOOSE_TOL };
+        let vals_before = vals.clone();
+        for c in 0..conts.len() {
+            let u = &space.unknowns[conts[c]];
+            let (lo, hi) = u.internal_bounds();
+            let base = vals.clone();
+            vals[c] = profile::minimize(lo, hi, tol, |zs| {
+                let points = zs
+                    .iter()
+                    .map(|&z| {
+                        let mut v = base.clone();
+                        v[c] = z;
+                        (at.clone(), v)
+                    })
+                    .collect();
+                score_batch(points)
+            })
+            .0;
+        }
+        settled = tight && (conts.len() <= 1 || vals == vals_before);
     }
     problem.set_evals(problem.evals() + evals);
 
     let mut report = ExactReport::default();
     report.notes.push(format!(
         "variable projection: {evals} inner least-squares solves over {} nonlinear unknowns",
-        dims.len()
+        dims.len() + conts.len()
     ));
     for ((k, c, thinned), &j) in dims.iter().zip(&at) {
         let u = &space.unknowns[*k];
@@ -215,7 +275,17 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
             if *thinned { ", evenly subsampled" } else { "" }
         ));
     }
-    let p = params_at(&at);
+    for (&k, &z) in conts.iter().zip(&vals) {
+        let u = &space.unknowns[k];
+        report.notes.push(format!(
+            "{}: least profile cost at {:.12e} (1-D search over the box: {} grid points, then \
+             Brent)",
+            u.name,
+            u.from_internal(z),
+            profile::GRID
+        ));
+    }
+    let p = params_at(&at, &vals);
     let system = exact::assemble(&problem.objective, &problem.scene, &cols, &p);
     let (genome, cost) = exact::solve_linear(problem, &system, p, &split, &mut report)?;
     Ok(Solution {

@@ -10,5 +10,7 @@ pub mod least_squares;
 pub mod parisian;
 pub mod self_adaptive;
 pub mod thesis;
+mod tgr_cols;
+mod profile;
 
 pub use common::reflect;
