@@ -238,7 +238,7 @@ pub(crate) fn from_linear(lin: &LinearShortCost) -> System {
 }
 
 /// Parameter slot of a column's linear parameter: K, the rest parameter, Z (z1) or z2.
-fn slots(scene: &Scene, t: usize) -> (usize, usize, usize) {
+pub(crate) fn slots(scene: &Scene, t: usize) -> (usize, usize, usize) {
     let o = scene.param_layout().type_offsets[t];
     match scene.types[t].kind {
         LinkKind::Damper | LinkKind::Drag | LinkKind::NonlinearDrag => (o, o + 1, o),

@@ -3,6 +3,7 @@
 pub mod annealing;
 pub mod cmaes;
 mod common;
+mod design;
 pub mod exact;
 pub mod hybrid;
 pub mod islands;

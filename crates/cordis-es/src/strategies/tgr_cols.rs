@@ -12,11 +12,12 @@
 //! with `y(0) = y(-1) = 0` and `L`, `s` (length, m; elongation speed, m/s) observed, not
 //! predicted. For fixed K, m_t, K_t, Z_t this is a linear recursion in y driven by
 //! `S + K L` (known), `-K l0` and `Z s`, so `y = y₀ + l0 y_l + Z y_Z` with the three series of
-//! [`series`], and `f(n) = K (L - y₀) - l0 K (1 + y_l) + Z (s - K y_Z)` is affine in (l0, Z).
-//! The exact solvers do not build these series by hand: [`super::exact::assemble`] runs the
-//! cost's own TGR kernel on probe parameter vectors (l0 = 1; Z = 1; both 0), each with its own
-//! tendon driven along the observed frames, so the columns are the cost's arithmetic; the
-//! series are the proof that this is exact (tested below to 1e-12).
+//! [`Tendon`], and `f(n) = K (L - y₀) - l0 K (1 + y_l) + Z (s - K y_Z)` is affine in (l0, Z).
+//! [`super::exact::assemble`] runs the cost's own TGR kernel on probe parameter vectors
+//! (l0 = 1; Z = 1; both 0), each with its own tendon driven along the observed frames, so its
+//! columns are the cost's arithmetic; `hybrid`'s cached design ([`super::design`]) steps the
+//! three series directly (one pass per K instead of three). The series reproduce the cost's
+//! tendon to 1e-12 (tested below) and the two column builds agree (`design`'s test).
 
 use cordis_core::{LinkKind, Scene};
 
@@ -45,33 +46,58 @@ pub(crate) fn is_nonlinear(scene: &Scene, u: &Unknown) -> bool {
     !LINEAR.contains(&(u.slot - o))
 }
 
-/// The tendon's three series `(y₀, y_l, y_Z)(n)`, n = 0 … `l.len()` - 1 (m, m per m of l0,
-/// m per N·s/m of Z) into `out`, for stiffness `k` (N/m), tendon `(m_t, K_t, Z_t)`, time step
-/// `dt` (s), command `command(n)` = S(n dt) (N) and observed length `l` (m) and elongation
-/// speed `s` (m/s) per frame. Allocation-free.
-#[allow(dead_code)] // the reference the assembled columns are tested against
-pub(crate) fn series(
+/// One TGR instance's tendon as its three series `(y₀, y_l, y_Z)` (m, m per m of l0, m per
+/// N·s/m of Z), driven along the observed frames from `y(0) = y(-1) = 0`. Allocation-free.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Tendon {
     k: f64,
-    (mt, kt, zt): (f64, f64, f64),
+    /// dt²/m_t, s²/kg.
+    c: f64,
+    kt: f64,
+    zt: f64,
     dt: f64,
-    command: impl Fn(usize) -> f64,
-    l: &[f64],
-    s: &[f64],
-    out: &mut [[f64; 3]],
-) {
-    let c = dt * dt / mt;
-    let mut y = [0.0; 3];
-    let mut prev = [0.0; 3];
-    for n in 0..l.len() {
-        out[n] = y;
-        // Tension of each series: the S + K L drive goes to y₀, -K l0 to y_l, Z s to y_Z.
-        let drive = [command(n) + k * l[n], -k, s[n]];
-        for r in 0..3 {
-            let force = drive[r] - k * y[r] - kt * y[r] - zt * (y[r] - prev[r]) / dt;
-            let next = 2.0 * y[r] - prev[r] + c * force;
-            prev[r] = y[r];
-            y[r] = next;
+    y: [f64; 3],
+    prev: [f64; 3],
+}
+
+impl Tendon {
+    /// At rest, for stiffness `k` (N/m), tendon `(m_t, K_t, Z_t)` and time step `dt` (s).
+    pub fn new(k: f64, (mt, kt, zt): (f64, f64, f64), dt: f64) -> Self {
+        Tendon {
+            k,
+            c: dt * dt / mt,
+            kt,
+            zt,
+            dt,
+            y: [0.0; 3],
+            prev: [0.0; 3],
         }
+    }
+
+    /// The three series at the current frame.
+    #[allow(dead_code)] // read by the test that checks the series against the cost's tendon
+    pub fn y(&self) -> [f64; 3] {
+        self.y
+    }
+
+    /// The tensions of the three series at the current frame, observed length `l` (m) and
+    /// elongation speed `s` (m/s) — `f = T₀ + l0 T_l + Z T_Z` (N) — then one step on with the
+    /// command `command` = S(t_n) (N), which drives y₀ only.
+    pub fn step(&mut self, command: f64, l: f64, s: f64) -> [f64; 3] {
+        let k = self.k;
+        let t = [
+            k * (l - self.y[0]),
+            -k * (1.0 + self.y[1]),
+            s - k * self.y[2],
+        ];
+        let drive = [command, 0.0, 0.0];
+        for r in 0..3 {
+            let (y, prev) = (self.y[r], self.prev[r]);
+            let force = drive[r] + t[r] - self.kt * y - self.zt * (y - prev) / self.dt;
+            self.prev[r] = y;
+            self.y[r] = (2.0 * y - prev) + self.c * force;
+        }
+        t
     }
 }
 
@@ -112,7 +138,11 @@ mod tests {
         let signal = &scene.signals[0];
         let dt = scene.dt;
         let mut out = vec![[0.0; 3]; frames];
-        series(k, tendon, dt, |n| signal.value(n as f64 * dt), &l, &s, &mut out);
+        let mut tendon = Tendon::new(k, tendon, dt);
+        for n in 0..frames {
+            out[n] = tendon.y();
+            tendon.step(signal.value(n as f64 * dt), l[n], s[n]);
+        }
 
         let mut s_cost = obj.scratch();
         let mut state = vec![0.0; s_cost.hidden.len()];

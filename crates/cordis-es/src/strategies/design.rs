@@ -1,0 +1,351 @@
+//! `hybrid`'s cached design for the continuous searches (a TGR's K): the short cost's rows
+//! `[Φ | a]` kept column by column, each column recomputed only when a nonlinear parameter it
+//! depends on changes, then reduced to one small triangular factor per free particle.
+//!
+//! [`super::exact::assemble`] runs every force pass once per column and frame and rotates
+//! every row into a factor: ~250 µs per inner solve on the tadpole, ~150 solves per search. In a
+//! search only one nonlinear unknown moves at a time, and its columns have typed kernels:
+//!
+//! - a nonlinear drag's `(z1, z2)` at a given v_max: `-v_i` in the column of the regime
+//!   `|v_i| < v_max` selects (the kernel of `cordis_core::forces::nonlinear_drag`);
+//! - a TGR's `(l0, Z)` and the known part at a given K and tendon: the tensions of the three
+//!   tendon series of [`Tendon`] along the link's unit vector.
+//!
+//! Each solve then costs one column group's kernel, a Gram matrix per particle and its Cholesky
+//! factor (the normal equations: cheap, but they square the condition number). So the *score*
+//! of a candidate is not read from the factor: the inner solution is put back into the rows and
+//! the residual summed explicitly, which is exact up to `|Φ δθ|²` (δθ the solution's error),
+//! second order. The final answer is always solved again by the exact assembly and SVD.
+//!
+//! Applies when every column has a typed kernel ([`Design::new`] says `None` otherwise: the
+//! generic path is then used).
+
+use cordis_core::forces::unit_and_length;
+use cordis_core::{LinkKind, Scene, Vec3};
+use nalgebra::DMatrix;
+
+use super::exact::{self, Block, Col, System, Weighting};
+use super::tgr_cols::Tendon;
+use crate::cost::Objective;
+
+/// Rows `[Φ | a]` of every free particle, column by column.
+pub(crate) struct Design {
+    cols: Vec<Col>,
+    /// Free particles (one block each), and each particle's block.
+    free: Vec<usize>,
+    block_of: Vec<Option<usize>>,
+    /// Rows per block: 3 per predicted frame.
+    rows: usize,
+    /// `a` (m): `dt² g + 2x(t-1) - x(t-2) - x(t)`, `[block][row]`.
+    a: Vec<f64>,
+    /// Per column, `[block][row]` (m per unit of θ).
+    data: Vec<Vec<f64>>,
+    /// Per column: the parameter slots its values depend on, and their bits when computed.
+    deps: Vec<Vec<usize>>,
+    keys: Vec<Option<Vec<u64>>>,
+}
+
+impl Design {
+    /// The design of `cols` (from [`exact::generic_cols`]); `None` unless every column has a
+    /// typed kernel (nonlinear drags and TGRs only) and the scene has one clock.
+    pub fn new(obj: &Objective, scene: &Scene, cols: &[Col]) -> Option<Self> {
+        let plan = obj.plan();
+        if plan.worlds.is_some() {
+            return None;
+        }
+        let layout = scene.param_layout();
+        let tgr_deps = |t: usize| {
+            let o = layout.type_offsets[t];
+            vec![o, o + 3, o + 4, o + 5]
+        };
+        let mut deps = Vec::with_capacity(cols.len());
+        for c in cols {
+            deps.push(match *c {
+                Col::Z(t) | Col::Z2(t) if scene.types[t].kind == LinkKind::NonlinearDrag => {
+                    vec![layout.type_offsets[t] + 2]
+                }
+                Col::Z(t) | Col::Rest(t) if scene.types[t].kind == LinkKind::Tgr => tgr_deps(t),
+                Col::Known => (0..scene.types.len())
+                    .filter(|&t| scene.types[t].kind == LinkKind::Tgr)
+                    .flat_map(tgr_deps)
+                    .collect(),
+                _ => return None,
+            });
+        }
+        let free = obj.free.clone();
+        let mut block_of = vec![None; plan.n];
+        for (b, &i) in free.iter().enumerate() {
+            block_of[i] = Some(b);
+        }
+        let frames = obj.obs.frames;
+        let rows = 3 * frames.saturating_sub(2);
+        let dt2 = plan.dt * plan.dt;
+        // Gravity is always known: the scene's value.
+        let (_, g) = obj.masses_gravity(&scene.param_values());
+        let mut a = vec![0.0; free.len() * rows];
+        for t in 2..frames {
+            let (x1, x2, x0) = (obj.obs.frame(t - 1), obj.obs.frame(t - 2), obj.obs.frame(t));
+            for (b, &i) in free.iter().enumerate() {
+                let d = (x1[i] * 2.0 - x2[i]) - x0[i];
+                for r in 0..3 {
+                    a[b * rows + 3 * (t - 2) + r] = dt2 * g[r] + d[r];
+                }
+            }
+        }
+        Some(Design {
+            cols: cols.to_vec(),
+            free,
+            block_of,
+            rows,
+            a,
+            data: vec![vec![0.0; 0]; cols.len()],
+            keys: vec![None; cols.len()],
+            deps,
+        })
+    }
+
+    /// Recomputes the columns whose nonlinear parameters in `p` changed.
+    pub fn update(&mut self, obj: &Objective, scene: &Scene, p: &[f64]) {
+        let len = self.free.len() * self.rows;
+        let mut stale = vec![false; self.cols.len()];
+        for (k, deps) in self.deps.iter().enumerate() {
+            let key: Vec<u64> = deps.iter().map(|&s| p[s].to_bits()).collect();
+            if self.keys[k].as_ref() != Some(&key) {
+                stale[k] = true;
+                self.keys[k] = Some(key);
+                self.data[k].clear();
+                self.data[k].resize(len, 0.0);
+            }
+        }
+        let layout = scene.param_layout();
+        let plan = obj.plan();
+        let dt = plan.dt;
+        let dt2 = dt * dt;
+        let frames = obj.obs.frames;
+        let rows = self.rows;
+        let at = |b: usize, t: usize, r: usize| b * rows + 3 * (t - 2) + r;
+        let col_of = |c: Col| self.cols.iter().position(|&x| x == c);
+        for (t, ty) in scene.types.iter().enumerate() {
+            let o = layout.type_offsets[t];
+            match ty.kind {
+                LinkKind::NonlinearDrag => {
+                    let (Some(k1), Some(k2)) = (col_of(Col::Z(t)), col_of(Col::Z2(t))) else {
+                        continue;
+                    };
+                    if !stale[k1] && !stale[k2] {
+                        continue;
+                    }
+                    let v_max = p[o + 2];
+                    let drags = &plan.nonlinear_drags;
+                    for run in drags.runs.iter().filter(|r| r.param == o) {
+                        for &i in &drags.particles[run.start..run.end] {
+                            let Some(b) = self.block_of[i as usize] else {
+                                continue;
+                            };
+                            for tt in 2..frames {
+                                let v = obj.obs.velocity(tt - 1)[i as usize];
+                                let k = if v.norm() < v_max { k1 } else { k2 };
+                                for r in 0..3 {
+                                    self.data[k][at(b, tt, r)] -= dt2 * v[r];
+                                }
+                            }
+                        }
+                    }
+                }
+                LinkKind::Tgr => {
+                    let (Some(kl), Some(kz)) = (col_of(Col::Rest(t)), col_of(Col::Z(t))) else {
+                        continue;
+                    };
+                    let known = col_of(Col::Known);
+                    let known_stale = known.is_some_and(|k| stale[k]);
+                    if !stale[kl] && !stale[kz] && !known_stale {
+                        continue;
+                    }
+                    let tgrs = &plan.stateful.tgrs;
+                    let signals = &plan.stateful.signals;
+                    for (run, &sg) in tgrs.runs.iter().zip(&tgrs.signals) {
+                        if run.param != o {
+                            continue;
+                        }
+                        for &[i, j] in &tgrs.pairs[run.start..run.end] {
+                            let (i, j) = (i as usize, j as usize);
+                            let mut tendon =
+                                Tendon::new(p[o], (p[o + 3], p[o + 4], p[o + 5]), dt);
+                            for n in 0..frames - 1 {
+                                let (x, v) = (obj.obs.frame(n), obj.obs.velocity(n));
+                                let (u, l) = unit_and_length(&(x[j] - x[i]));
+                                let s = (v[j] - v[i]).dot(&u);
+                                let tension = tendon.step(signals[sg].value(n as f64 * dt), l, s);
+                                if n == 0 {
+                                    continue; // frame 0's forces predict no frame
+                                }
+                                let targets = [(known, tension[0]), (Some(kl), tension[1]), (Some(kz), tension[2])];
+                                for (k, tv) in targets {
+                                    let Some(k) = k.filter(|&k| stale[k]) else {
+                                        continue;
+                                    };
+                                    let f: Vec3 = u * (dt2 * tv);
+                                    for (pp, sign) in [(i, 1.0), (j, -1.0)] {
+                                        if let Some(b) = self.block_of[pp] {
+                                            for r in 0..3 {
+                                                self.data[k][at(b, n + 1, r)] += sign * f[r];
+                                            }
+                                        }
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+
+    /// The system of the current columns: per free particle, the Cholesky factor of the Gram
+    /// matrix of `[Φ | a]` (semi-definite: a pivot that vanishes gives a zero row).
+    pub fn system(&self) -> System {
+        let nc = self.cols.len();
+        let n = nc + 1;
+        let rows = self.rows;
+        let mut blocks = Vec::with_capacity(self.free.len());
+        let mut g = vec![0.0; n * n];
+        for (b, &i) in self.free.iter().enumerate() {
+            g.fill(0.0);
+            let col = |k: usize| -> &[f64] {
+                if k < nc {
+                    &self.data[k][b * rows..(b + 1) * rows]
+                } else {
+                    &self.a[b * rows..(b + 1) * rows]
+                }
+            };
+            for k in 0..n {
+                let ck = col(k);
+                for l in k..n {
+                    g[k * n + l] = ck.iter().zip(col(l)).map(|(x, y)| x * y).sum();
+                }
+            }
+            let mut r = DMatrix::zeros(n, n);
+            for k in 0..n {
+                let mut d = g[k * n + k];
+                for m in 0..k {
+                    d -= r[(m, k)] * r[(m, k)];
+                }
+                if !(d > 1e-13 * g[k * n + k]) {
+                    continue; // dependent (or empty) column: a zero row
+                }
+                let dk = d.sqrt();
+                r[(k, k)] = dk;
+                for l in k + 1..n {
+                    let mut v = g[k * n + l];
+                    for m in 0..k {
+                        v -= r[(m, k)] * r[(m, l)];
+                    }
+                    r[(k, l)] = v / dk;
+                }
+            }
+            blocks.push(Block {
+                particle: Some(i),
+                rows: r,
+            });
+        }
+        System {
+            cols: self.cols.clone(),
+            blocks,
+        }
+    }
+
+    /// The cost of the full parameter vector `p` in `weighting`, summed row by row.
+    pub fn residual(&self, scene: &Scene, p: &[f64], weighting: Weighting) -> f64 {
+        let theta: Vec<f64> = self.cols.iter().map(|&c| theta(scene, c, p)).collect();
+        let mass_offset = scene.param_layout().mass_offset;
+        let rows = self.rows;
+        let mut sum = 0.0;
+        for (b, &i) in self.free.iter().enumerate() {
+            let m = p[mass_offset + i];
+            let (scale, ma) = match weighting {
+                Weighting::Position => (1.0 / m, 1.0),
+                Weighting::Force => (1.0, m),
+            };
+            for row in b * rows..(b + 1) * rows {
+                let mut f = 0.0;
+                for (d, th) in self.data.iter().zip(&theta) {
+                    f += d[row] * th;
+                }
+                let e = scale * f + ma * self.a[row];
+                sum += e * e;
+            }
+        }
+        if sum.is_finite() {
+            sum
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// θ of column `c` in the full parameter vector `p`.
+fn theta(scene: &Scene, c: Col, p: &[f64]) -> f64 {
+    let s = |t| exact::slots(scene, t);
+    match c {
+        Col::K(t) => p[s(t).0],
+        Col::KRest(t) => p[s(t).0] * p[s(t).1],
+        Col::Z(t) => p[s(t).2],
+        Col::Z2(t) | Col::Rest(t) => p[s(t).1],
+        Col::G(axis) => p[scene.param_layout().gravity_offset + axis],
+        Col::Known => 1.0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cost::CostKind;
+    use crate::problem::Problem;
+    use cordis_core::examples::tadpole;
+
+    /// The typed columns are the generic assembly's: at any θ the sum of squares of the rows
+    /// agrees with the assembled factor's, and the Cholesky factor's.
+    #[test]
+    fn typed_columns_reproduce_the_generic_assembly() {
+        let truth = tadpole();
+        let traj = truth.simulate(100).unwrap();
+        let problem = Problem::new(&truth, &traj, CostKind::Short).unwrap();
+        let obj = &problem.objective;
+        let cols = exact::generic_cols(&truth).unwrap();
+        let mut design = Design::new(obj, &truth, &cols).expect("typed columns only");
+        let mut p = truth.param_values();
+        // Off the truth: another K (the tendon's series change) and another v_max.
+        let o = truth.param_layout().type_offsets[1];
+        p[o] = 13.0;
+        p[truth.param_layout().type_offsets[0] + 2] = 0.3;
+        design.update(obj, &truth, &p);
+        let exact_sys = exact::assemble(obj, &truth, &cols, &p);
+        let chol = design.system();
+        let sq = |sys: &System, theta: &[f64]| -> f64 {
+            sys.blocks
+                .iter()
+                .map(|b| {
+                    let m = truth.particles[b.particle.unwrap()].mass.value();
+                    let mut x: Vec<f64> = theta.to_vec();
+                    x.push(m);
+                    (&b.rows * nalgebra::DVector::from_vec(x)).norm_squared() / (m * m)
+                })
+                .sum()
+        };
+        let w = truth.param_layout().type_offsets[0];
+        for theta in [[0.1, 1.0, 1.0, 0.0, 1.0], [0.3, 0.2, 0.7, 0.4, 1.0]] {
+            let mut q = p.clone();
+            q[w] = theta[0];
+            q[w + 1] = theta[1];
+            q[o + 1] = theta[2];
+            q[o + 2] = theta[3];
+            let direct = design.residual(&truth, &q, Weighting::Position);
+            let assembled = sq(&exact_sys, &theta);
+            let factored = sq(&chol, &theta);
+            assert!(direct > 0.0);
+            approx::assert_relative_eq!(direct, assembled, max_relative = 1e-10);
+            approx::assert_relative_eq!(direct, factored, max_relative = 1e-6);
+        }
+    }
+}
