@@ -29,6 +29,7 @@ use super::tgr_cols::Tendon;
 use crate::cost::Objective;
 
 /// Rows `[Φ | a]` of every free particle, column by column.
+#[derive(Clone, Debug)]
 pub(crate) struct Design {
     cols: Vec<Col>,
     /// Free particles (one block each), and each particle's block.
@@ -36,10 +37,9 @@ pub(crate) struct Design {
     block_of: Vec<Option<usize>>,
     /// Rows per block: 3 per predicted frame.
     rows: usize,
-    /// `a` (m): `dt² g + 2x(t-1) - x(t-2) - x(t)`, `[block][row]`.
-    a: Vec<f64>,
-    /// Per column, `[block][row]` (m per unit of θ).
-    data: Vec<Vec<f64>>,
+    /// `[block][row][column]`, row-major, `cols.len() + 1` wide: Φ (m per unit of θ), then
+    /// `a = dt² g + 2x(t-1) - x(t-2) - x(t)` (m).
+    data: Vec<f64>,
     /// Per column: the parameter slots its values depend on, and their bits when computed.
     deps: Vec<Vec<usize>>,
     keys: Vec<Option<Vec<u64>>>,
@@ -82,13 +82,14 @@ impl Design {
         let dt2 = plan.dt * plan.dt;
         // Gravity is always known: the scene's value.
         let (_, g) = obj.masses_gravity(&scene.param_values());
-        let mut a = vec![0.0; free.len() * rows];
+        let n = cols.len() + 1;
+        let mut data = vec![0.0; free.len() * rows * n];
         for t in 2..frames {
             let (x1, x2, x0) = (obj.obs.frame(t - 1), obj.obs.frame(t - 2), obj.obs.frame(t));
             for (b, &i) in free.iter().enumerate() {
                 let d = (x1[i] * 2.0 - x2[i]) - x0[i];
                 for r in 0..3 {
-                    a[b * rows + 3 * (t - 2) + r] = dt2 * g[r] + d[r];
+                    data[(b * rows + 3 * (t - 2) + r) * n + n - 1] = dt2 * g[r] + d[r];
                 }
             }
         }
@@ -97,8 +98,7 @@ impl Design {
             free,
             block_of,
             rows,
-            a,
-            data: vec![vec![0.0; 0]; cols.len()],
+            data,
             keys: vec![None; cols.len()],
             deps,
         })
@@ -106,15 +106,16 @@ impl Design {
 
     /// Recomputes the columns whose nonlinear parameters in `p` changed.
     pub fn update(&mut self, obj: &Objective, scene: &Scene, p: &[f64]) {
-        let len = self.free.len() * self.rows;
+        let n = self.cols.len() + 1;
         let mut stale = vec![false; self.cols.len()];
         for (k, deps) in self.deps.iter().enumerate() {
             let key: Vec<u64> = deps.iter().map(|&s| p[s].to_bits()).collect();
             if self.keys[k].as_ref() != Some(&key) {
                 stale[k] = true;
                 self.keys[k] = Some(key);
-                self.data[k].clear();
-                self.data[k].resize(len, 0.0);
+                for row in self.data.chunks_exact_mut(n) {
+                    row[k] = 0.0;
+                }
             }
         }
         let layout = scene.param_layout();
@@ -123,7 +124,7 @@ impl Design {
         let dt2 = dt * dt;
         let frames = obj.obs.frames;
         let rows = self.rows;
-        let at = |b: usize, t: usize, r: usize| b * rows + 3 * (t - 2) + r;
+        let at = |k: usize, b: usize, t: usize, r: usize| (b * rows + 3 * (t - 2) + r) * n + k;
         let col_of = |c: Col| self.cols.iter().position(|&x| x == c);
         for (t, ty) in scene.types.iter().enumerate() {
             let o = layout.type_offsets[t];
@@ -146,7 +147,7 @@ impl Design {
                                 let v = obj.obs.velocity(tt - 1)[i as usize];
                                 let k = if v.norm() < v_max { k1 } else { k2 };
                                 for r in 0..3 {
-                                    self.data[k][at(b, tt, r)] -= dt2 * v[r];
+                                    self.data[at(k, b, tt, r)] -= dt2 * v[r];
                                 }
                             }
                         }
@@ -171,12 +172,13 @@ impl Design {
                             let (i, j) = (i as usize, j as usize);
                             let mut tendon =
                                 Tendon::new(p[o], (p[o + 3], p[o + 4], p[o + 5]), dt);
-                            for n in 0..frames - 1 {
-                                let (x, v) = (obj.obs.frame(n), obj.obs.velocity(n));
+                            for fr in 0..frames - 1 {
+                                let (x, v) = (obj.obs.frame(fr), obj.obs.velocity(fr));
                                 let (u, l) = unit_and_length(&(x[j] - x[i]));
                                 let s = (v[j] - v[i]).dot(&u);
-                                let tension = tendon.step(signals[sg].value(n as f64 * dt), l, s);
-                                if n == 0 {
+                                let command = signals[sg].value(fr as f64 * dt);
+                                let tension = tendon.step(command, l, s);
+                                if fr == 0 {
                                     continue; // frame 0's forces predict no frame
                                 }
                                 let targets = [(known, tension[0]), (Some(kl), tension[1]), (Some(kz), tension[2])];
@@ -188,7 +190,7 @@ impl Design {
                                     for (pp, sign) in [(i, 1.0), (j, -1.0)] {
                                         if let Some(b) = self.block_of[pp] {
                                             for r in 0..3 {
-                                                self.data[k][at(b, n + 1, r)] += sign * f[r];
+                                                self.data[at(k, b, fr + 1, r)] += sign * f[r];
                                             }
                                         }
                                     }
@@ -203,26 +205,27 @@ impl Design {
     }
 
     /// The system of the current columns: per free particle, the Cholesky factor of the Gram
-    /// matrix of `[Φ | a]` (semi-definite: a pivot that vanishes gives a zero row).
+    /// matrix of `[Φ | a]` (semi-definite: a pivot that vanishes gives a zero row). Rows that
+    /// are all zero (an axis the motion never uses) are skipped.
     pub fn system(&self) -> System {
-        let nc = self.cols.len();
-        let n = nc + 1;
-        let rows = self.rows;
+        let n = self.cols.len() + 1;
         let mut blocks = Vec::with_capacity(self.free.len());
         let mut g = vec![0.0; n * n];
         for (b, &i) in self.free.iter().enumerate() {
             g.fill(0.0);
-            let col = |k: usize| -> &[f64] {
-                if k < nc {
-                    &self.data[k][b * rows..(b + 1) * rows]
-                } else {
-                    &self.a[b * rows..(b + 1) * rows]
+            let block = &self.data[b * self.rows * n..(b + 1) * self.rows * n];
+            for row in block.chunks_exact(n) {
+                if row.iter().all(|&v| v == 0.0) {
+                    continue;
                 }
-            };
-            for k in 0..n {
-                let ck = col(k);
-                for l in k..n {
-                    g[k * n + l] = ck.iter().zip(col(l)).map(|(x, y)| x * y).sum();
+                for k in 0..n {
+                    let rk = row[k];
+                    if rk == 0.0 {
+                        continue;
+                    }
+                    for (gl, rl) in g[k * n + k..(k + 1) * n].iter_mut().zip(&row[k..]) {
+                        *gl += rk * rl;
+                    }
                 }
             }
             let mut r = DMatrix::zeros(n, n);
@@ -259,7 +262,7 @@ impl Design {
     pub fn residual(&self, scene: &Scene, p: &[f64], weighting: Weighting) -> f64 {
         let theta: Vec<f64> = self.cols.iter().map(|&c| theta(scene, c, p)).collect();
         let mass_offset = scene.param_layout().mass_offset;
-        let rows = self.rows;
+        let n = self.cols.len() + 1;
         let mut sum = 0.0;
         for (b, &i) in self.free.iter().enumerate() {
             let m = p[mass_offset + i];
@@ -267,12 +270,10 @@ impl Design {
                 Weighting::Position => (1.0 / m, 1.0),
                 Weighting::Force => (1.0, m),
             };
-            for row in b * rows..(b + 1) * rows {
-                let mut f = 0.0;
-                for (d, th) in self.data.iter().zip(&theta) {
-                    f += d[row] * th;
-                }
-                let e = scale * f + ma * self.a[row];
+            let block = &self.data[b * self.rows * n..(b + 1) * self.rows * n];
+            for row in block.chunks_exact(n) {
+                let f: f64 = row.iter().zip(&theta).map(|(d, th)| d * th).sum();
+                let e = scale * f + ma * row[n - 1];
                 sum += e * e;
             }
         }

@@ -34,9 +34,6 @@ pub const MAX_CYCLES: usize = 6;
 /// Observed values kept per nonlinear unknown (more are subsampled evenly: the final
 /// interval is then wider than the data's resolution, and the report says so).
 pub const MAX_CANDIDATES: usize = 1 << 18;
-/// Profile-search tolerance (relative, internal coordinates) while the interval unknowns
-/// still move: their answer only needs the continuous ones roughly right.
-const LOOSE_TOL: f64 = 1e-4;
 
 /// The sorted distinct observed values of a nonlinear unknown inside its box: speeds of the
 /// nonlinear drag's particles, or distances of the conditional type's candidate pairs, at the
@@ -231,12 +228,10 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
         .iter()
         .map(|(k, c, _)| c.partition_point(|&v| v < space.base[space.unknowns[*k].slot]))
         .collect();
-    // Profile searches are loose while the intervals still move (the interval search only
-    // needs the continuous unknowns roughly right), tight once they stand still. The descent
-    // stops when an interval search at settled continuous values moves nothing (a full-box
-    // profile search depends only on the other unknowns, so one tight pass settles one
-    // continuous unknown; several must also stand still through a pass).
-    let mut tight = false;
+    // The descent stops when an interval search at settled continuous values moves nothing:
+    // a full-box profile search depends only on the other unknowns, so one pass settles one
+    // continuous unknown (several must also stand still through a pass). A repeated profile
+    // search at unchanged intervals finds its grid in the cache: only Brent's steps cost.
     let mut settled = conts.is_empty();
     for _ in 0..MAX_CYCLES {
         let before = at.clone();
@@ -259,14 +254,12 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
         if still && settled {
             break;
         }
-        tight |= still;
-        let tol = if tight { profile::TOL } else { LOOSE_TOL };
         let vals_before = vals.clone();
         for c in 0..conts.len() {
             let u = &space.unknowns[conts[c]];
             let (lo, hi) = u.internal_bounds();
             let base = vals.clone();
-            vals[c] = profile::minimize(lo, hi, tol, |zs| {
+            vals[c] = profile::minimize(lo, hi, profile::TOL, |zs| {
                 let points = zs
                     .iter()
                     .map(|&z| {
@@ -279,7 +272,7 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
             })
             .0;
         }
-        settled = tight && (conts.len() <= 1 || vals == vals_before);
+        settled = conts.len() <= 1 || vals == vals_before;
     }
     problem.set_evals(problem.evals() + evals);
 
