@@ -43,6 +43,18 @@ pub(crate) struct Design {
     /// Per column: the parameter slots its values depend on, and their bits when computed.
     deps: Vec<Vec<usize>>,
     keys: Vec<Option<Vec<u64>>>,
+    /// Every TGR instance with what its tendon reads at each frame 0 … T-2, which no
+    /// parameter changes.
+    tgrs: Vec<TgrInstance>,
+}
+
+/// A TGR instance: type, particles, and per frame the unit vector i→j, the length (m), the
+/// elongation speed (m/s) and the command S(t_n) (N).
+#[derive(Clone, Debug)]
+struct TgrInstance {
+    type_index: usize,
+    pair: [usize; 2],
+    frames: Vec<(Vec3, f64, f64, f64)>,
 }
 
 impl Design {
@@ -93,7 +105,32 @@ impl Design {
                 }
             }
         }
+        let stateful = &plan.stateful;
+        let mut tgrs = Vec::new();
+        for (run, &sg) in stateful.tgrs.runs.iter().zip(&stateful.tgrs.signals) {
+            let Some(t) = (0..scene.types.len()).find(|&t| layout.type_offsets[t] == run.param)
+            else {
+                continue;
+            };
+            for &[i, j] in &stateful.tgrs.pairs[run.start..run.end] {
+                let (i, j) = (i as usize, j as usize);
+                let per = (0..frames.saturating_sub(1))
+                    .map(|fr| {
+                        let (x, v) = (obj.obs.frame(fr), obj.obs.velocity(fr));
+                        let (u, l) = unit_and_length(&(x[j] - x[i]));
+                        let command = stateful.signals[sg].value(fr as f64 * plan.dt);
+                        (u, l, (v[j] - v[i]).dot(&u), command)
+                    })
+                    .collect();
+                tgrs.push(TgrInstance {
+                    type_index: t,
+                    pair: [i, j],
+                    frames: per,
+                });
+            }
+        }
         Some(Design {
+            tgrs,
             cols: cols.to_vec(),
             free,
             block_of,
@@ -162,36 +199,28 @@ impl Design {
                     if !stale[kl] && !stale[kz] && !known_stale {
                         continue;
                     }
-                    let tgrs = &plan.stateful.tgrs;
-                    let signals = &plan.stateful.signals;
-                    for (run, &sg) in tgrs.runs.iter().zip(&tgrs.signals) {
-                        if run.param != o {
-                            continue;
-                        }
-                        for &[i, j] in &tgrs.pairs[run.start..run.end] {
-                            let (i, j) = (i as usize, j as usize);
-                            let mut tendon =
-                                Tendon::new(p[o], (p[o + 3], p[o + 4], p[o + 5]), dt);
-                            for fr in 0..frames - 1 {
-                                let (x, v) = (obj.obs.frame(fr), obj.obs.velocity(fr));
-                                let (u, l) = unit_and_length(&(x[j] - x[i]));
-                                let s = (v[j] - v[i]).dot(&u);
-                                let command = signals[sg].value(fr as f64 * dt);
-                                let tension = tendon.step(command, l, s);
-                                if fr == 0 {
-                                    continue; // frame 0's forces predict no frame
-                                }
-                                let targets = [(known, tension[0]), (Some(kl), tension[1]), (Some(kz), tension[2])];
-                                for (k, tv) in targets {
-                                    let Some(k) = k.filter(|&k| stale[k]) else {
-                                        continue;
-                                    };
-                                    let f: Vec3 = u * (dt2 * tv);
-                                    for (pp, sign) in [(i, 1.0), (j, -1.0)] {
-                                        if let Some(b) = self.block_of[pp] {
-                                            for r in 0..3 {
-                                                self.data[at(k, b, fr + 1, r)] += sign * f[r];
-                                            }
+                    for inst in self.tgrs.iter().filter(|g| g.type_index == t) {
+                        let [i, j] = inst.pair;
+                        let mut tendon = Tendon::new(p[o], (p[o + 3], p[o + 4], p[o + 5]), dt);
+                        for (fr, &(u, l, s, command)) in inst.frames.iter().enumerate() {
+                            let tension = tendon.step(command, l, s);
+                            if fr == 0 {
+                                continue; // frame 0's forces predict no frame
+                            }
+                            let targets = [
+                                (known, tension[0]),
+                                (Some(kl), tension[1]),
+                                (Some(kz), tension[2]),
+                            ];
+                            for (k, tv) in targets {
+                                let Some(k) = k.filter(|&k| stale[k]) else {
+                                    continue;
+                                };
+                                let f: Vec3 = u * (dt2 * tv);
+                                for (pp, sign) in [(i, 1.0), (j, -1.0)] {
+                                    if let Some(b) = self.block_of[pp] {
+                                        for r in 0..3 {
+                                            self.data[at(k, b, fr + 1, r)] += sign * f[r];
                                         }
                                     }
                                 }
