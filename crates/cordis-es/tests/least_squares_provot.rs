@@ -129,7 +129,10 @@ fn bench_cloth_drops_nothing() {
 
 /// A pendulum on a limited spring (always at its limit: a rod) beside a free spring: the
 /// rod's rows all carry the limit, so its K and l0 are reported undetermined, not fitted by a
-/// stiff spring; the free spring is still identified.
+/// stiff spring; the free spring is still identified. The boxes are 1e6 wide so that a stiff
+/// spring fits the rod's rows (measured: without the observed-length start, nothing is
+/// dropped, no warning, and the kept rows' rms residual is 1.6e-5 m): the iteration alone
+/// would not find them.
 #[test]
 fn a_type_always_at_its_limit_is_reported_undetermined() {
     let mut truth = Scene::new(0.002);
@@ -154,7 +157,7 @@ fn a_type_always_at_its_limit_is_reported_undetermined() {
     truth.add_link("coil", &[top, weight]);
     let frames = 200;
     assert!(limit_acts(&truth, frames));
-    let unknown = with_unknown_boxes(&truth, 25.0, 3);
+    let unknown = with_unknown_boxes(&truth, 1e6, 3);
     let (problem, sol, _) = run(&truth, &unknown, frames, least_squares::solve);
     eprintln!("{:#?}", sol.report);
     let rows = sol.report.provot.clone().unwrap();
