@@ -8,8 +8,9 @@
 //! lengths (the limit is `(1 + τ) l0`), so the set is found by iteration on a **mask** of
 //! dropped rows:
 //!
-//! 1. start from every row but those the observation alone points at ([`at_limit`]: springs
-//!    that sit at their type's longest observed length at several frames);
+//! 1. start from every row but those the observation alone points at (`at_limit`: springs
+//!    that sit at their type's longest observed length at several frames; without it a rod
+//!    always at its limit, in a wide box, is silently fitted as a stiff spring);
 //! 2. solve the weighted linear least squares on the other rows ([`super::exact`]);
 //! 3. with that estimate, predict every frame from the observed frames before it and run the
 //!    Provot pass on the prediction with every limit shortened by [`MARGIN`], marking each
