@@ -284,6 +284,7 @@ impl Design {
         System {
             cols: self.cols.clone(),
             blocks,
+            partial: false,
         }
     }
 

@@ -9,6 +9,7 @@ pub mod hybrid;
 pub mod islands;
 pub mod least_squares;
 pub mod parisian;
+pub mod provot_rows;
 pub mod self_adaptive;
 pub mod thesis;
 mod tgr_cols;
