@@ -18,6 +18,14 @@
 //! landscape with several separate basins can trap the grid in the wrong one; this has not
 //! been seen on driven scenes, where misclassified samples grow steadily away from the truth.
 //!
+//! **Continuous unknowns** — a TGR's K and tendon parameters ([`super::tgr_cols`]: at a fixed K
+//! the TGR's force is affine in l0 and Z) — are searched by a 1-D profile search over the box
+//! ([`super::profile`]: coarse grid, then Brent) as further coordinates of the same descent,
+//! which stops when an interval search at the settled continuous values moves nothing. When
+//! every column has a typed kernel the inner solves use the cached design of
+//! [`super::design`] (serial, ~15 µs each on the tadpole); the final answer is always solved by
+//! the generic assembly.
+//!
 //! With Provot limits the inner solve is [`super::provot_rows`]'s iteration, and candidates are
 //! compared by the problem's own cost (each one drops its own rows, so the inner minima are
 //! sums over different rows).
