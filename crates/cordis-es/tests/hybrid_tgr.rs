@@ -75,7 +75,10 @@ fn hybrid_recovers_table_6_1_to_rounding_from_100_frames() {
                 assert!(pct < 1e-6, "seed {seed}: {} = {got}, truth {t}", u.name);
             }
         }
-        assert!(mean < 1.81, "seed {seed}: mean error {mean} % (Table 6.1: 1.81 %)");
+        assert!(
+            mean < 1.81,
+            "seed {seed}: mean error {mean} % (Table 6.1: 1.81 %)"
+        );
     }
 }
 
@@ -131,4 +134,57 @@ fn least_squares_solves_l0_and_the_medium_through_a_known_tgr() {
         assert!(err < 1e-8, "{} = {got}, truth {t}", u.name);
     }
     assert!(sol.cost < 1e-20, "noiseless data fit exactly: {}", sol.cost);
+}
+
+/// Two particles in a linear drag driven by a damped TGR with a damped, sprung tendon (no
+/// typed design: the generic assembly throughout): K searched, l0, Z and the drag solved.
+#[test]
+fn hybrid_solves_a_damped_tgr_through_the_generic_assembly() {
+    use cordis_core::{Bounds, LinkKind, LinkType, Particle, Shape, Signal};
+    let mut truth = Scene::new(0.01);
+    truth.add_particle(Particle::new(1.0, [0.0; 3]));
+    truth.add_particle(Particle::new(2.0, [1.1, 0.2, 0.0]));
+    truth.add_signal(Signal::new("cmd", Shape::Sawtooth, 3.0, 0.6).with_rise(0.8));
+    truth.add_type(LinkType::new("water", LinkKind::Drag).with("damping", 0.5));
+    truth.add_type(
+        LinkType::new("t", LinkKind::Tgr)
+            .with("stiffness", 20.0)
+            .with("rest_length", 1.0)
+            .with("damping", 0.3)
+            .with("tendon_mass", 0.05)
+            .with("tendon_stiffness", 10.0)
+            .with("tendon_damping", 0.5)
+            .with_signal("cmd"),
+    );
+    truth.add_link("water", &[0]);
+    truth.add_link("water", &[1]);
+    truth.add_coupling("t", &[0, 1]);
+    let traj = truth.simulate(150).unwrap();
+    let mut scene = truth.clone();
+    for (t, name, v) in [
+        (0, "damping", 0.5),
+        (1, "stiffness", 20.0),
+        (1, "rest_length", 1.0),
+        (1, "damping", 0.3),
+    ] {
+        let k = scene.types[t].kind.param_index(name).unwrap();
+        scene.types[t].params[k] = Param::Unknown(Bounds {
+            min: v / 7.0,
+            max: v * 4.0,
+            init: None,
+        });
+    }
+    let problem = Problem::new(&scene, &traj, CostKind::Short).unwrap();
+    let sol = hybrid::solve(&problem).unwrap();
+    assert!(sol.report.error.is_none() && sol.report.undetermined.is_empty());
+    let p = problem.space.values(&sol.genome);
+    let want = truth.param_values();
+    for (u, got) in problem.space.unknowns.iter().zip(&p) {
+        let t = want[u.slot];
+        assert!(
+            ((got - t) / t).abs() < 1e-8,
+            "{} = {got}, truth {t}",
+            u.name
+        );
+    }
 }

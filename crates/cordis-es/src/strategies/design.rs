@@ -263,7 +263,7 @@ impl Design {
                 for m in 0..k {
                     d -= r[(m, k)] * r[(m, k)];
                 }
-                if !(d > 1e-13 * g[k * n + k]) {
+                if d.is_nan() || d <= 1e-13 * g[k * n + k] {
                     continue; // dependent (or empty) column: a zero row
                 }
                 let dk = d.sqrt();

@@ -9,10 +9,10 @@ pub mod hybrid;
 pub mod islands;
 pub mod least_squares;
 pub mod parisian;
+mod profile;
 pub mod provot_rows;
 pub mod self_adaptive;
-pub mod thesis;
 mod tgr_cols;
-mod profile;
+pub mod thesis;
 
 pub use common::reflect;

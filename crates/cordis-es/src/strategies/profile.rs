@@ -28,7 +28,7 @@ pub(crate) fn minimize(
     tol: f64,
     mut f: impl FnMut(&[f64]) -> Vec<f64>,
 ) -> (f64, f64) {
-    if !(hi > lo) {
+    if hi.is_nan() || lo.is_nan() || hi <= lo {
         let v = f(&[lo])[0];
         return (lo, v);
     }

@@ -156,6 +156,9 @@ mod tests {
             obj.advance_hidden_observed(&p, n, &mut state, &mut s_cost.discard);
         }
         assert!(biggest > 0.05, "the tendon moved ({biggest} m)");
-        assert!(worst <= 1e-12, "series differ from the cost's tendon by {worst} m");
+        assert!(
+            worst <= 1e-12,
+            "series differ from the cost's tendon by {worst} m"
+        );
     }
 }
