@@ -15,7 +15,8 @@
 //! factor (the normal equations: cheap, but they square the condition number). So the *score*
 //! of a candidate is not read from the factor: the inner solution is put back into the rows and
 //! the residual summed explicitly, which is exact up to `|Φ δθ|²` (δθ the solution's error),
-//! second order. The final answer is always solved again by the exact assembly and SVD.
+//! second order. The final answer is solved from a Givens (orthogonal) factor of the same rows
+//! ([`Design::qr_system`]), as the generic assembly would, so its precision is the QR's.
 //!
 //! Applies when every column has a typed kernel ([`Design::new`] says `None` otherwise: the
 //! generic path is then used).
@@ -24,7 +25,7 @@ use cordis_core::forces::unit_and_length;
 use cordis_core::{LinkKind, Scene, Vec3};
 use nalgebra::DMatrix;
 
-use super::exact::{self, Block, Col, System, Weighting};
+use super::exact::{self, Block, Col, Factor, System, Weighting};
 use super::tgr_cols::Tendon;
 use crate::cost::Objective;
 
@@ -288,6 +289,35 @@ impl Design {
         }
     }
 
+    /// The system of the current columns by Givens rotations of the rows themselves, as
+    /// [`exact::assemble`] builds it: the condition number is not squared (the final solve).
+    pub fn qr_system(&self) -> System {
+        let n = self.cols.len() + 1;
+        let mut row = vec![0.0; n];
+        let blocks = self
+            .free
+            .iter()
+            .enumerate()
+            .map(|(b, &i)| {
+                let mut f = Factor::new(n);
+                let block = &self.data[b * self.rows * n..(b + 1) * self.rows * n];
+                for r in block.chunks_exact(n) {
+                    row.copy_from_slice(r);
+                    f.add_row(&mut row);
+                }
+                Block {
+                    particle: Some(i),
+                    rows: f.matrix(),
+                }
+            })
+            .collect();
+        System {
+            cols: self.cols.clone(),
+            blocks,
+            partial: false,
+        }
+    }
+
     /// The cost of the full parameter vector `p` in `weighting`, summed row by row.
     pub fn residual(&self, scene: &Scene, p: &[f64], weighting: Weighting) -> f64 {
         let theta: Vec<f64> = self.cols.iter().map(|&c| theta(scene, c, p)).collect();
@@ -374,6 +404,11 @@ mod tests {
             let direct = design.residual(&truth, &q, Weighting::Position);
             let assembled = sq(&exact_sys, &theta);
             let factored = sq(&chol, &theta);
+            approx::assert_relative_eq!(
+                direct,
+                sq(&design.qr_system(), &theta),
+                max_relative = 1e-10
+            );
             assert!(direct > 0.0);
             approx::assert_relative_eq!(direct, assembled, max_relative = 1e-10);
             approx::assert_relative_eq!(direct, factored, max_relative = 1e-6);

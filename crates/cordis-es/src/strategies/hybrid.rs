@@ -23,8 +23,8 @@
 //! ([`super::profile`]: coarse grid, then Brent) as further coordinates of the same descent,
 //! which stops when an interval search at the settled continuous values moves nothing. When
 //! every column has a typed kernel the inner solves use the cached design of
-//! [`super::design`] (serial, ~15 µs each on the tadpole); the final answer is always solved by
-//! the generic assembly.
+//! [`super::design`] (serial, ~15 µs each on the tadpole); the final answer is solved from an
+//! orthogonal (Givens) factor of the rows, never the normal equations.
 //!
 //! With Provot limits the inner solve is [`super::provot_rows`]'s iteration, and candidates are
 //! compared by the problem's own cost (each one drops its own rows, so the inner minima are
@@ -328,7 +328,15 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
     let (genome, cost) = if provot {
         provot_rows::solve(problem, &cols, p, &split, &mut report)?
     } else {
-        let system = exact::assemble(&problem.objective, &problem.scene, &cols, &p);
+        // The answer from an orthogonal factor of the rows (not the normal equations): the
+        // design's own rows when it has them, else the generic assembly.
+        let system = match &mut design {
+            Some(d) => {
+                d.update(&problem.objective, &problem.scene, &p);
+                d.qr_system()
+            }
+            None => exact::assemble(&problem.objective, &problem.scene, &cols, &p),
+        };
         exact::solve_linear(problem, &system, p, &split, &mut report)?
     };
     Ok(Solution {
