@@ -22,7 +22,7 @@ use crate::strategy::Strategy;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StrategyName {
     /// `least-squares` when every unknown enters the short cost linearly, `hybrid` when only
-    /// ranges and v_max do not, else `thesis`.
+    /// ranges, v_max and a TGR's stiffness and tendon do not, else `thesis`.
     Auto,
     Thesis,
     LeastSquares,

@@ -24,7 +24,7 @@ pub struct Args {
     trajectory: PathBuf,
     /// Strategy: auto | thesis | least-squares | hybrid | cmaes | self-adaptive | annealing |
     /// parisian. auto = least-squares when every unknown enters linearly, hybrid when only
-    /// ranges or v_max do not, else thesis.
+    /// ranges, v_max or a TGR's stiffness and tendon do not, else thesis.
     #[arg(long, default_value = "auto")]
     strategy: StrategyName,
     /// Stop after this many generations.

@@ -147,10 +147,13 @@ impl Design {
         let n = self.cols.len() + 1;
         let mut stale = vec![false; self.cols.len()];
         for (k, deps) in self.deps.iter().enumerate() {
-            let key: Vec<u64> = deps.iter().map(|&s| p[s].to_bits()).collect();
-            if self.keys[k].as_ref() != Some(&key) {
+            let key = deps.iter().map(|&s| p[s].to_bits());
+            if !self.keys[k]
+                .as_ref()
+                .is_some_and(|old| old.iter().copied().eq(key.clone()))
+            {
                 stale[k] = true;
-                self.keys[k] = Some(key);
+                self.keys[k] = Some(key.collect());
                 for row in self.data.chunks_exact_mut(n) {
                     row[k] = 0.0;
                 }
