@@ -13,7 +13,9 @@ use cordis_es::strategies::levenberg_marquardt::{LevenbergMarquardt, LmConfig};
 /// off-centre by `seed`.
 fn muscle(seed: u64) -> (Scene, Scene, Trajectory) {
     let truth = examples::muscle();
-    let traj = truth.simulate(examples::MUSCLE_FRAMES).expect("muscle simulates");
+    let traj = truth
+        .simulate(examples::MUSCLE_FRAMES)
+        .expect("muscle simulates");
     let unknown = with_unknown_boxes(&truth, 25.0, seed);
     (truth, unknown, traj)
 }
@@ -117,7 +119,11 @@ fn the_residuals_squared_sum_to_the_cost() {
             .residuals(&params, &mut s, &mut r)
             .expect("residuals");
         assert!(cost > 1e-12, "{name}: cost {cost:e}");
-        assert_eq!(from_r.to_bits(), cost.to_bits(), "{name}: same loop, same bits");
+        assert_eq!(
+            from_r.to_bits(),
+            cost.to_bits(),
+            "{name}: same loop, same bits"
+        );
         let sum: f64 = r.iter().map(|x| x * x).sum();
         approx::assert_relative_eq!(sum, cost, max_relative = 1e-12);
         // A wrong buffer is an error naming it, not a panic.

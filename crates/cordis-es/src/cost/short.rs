@@ -244,7 +244,12 @@ impl Objective {
         Ok(self.residuals_unchecked(p, s, out))
     }
 
-    pub(crate) fn residuals_unchecked(&self, p: &[f64], s: &mut CostScratch, out: &mut [f64]) -> f64 {
+    pub(crate) fn residuals_unchecked(
+        &self,
+        p: &[f64],
+        s: &mut CostScratch,
+        out: &mut [f64],
+    ) -> f64 {
         let mut per = std::mem::take(&mut s.per);
         per.fill(0.0);
         let (_, g) = self.masses_gravity(p);

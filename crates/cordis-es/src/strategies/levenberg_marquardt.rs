@@ -279,7 +279,11 @@ impl Lm {
             Phase::Jacobian => {
                 if !self.work.r_valid {
                     self.evaluate_point(f);
-                    if self.state.as_ref().is_some_and(|s| s.phase != Phase::Jacobian) {
+                    if self
+                        .state
+                        .as_ref()
+                        .is_some_and(|s| s.phase != Phase::Jacobian)
+                    {
                         return;
                     }
                 }
@@ -490,7 +494,7 @@ fn cholesky_free(
                 s -= l[p * k + r] * l[q * k + r];
             }
             if p == q {
-                if !(s > 0.0) || !s.is_finite() {
+                if s.is_nan() || s <= 0.0 || s.is_infinite() {
                     return false;
                 }
                 l[p * k + p] = s.sqrt();
@@ -531,7 +535,9 @@ pub struct LevenbergMarquardt {
 
 impl LevenbergMarquardt {
     pub fn new(config: LmConfig) -> Self {
-        LevenbergMarquardt { lm: Lm::new(config) }
+        LevenbergMarquardt {
+            lm: Lm::new(config),
+        }
     }
 
     /// Random restarts spent so far.
