@@ -27,7 +27,11 @@
 //!   `|J_jᵀ r| / (|J_j| |r|)` is at most `gtol`; also when the cost is 0, after
 //!   `max_iterations`, or when λ has grown beyond 1e20 (no descent left).
 //!
-//! The run starts at the centre of the internal box. A convergence at a cost above
+//! The run starts where every strategy of this crate starts (`common::start_genome`): rest
+//! lengths and cosines at their observed means, an unknown's `init` when it has one, otherwise
+//! the centre of its internal box. Measured on `cordis bench pareto` (noiseless), that start
+//! against the plain box centre: muscle 45 against 67 evaluations to 0.01 %, cloth 27 against
+//! 308 to 0.656 %. A convergence at a cost above
 //! `small · A`, where `A` is [`crate::cost::Objective::acceleration_cost`] (what a model with no
 //! force would miss), is taken for a local minimum: the next generation restarts from a point
 //! drawn uniformly in the internal box from [`crate::rng::stream`]`(seed, generation, 0)`, up
@@ -46,7 +50,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::common::{load_checked, NO_STATS};
+use super::common::{load_checked, start_genome, NO_STATS};
 use crate::problem::Problem;
 use crate::rng;
 use crate::strategy::{bits, lossless, GenerationStats, Strategy};
@@ -573,9 +577,9 @@ impl Strategy for LevenbergMarquardt {
 
     fn init(&mut self, problem: &Problem, _seed: u64) {
         let bounds = internal_bounds(problem);
-        let centre: Vec<f64> = bounds.iter().map(|&(lo, hi)| 0.5 * (lo + hi)).collect();
         let small = self.lm.config.small * problem.objective.acceleration_cost();
-        self.lm.start(&ProblemFn(problem), bounds, &centre, small);
+        self.lm
+            .start(&ProblemFn(problem), bounds, &start_genome(problem), small);
     }
 
     fn next_generation(&mut self, problem: &Problem, seed: u64, generation: u64) {
