@@ -42,6 +42,7 @@ use cordis_core::{LinkKind, Scene, Vec3};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
+use super::provot_rows::{ProvotRows, RowMask};
 use crate::cost::{CostKind, LinearShortCost, Objective, ThetaEntry};
 use crate::problem::Problem;
 use crate::space::Role;
@@ -84,6 +85,9 @@ pub(crate) struct Block {
 pub(crate) struct System {
     pub cols: Vec<Col>,
     pub blocks: Vec<Block>,
+    /// Some rows of the short cost are left out (Provot's, [`super::provot_rows`]): the
+    /// system's minimum is then not the cost.
+    pub partial: bool,
 }
 
 /// How force-space blocks enter the cost.
@@ -152,12 +156,6 @@ pub(crate) fn generic_cols(scene: &Scene) -> Result<Vec<Col>, String> {
     }
     let mut cols = Vec::new();
     for (t, ty) in scene.types.iter().enumerate() {
-        if ty.max_elongation.is_some() && scene.links.iter().any(|l| l.type_index == t) {
-            return Err(format!(
-                "types.{}: a max_elongation (Provot) limit makes the short cost nonlinear",
-                ty.name
-            ));
-        }
         match ty.kind {
             LinkKind::Spring | LinkKind::Anchor | LinkKind::Conditional => {
                 cols.extend([Col::K(t), Col::KRest(t), Col::Z(t)])
@@ -231,6 +229,7 @@ pub(crate) fn from_linear(lin: &LinearShortCost) -> System {
             particle: None,
             rows,
         }],
+        partial: false,
     }
 }
 
@@ -265,7 +264,19 @@ fn linear_slots(scene: &Scene) -> Vec<usize> {
 /// scene's own force passes run on a probe parameter vector (the column's parameter 1, every
 /// other linear one 0; `K·l0` as the difference of `K = 1, l0 = 1` and `K = 1, l0 = 0`), so
 /// the design is the cost's own arithmetic. Cost: (columns + 1) force passes per frame.
+/// Provot's pass is not applied: on a scene with a limit use [`assemble_masked`].
 pub(crate) fn assemble(obj: &Objective, scene: &Scene, cols: &[Col], p: &[f64]) -> System {
+    assemble_masked(obj, scene, cols, p, None)
+}
+
+/// [`assemble`] without the rows (frame, particle) that `dropped` marks.
+pub(crate) fn assemble_masked(
+    obj: &Objective,
+    scene: &Scene,
+    cols: &[Col],
+    p: &[f64],
+    dropped: Option<&RowMask>,
+) -> System {
     let plan = obj.plan();
     let n = plan.n;
     let nc = cols.len();
@@ -323,6 +334,9 @@ pub(crate) fn assemble(obj: &Objective, scene: &Scene, cols: &[Col], p: &[f64]) 
         }
         let (x1, x2, x0) = (obj.obs.frame(t - 1), obj.obs.frame(t - 2), obj.obs.frame(t));
         for (l, &i) in free.iter().enumerate() {
+            if dropped.is_some_and(|d| d.get(t, i)) {
+                continue;
+            }
             let b = (x1[i] * 2.0 - x2[i]) - x0[i];
             for r in 0..3 {
                 for (k, (_, reference)) in probes.iter().enumerate() {
@@ -347,6 +361,7 @@ pub(crate) fn assemble(obj: &Objective, scene: &Scene, cols: &[Col], p: &[f64]) 
                 rows: f.matrix(),
             })
             .collect(),
+        partial: dropped.is_some(),
     }
 }
 
@@ -799,6 +814,9 @@ pub struct ExactReport {
     pub notes: Vec<String>,
     /// Why the solve failed; the answer is then the starting point.
     pub error: Option<String>,
+    /// Rows left out on a scene with Provot limits ([`super::provot_rows`]); absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub provot: Option<ProvotRows>,
 }
 
 impl ExactReport {
@@ -825,6 +843,13 @@ impl ExactReport {
             w.push(format!(
                 "{}: the unconstrained solution is outside the box (clamped onto it)",
                 self.clamped.join(", ")
+            ));
+        }
+        if let Some(p) = self.provot.as_ref().filter(|p| !p.consistent) {
+            w.push(format!(
+                "Provot limit: after {} solves the estimate still marks rows that were kept \
+                 (the answer may be biased by the limit)",
+                p.iterations
             ));
         }
         w
@@ -976,7 +1001,7 @@ pub(crate) fn solve_linear(
             genome = g2;
             cost = c2;
         }
-    } else if cost.is_finite() {
+    } else if cost.is_finite() && !system.partial {
         // Below an rmse of 1e-10 m both are rounding of an exact fit.
         let floor = 1e-20 * problem.objective.terms() as f64;
         let scale = cost.abs().max(best.residual.abs());

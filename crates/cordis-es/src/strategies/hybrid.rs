@@ -17,6 +17,10 @@
 //! best interval; every value in it fits the data equally, and the report gives it. A
 //! landscape with several separate basins can trap the grid in the wrong one; this has not
 //! been seen on driven scenes, where misclassified samples grow steadily away from the truth.
+//!
+//! With Provot limits the inner solve is [`super::provot_rows`]'s iteration, and candidates are
+//! compared by the problem's own cost (each one drops its own rows, so the inner minima are
+//! sums over different rows).
 
 use std::collections::HashMap;
 
@@ -24,6 +28,7 @@ use cordis_core::forces::grid::Grid;
 use rayon::prelude::*;
 
 use super::exact::{self, ExactReport, OneShot, Solution, Spec, Weighting};
+use super::provot_rows;
 use crate::problem::Problem;
 use crate::space::Role;
 
@@ -145,8 +150,17 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
         }
         p
     };
+    let provot = provot_rows::applies(&problem.objective);
     let score = |at: &[usize]| -> f64 {
         let p = params_at(at);
+        if provot {
+            // Masks differ between candidates: compare them by the problem's own cost.
+            let mut r = ExactReport::default();
+            return match provot_rows::solve(problem, &cols, p, &split, &mut r) {
+                Ok((_, cost)) if cost.is_finite() => cost,
+                _ => f64::INFINITY,
+            };
+        }
         let system = exact::assemble(&problem.objective, &problem.scene, &cols, &p);
         let spec = Spec {
             problem,
@@ -216,8 +230,12 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
         ));
     }
     let p = params_at(&at);
-    let system = exact::assemble(&problem.objective, &problem.scene, &cols, &p);
-    let (genome, cost) = exact::solve_linear(problem, &system, p, &split, &mut report)?;
+    let (genome, cost) = if provot {
+        provot_rows::solve(problem, &cols, p, &split, &mut report)?
+    } else {
+        let system = exact::assemble(&problem.objective, &problem.scene, &cols, &p);
+        exact::solve_linear(problem, &system, p, &split, &mut report)?
+    };
     Ok(Solution {
         genome,
         cost,

@@ -9,6 +9,7 @@ pub mod islands;
 pub mod least_squares;
 pub mod levenberg_marquardt;
 pub mod parisian;
+pub mod provot_rows;
 pub mod self_adaptive;
 pub mod thesis;
 
