@@ -8,6 +8,7 @@ pub mod exact;
 pub mod hybrid;
 pub mod islands;
 pub mod least_squares;
+pub mod levenberg_marquardt;
 pub mod parisian;
 mod profile;
 pub mod provot_rows;
