@@ -235,7 +235,7 @@ pub(crate) fn from_linear(lin: &LinearShortCost) -> System {
 }
 
 /// Parameter slot of a column's linear parameter: K, the rest parameter, Z (z1) or z2.
-fn slots(scene: &Scene, t: usize) -> (usize, usize, usize) {
+pub(crate) fn slots(scene: &Scene, t: usize) -> (usize, usize, usize) {
     let o = scene.param_layout().type_offsets[t];
     match scene.types[t].kind {
         LinkKind::Damper | LinkKind::Drag | LinkKind::NonlinearDrag => (o, o + 1, o),
@@ -266,6 +266,39 @@ fn linear_slots(scene: &Scene) -> Vec<usize> {
 /// other linear one 0; `K·l0` as the difference of `K = 1, l0 = 1` and `K = 1, l0 = 0`), so
 /// the design is the cost's own arithmetic. Cost: (columns + 1) force passes per frame.
 pub(crate) fn assemble(obj: &Objective, scene: &Scene, cols: &[Col], p: &[f64]) -> System {
+    let nc = cols.len();
+    let free = &obj.free;
+    let mut factors: Vec<Factor> = free.iter().map(|_| Factor::new(nc + 1)).collect();
+    let none = vec![false; nc];
+    design_rows(obj, scene, cols, p, &none, |_, l, row| {
+        factors[l].add_row(row)
+    });
+    System {
+        cols: cols.to_vec(),
+        blocks: free
+            .iter()
+            .zip(factors)
+            .map(|(&i, f)| Block {
+                particle: Some(i),
+                rows: f.matrix(),
+            })
+            .collect(),
+    }
+}
+
+/// The force-space rows of [`assemble`], uncompressed: `visit(frame, l, row)` for every frame
+/// the short cost computes forces at (`frame` = 0 for observed frame 1 …), free particle `l`
+/// (index into `obj.free`) and axis, in that order (frame-major, then particle, then axis);
+/// `row` holds `nc + 1` values and may be destroyed. Columns flagged in `zero` are known to
+/// vanish at `p` (a conditional type with range 0): their force passes are skipped.
+pub(crate) fn design_rows(
+    obj: &Objective,
+    scene: &Scene,
+    cols: &[Col],
+    p: &[f64],
+    zero_cols: &[bool],
+    mut visit: impl FnMut(usize, usize, &mut [f64]),
+) {
     let plan = obj.plan();
     let n = plan.n;
     let nc = cols.len();
@@ -308,7 +341,6 @@ pub(crate) fn assemble(obj: &Objective, scene: &Scene, cols: &[Col], p: &[f64]) 
         Vec3::zeros()
     };
     let free = &obj.free;
-    let mut factors: Vec<Factor> = free.iter().map(|_| Factor::new(nc + 1)).collect();
     let geo = obj.geometry();
     let mut s = obj.scratch();
     let mut f0 = vec![Vec3::zeros(); n];
@@ -318,14 +350,20 @@ pub(crate) fn assemble(obj: &Objective, scene: &Scene, cols: &[Col], p: &[f64]) 
         obj.observed_forces(&zero, t - 1, &mut s, geo);
         f0.copy_from_slice(&s.core.f);
         for (k, (q, _)) in probes.iter().enumerate() {
-            obj.observed_forces(q, t - 1, &mut s, geo);
-            raw[k].copy_from_slice(&s.core.f);
+            if !zero_cols[k] {
+                obj.observed_forces(q, t - 1, &mut s, geo);
+                raw[k].copy_from_slice(&s.core.f);
+            }
         }
         let (x1, x2, x0) = (obj.obs.frame(t - 1), obj.obs.frame(t - 2), obj.obs.frame(t));
         for (l, &i) in free.iter().enumerate() {
             let b = (x1[i] * 2.0 - x2[i]) - x0[i];
             for r in 0..3 {
                 for (k, (_, reference)) in probes.iter().enumerate() {
+                    if zero_cols[k] {
+                        row[k] = 0.0;
+                        continue;
+                    }
                     let base = match reference {
                         Some(j) => raw[*j][i][r],
                         None => f0[i][r],
@@ -333,20 +371,9 @@ pub(crate) fn assemble(obj: &Objective, scene: &Scene, cols: &[Col], p: &[f64]) 
                     row[k] = dt2 * (raw[k][i][r] - base);
                 }
                 row[nc] = dt2 * g[r] + b[r];
-                factors[l].add_row(&mut row);
+                visit(t - 2, l, &mut row);
             }
         }
-    }
-    System {
-        cols: cols.to_vec(),
-        blocks: free
-            .iter()
-            .zip(factors)
-            .map(|(&i, f)| Block {
-                particle: Some(i),
-                rows: f.matrix(),
-            })
-            .collect(),
     }
 }
 
@@ -359,13 +386,39 @@ struct Xi {
 }
 
 /// θ = Aξ + c: per column, at most one term (ξ index, coefficient), and a constant.
-struct Reduction {
+pub(crate) struct Reduction {
     xi: Vec<Xi>,
-    terms: Vec<Option<(usize, f64)>>,
-    consts: Vec<f64>,
+    pub terms: Vec<Option<(usize, f64)>>,
+    pub consts: Vec<f64>,
 }
 
-fn reduce(scene: &Scene, cols: &[Col], p: &[f64], free: &[bool]) -> Reduction {
+impl Reduction {
+    /// Number of reduced unknowns ξ.
+    pub fn len(&self) -> usize {
+        self.xi.len()
+    }
+}
+
+/// The value of θ column `c` at the full parameter vector `p`.
+pub(crate) fn theta_of(scene: &Scene, c: Col, p: &[f64]) -> f64 {
+    match c {
+        Col::K(t) | Col::Z(t) | Col::Z2(t) => {
+            let (ks, rs, zs) = slots(scene, t);
+            p[match c {
+                Col::K(_) => ks,
+                Col::Z(_) => zs,
+                _ => rs,
+            }]
+        }
+        Col::KRest(t) => {
+            let (ks, rs, _) = slots(scene, t);
+            p[ks] * p[rs]
+        }
+        Col::G(axis) => p[scene.param_layout().gravity_offset + axis],
+    }
+}
+
+pub(crate) fn reduce(scene: &Scene, cols: &[Col], p: &[f64], free: &[bool]) -> Reduction {
     let mut xi: Vec<Xi> = Vec::new();
     let mut index: HashMap<usize, usize> = HashMap::new();
     let mut get = |slot: usize, per: Option<usize>, xi: &mut Vec<Xi>| -> usize {

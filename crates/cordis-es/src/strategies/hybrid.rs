@@ -12,11 +12,18 @@
 //! the observed speeds (distances) within the box are sorted, an interval is scored at its
 //! middle, and the best one is found by a coarse-to-fine grid over the interval index (24
 //! points, then the bracket around the best, until ≤ 48 intervals remain and all are
-//! scored; the points of a grid are scored in parallel). Several nonlinear unknowns are searched one at a time, cycling until none moves
-//! (coordinate descent, at most [`MAX_CYCLES`] cycles). The answer is the middle of the
+//! scored; the points of a grid are scored in parallel). Several nonlinear unknowns are
+//! searched one at a time, cycling until none moves (coordinate descent, at most
+//! [`MAX_CYCLES`] cycles). The answer is the middle of the
 //! best interval; every value in it fits the data equally, and the report gives it. A
 //! landscape with several separate basins can trap the grid in the wrong one; this has not
 //! been seen on driven scenes, where misclassified samples grow steadily away from the truth.
+//!
+//! **Ranges only, masses known** (the fluids): [`super::range_sweep`] replaces the grid. One
+//! sweep per range bounds *every* interval (normal equations updated pair by pair), the
+//! intervals are solved exactly in order of bound until none can beat the best, so each
+//! coordinate step finds the best interval of all, not of a grid; a range whose neighbours'
+//! intervals have not moved since its last sweep is not swept again.
 
 use std::collections::HashMap;
 
@@ -24,6 +31,7 @@ use cordis_core::forces::grid::Grid;
 use rayon::prelude::*;
 
 use super::exact::{self, ExactReport, OneShot, Solution, Spec, Weighting};
+use super::range_sweep::{self, Sweeper, MAX_EXACT_PER_SWEEP};
 use crate::problem::Problem;
 use crate::space::Role;
 
@@ -36,7 +44,7 @@ pub const MAX_CANDIDATES: usize = 1 << 18;
 /// The sorted distinct observed values of a nonlinear unknown inside its box: speeds of the
 /// nonlinear drag's particles, or distances of the conditional type's candidate pairs, at the
 /// frames the short cost computes forces at (1 … T-2).
-fn candidates(problem: &Problem, k: usize) -> (Vec<f64>, bool) {
+pub(crate) fn candidates(problem: &Problem, k: usize) -> (Vec<f64>, bool) {
     let u = &problem.space.unknowns[k];
     let obj = &problem.objective;
     let plan = obj.plan();
@@ -160,6 +168,57 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
             _ => f64::INFINITY,
         }
     };
+    if range_sweep::applies(problem, &split.nonlinear, split.free_masses) {
+        let mut sweeper = Sweeper::new(
+            problem,
+            &cols,
+            &split.linear,
+            dims.iter().map(|(k, c, _)| (*k, c.clone())).collect(),
+        );
+        let mut at: Vec<usize> = dims
+            .iter()
+            .map(|(k, c, _)| c.partition_point(|&v| v < space.base[space.unknowns[*k].slot]))
+            .collect();
+        let mut best = sweeper.exact(&at);
+        let mut bounds = Vec::new();
+        // A dim swept with every other interval as now would give the same answer.
+        let mut swept_at: Vec<Option<Vec<usize>>> = vec![None; dims.len()];
+        for _ in 0..MAX_CYCLES {
+            let before = at.clone();
+            for d in 0..dims.len() {
+                if swept_at[d].as_ref() == Some(&at) {
+                    continue;
+                }
+                let (j, v, p) = sweeper.search(d, &at, best, &mut bounds);
+                at[d] = j;
+                best = (v, p);
+                swept_at[d] = Some(at.clone());
+            }
+            if at == before {
+                break;
+            }
+        }
+        let evals = sweeper.exact_solves + sweeper.sweeps;
+        problem.set_evals(problem.evals() + evals);
+        let note = format!(
+            "variable projection by range sweeps: {} intervals bounded in {} incremental sweeps, \
+             {} exact inner least-squares solves{} over {} ranges",
+            sweeper.scored,
+            sweeper.sweeps,
+            sweeper.exact_solves,
+            if sweeper.capped > 0 {
+                format!(
+                    " ({} sweeps stopped at {MAX_EXACT_PER_SWEEP} exact solves)",
+                    sweeper.capped
+                )
+            } else {
+                String::new()
+            },
+            dims.len()
+        );
+        let system = sweeper.system_at(&at);
+        return finish(problem, &cols, &split, &dims, &at, note, Some(system));
+    }
     let mut cache: HashMap<Vec<usize>, f64> = HashMap::new();
     let mut evals = 0u64;
     let mut score_batch = |points: Vec<Vec<usize>>| -> Vec<f64> {
@@ -198,13 +257,28 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
         }
     }
     problem.set_evals(problem.evals() + evals);
-
-    let mut report = ExactReport::default();
-    report.notes.push(format!(
+    let note = format!(
         "variable projection: {evals} inner least-squares solves over {} nonlinear unknowns",
         dims.len()
-    ));
-    for ((k, c, thinned), &j) in dims.iter().zip(&at) {
+    );
+    finish(problem, &cols, &split, &dims, &at, note, None)
+}
+
+/// The answer at the chosen intervals `at`: their middles, the linear unknowns solved there
+/// (on `system`, the short cost's system at those middles, when the caller has it).
+fn finish(
+    problem: &Problem,
+    cols: &[exact::Col],
+    split: &exact::Split,
+    dims: &[(usize, Vec<f64>, bool)],
+    at: &[usize],
+    note: String,
+    system: Option<exact::System>,
+) -> Result<Solution, String> {
+    let space = &problem.space;
+    let mut report = ExactReport::default();
+    report.notes.push(note);
+    for ((k, c, thinned), &j) in dims.iter().zip(at) {
         let u = &space.unknowns[*k];
         let (lo, hi) = interval(c, u.min, u.max, j);
         report.notes.push(format!(
@@ -215,9 +289,15 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
             if *thinned { ", evenly subsampled" } else { "" }
         ));
     }
-    let p = params_at(&at);
-    let system = exact::assemble(&problem.objective, &problem.scene, &cols, &p);
-    let (genome, cost) = exact::solve_linear(problem, &system, p, &split, &mut report)?;
+    let mut p = space.base.clone();
+    for ((k, c, _), &j) in dims.iter().zip(at) {
+        let u = &space.unknowns[*k];
+        let (lo, hi) = interval(c, u.min, u.max, j);
+        p[u.slot] = 0.5 * (lo + hi);
+    }
+    let system =
+        system.unwrap_or_else(|| exact::assemble(&problem.objective, &problem.scene, cols, &p));
+    let (genome, cost) = exact::solve_linear(problem, &system, p, split, &mut report)?;
     Ok(Solution {
         genome,
         cost,
