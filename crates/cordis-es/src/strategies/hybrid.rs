@@ -126,6 +126,12 @@ fn search(n: usize, mut f: impl FnMut(&[usize]) -> Vec<f64>) -> usize {
 
 /// Solves `problem` by variable projection; `Err` when the exact solvers do not apply.
 pub fn solve(problem: &Problem) -> Result<Solution, String> {
+    solve_with(problem, true)
+}
+
+/// [`solve`], with the range sweeps only where `sweeps` allows them (false: always the
+/// coarse-to-fine grid, as before the sweeps existed; kept to check one against the other).
+fn solve_with(problem: &Problem, sweeps: bool) -> Result<Solution, String> {
     exact::supported(problem)?;
     let cols = exact::generic_cols(&problem.scene)?;
     let split = exact::split(problem);
@@ -168,7 +174,7 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
             _ => f64::INFINITY,
         }
     };
-    if range_sweep::applies(problem, &split.nonlinear, split.free_masses) {
+    if sweeps && range_sweep::applies(problem, &split.nonlinear, split.free_masses) {
         let mut sweeper = Sweeper::new(
             problem,
             &cols,
@@ -308,4 +314,72 @@ fn finish(
 /// The `hybrid` strategy: everything happens in generation 0.
 pub fn strategy() -> OneShot {
     OneShot::new("hybrid", solve)
+}
+
+#[cfg(test)]
+mod tests {
+    use cordis_core::{LinkKind, LinkType, Particle, Scene};
+
+    use super::*;
+    use crate::cost::CostKind;
+    use crate::identify::with_unknown_boxes;
+
+    /// Eight particles held by anchors, one conditional type (K, l0, range unknown).
+    fn gas() -> Scene {
+        let mut s = Scene::new(0.005);
+        for n in 0..8 {
+            let a = n as f64;
+            s.add_particle(
+                Particle::new(
+                    0.5 + 0.1 * a,
+                    [0.4 * (2.0 * a).cos(), 0.4 * (3.0 * a).sin(), 0.3 * (a).sin()],
+                )
+                .with_vel([(1.3 * a).sin(), (0.7 * a).cos(), (2.1 * a).sin() * 0.5])
+                .in_group("gas"),
+            );
+        }
+        let mut pair = LinkType::new("pair", LinkKind::Conditional)
+            .with("stiffness", 40.0)
+            .with("rest_length", 0.3)
+            .with("range", 0.45);
+        pair.groups = vec!["gas".into()];
+        s.add_type(pair);
+        let mut hold = LinkType::new("hold", LinkKind::Anchor).with("stiffness", 6.0);
+        hold.point = Some([0.0, 0.0, 0.0]);
+        s.add_type(hold);
+        for i in 0..8 {
+            s.add_link("hold", &[i]);
+        }
+        s
+    }
+
+    /// The range sweeps pick the same interval as the coarse-to-fine grid of exact solves
+    /// (the grid scores every interval of the final bracket exactly) and end at the same
+    /// cost, with fewer exact inner solves.
+    #[test]
+    fn range_sweeps_pick_the_grids_interval() {
+        let truth = gas();
+        let unknown = with_unknown_boxes(&truth, 25.0, 5);
+        let traj = truth.simulate(200).unwrap();
+        let problem = Problem::new(&unknown, &traj, CostKind::Short).unwrap();
+        let grid = solve_with(&problem, false).unwrap();
+        let grid_evals = problem.evals();
+        let sweep = solve_with(&problem, true).unwrap();
+        let sweep_evals = problem.evals() - grid_evals;
+        let interval = |s: &Solution| s.report.notes[1].clone();
+        assert!(interval(&grid).contains("types.pair.range: every value in ("));
+        assert_eq!(interval(&grid), interval(&sweep));
+        assert_eq!(grid.genome.len(), sweep.genome.len());
+        // Equal, or both the rounding of an exact fit (rmse below 1e-10 m).
+        let floor = 1e-20 * problem.objective.terms() as f64;
+        assert!(
+            (grid.cost - sweep.cost).abs() <= 1e-9 * grid.cost
+                || grid.cost.max(sweep.cost) < floor,
+            "grid {} sweep {}",
+            grid.cost,
+            sweep.cost
+        );
+        assert!(sweep.report.notes[0].contains("range sweeps"));
+        assert!(sweep_evals < grid_evals, "{sweep_evals} against {grid_evals}");
+    }
 }
