@@ -332,7 +332,11 @@ mod tests {
             s.add_particle(
                 Particle::new(
                     0.5 + 0.1 * a,
-                    [0.4 * (2.0 * a).cos(), 0.4 * (3.0 * a).sin(), 0.3 * (a).sin()],
+                    [
+                        0.4 * (2.0 * a).cos(),
+                        0.4 * (3.0 * a).sin(),
+                        0.3 * (a).sin(),
+                    ],
                 )
                 .with_vel([(1.3 * a).sin(), (0.7 * a).cos(), (2.1 * a).sin() * 0.5])
                 .in_group("gas"),
@@ -373,13 +377,15 @@ mod tests {
         // Equal, or both the rounding of an exact fit (rmse below 1e-10 m).
         let floor = 1e-20 * problem.objective.terms() as f64;
         assert!(
-            (grid.cost - sweep.cost).abs() <= 1e-9 * grid.cost
-                || grid.cost.max(sweep.cost) < floor,
+            (grid.cost - sweep.cost).abs() <= 1e-9 * grid.cost || grid.cost.max(sweep.cost) < floor,
             "grid {} sweep {}",
             grid.cost,
             sweep.cost
         );
         assert!(sweep.report.notes[0].contains("range sweeps"));
-        assert!(sweep_evals < grid_evals, "{sweep_evals} against {grid_evals}");
+        assert!(
+            sweep_evals < grid_evals,
+            "{sweep_evals} against {grid_evals}"
+        );
     }
 }

@@ -355,10 +355,7 @@ impl<'a> Sweeper<'a> {
                 g[a * cw + b] = g[b * cw + a];
             }
         }
-        let terms: Vec<(usize, f64)> = ucols
-            .iter()
-            .filter_map(|&k| self.red.terms[k])
-            .collect();
+        let terms: Vec<(usize, f64)> = ucols.iter().filter_map(|&k| self.red.terms[k]).collect();
         let mut schur = Schur::new(self.red.len(), terms);
         let dim = &self.dims[d];
         let n = dim.c.len() + 1;
@@ -532,7 +529,8 @@ impl Schur {
             for k in 0..a {
                 piv -= m[a * p + k] * m[a * p + k];
             }
-            if !(piv > 1e-13 * self.diag[a]) {
+            // A NaN pivot counts as undetermined too.
+            if piv.is_nan() || piv <= 1e-13 * self.diag[a] {
                 for x in 0..p {
                     m[x * p + a] = 0.0;
                     m[a * p + x] = 0.0;
