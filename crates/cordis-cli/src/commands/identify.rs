@@ -283,6 +283,16 @@ pub fn run(a: Args, output: Output) -> Result<()> {
             eprintln!("warning: {}: {what}", names.join(", "));
         }
     }
+    if let Some(p) = report
+        .get("provot")
+        .filter(|p| p.get("consistent").and_then(|c| c.as_bool()) == Some(false))
+    {
+        eprintln!(
+            "warning: Provot limit: after {} solves the estimate still marks rows that were kept \
+             (the answer may be biased by the limit)",
+            p.get("iterations").and_then(|v| v.as_u64()).unwrap_or(0)
+        );
+    }
     let mut summary = serde_json::json!({
         "strategy": ran,
         "cost": result.cost,

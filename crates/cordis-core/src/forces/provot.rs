@@ -25,9 +25,26 @@ pub struct ProvotPass {
 impl ProvotPass {
     /// `free[i]` is false for fixed particles.
     pub fn apply(&self, p: &[f64], x: &mut [Vec3], free: &[bool]) {
+        // × 1.0 is exact: the same bits as a pass without a factor.
+        self.apply_with(p, x, free, 1.0, |_| {});
+    }
+
+    /// The pass with every limit multiplied by `factor`, calling `moved(i)` for each particle
+    /// it moves (cascades included; a particle may be reported more than once). The exact
+    /// solvers run it with `factor` slightly below 1 to find, with a safety margin, the
+    /// predictions the limit acts on.
+    #[inline(always)]
+    pub fn apply_with(
+        &self,
+        p: &[f64],
+        x: &mut [Vec3],
+        free: &[bool],
+        factor: f64,
+        mut moved: impl FnMut(usize),
+    ) {
         for l in &self.links {
             let (i, j) = (l.i as usize, l.j as usize);
-            let limit = (1.0 + l.tau) * p[l.param + 1];
+            let limit = (1.0 + l.tau) * p[l.param + 1] * factor;
             let d = x[j] - x[i];
             // Most links are within their limit: skip the square root when the squared length
             // is clearly below (the margin keeps the decision identical to `len > limit`).
@@ -44,9 +61,17 @@ impl ProvotPass {
                     let half = u * (0.5 * excess);
                     x[i] += half;
                     x[j] -= half;
+                    moved(i);
+                    moved(j);
                 }
-                (true, false) => x[i] += u * excess,
-                (false, true) => x[j] -= u * excess,
+                (true, false) => {
+                    x[i] += u * excess;
+                    moved(i);
+                }
+                (false, true) => {
+                    x[j] -= u * excess;
+                    moved(j);
+                }
                 (false, false) => {}
             }
         }

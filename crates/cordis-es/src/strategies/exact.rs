@@ -42,6 +42,7 @@ use cordis_core::{LinkKind, Scene, Vec3};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
+use super::provot_rows::{ProvotRows, RowMask};
 use crate::cost::{CostKind, LinearShortCost, Objective, ThetaEntry};
 use crate::problem::Problem;
 use crate::space::Role;
@@ -84,6 +85,9 @@ pub(crate) struct Block {
 pub(crate) struct System {
     pub cols: Vec<Col>,
     pub blocks: Vec<Block>,
+    /// Some rows of the short cost are left out (Provot's, [`super::provot_rows`]): the
+    /// system's minimum is then not the cost.
+    pub partial: bool,
 }
 
 /// How force-space blocks enter the cost.
@@ -152,12 +156,6 @@ pub(crate) fn generic_cols(scene: &Scene) -> Result<Vec<Col>, String> {
     }
     let mut cols = Vec::new();
     for (t, ty) in scene.types.iter().enumerate() {
-        if ty.max_elongation.is_some() && scene.links.iter().any(|l| l.type_index == t) {
-            return Err(format!(
-                "types.{}: a max_elongation (Provot) limit makes the short cost nonlinear",
-                ty.name
-            ));
-        }
         match ty.kind {
             LinkKind::Spring | LinkKind::Anchor | LinkKind::Conditional => {
                 cols.extend([Col::K(t), Col::KRest(t), Col::Z(t)])
@@ -231,6 +229,7 @@ pub(crate) fn from_linear(lin: &LinearShortCost) -> System {
             particle: None,
             rows,
         }],
+        partial: false,
     }
 }
 
@@ -265,12 +264,24 @@ fn linear_slots(scene: &Scene) -> Vec<usize> {
 /// scene's own force passes run on a probe parameter vector (the column's parameter 1, every
 /// other linear one 0; `K·l0` as the difference of `K = 1, l0 = 1` and `K = 1, l0 = 0`), so
 /// the design is the cost's own arithmetic. Cost: (columns + 1) force passes per frame.
+/// Provot's pass is not applied: on a scene with a limit use [`assemble_masked`].
 pub(crate) fn assemble(obj: &Objective, scene: &Scene, cols: &[Col], p: &[f64]) -> System {
+    assemble_masked(obj, scene, cols, p, None)
+}
+
+/// [`assemble`] without the rows (frame, particle) that `dropped` marks.
+pub(crate) fn assemble_masked(
+    obj: &Objective,
+    scene: &Scene,
+    cols: &[Col],
+    p: &[f64],
+    dropped: Option<&RowMask>,
+) -> System {
     let nc = cols.len();
     let free = &obj.free;
     let mut factors: Vec<Factor> = free.iter().map(|_| Factor::new(nc + 1)).collect();
     let none = vec![false; nc];
-    design_rows(obj, scene, cols, p, &none, |_, l, row| {
+    design_rows(obj, scene, cols, p, &none, dropped, |_, l, row| {
         factors[l].add_row(row)
     });
     System {
@@ -283,20 +294,23 @@ pub(crate) fn assemble(obj: &Objective, scene: &Scene, cols: &[Col], p: &[f64]) 
                 rows: f.matrix(),
             })
             .collect(),
+        partial: dropped.is_some(),
     }
 }
 
-/// The force-space rows of [`assemble`], uncompressed: `visit(frame, l, row)` for every frame
-/// the short cost computes forces at (`frame` = 0 for observed frame 1 …), free particle `l`
-/// (index into `obj.free`) and axis, in that order (frame-major, then particle, then axis);
-/// `row` holds `nc + 1` values and may be destroyed. Columns flagged in `zero` are known to
-/// vanish at `p` (a conditional type with range 0): their force passes are skipped.
+/// The force-space rows of [`assemble_masked`], uncompressed: `visit(frame, l, row)` for every
+/// frame the short cost computes forces at (`frame` = 0 for observed frame 1 …), free particle
+/// `l` (index into `obj.free`) and axis, in that order (frame-major, then particle, then axis),
+/// except the rows `dropped` marks; `row` holds `nc + 1` values and may be destroyed. Columns
+/// flagged in `zero_cols` are known to vanish at `p` (a conditional type with range 0): their
+/// force passes are skipped.
 pub(crate) fn design_rows(
     obj: &Objective,
     scene: &Scene,
     cols: &[Col],
     p: &[f64],
     zero_cols: &[bool],
+    dropped: Option<&RowMask>,
     mut visit: impl FnMut(usize, usize, &mut [f64]),
 ) {
     let plan = obj.plan();
@@ -357,6 +371,9 @@ pub(crate) fn design_rows(
         }
         let (x1, x2, x0) = (obj.obs.frame(t - 1), obj.obs.frame(t - 2), obj.obs.frame(t));
         for (l, &i) in free.iter().enumerate() {
+            if dropped.is_some_and(|d| d.get(t, i)) {
+                continue;
+            }
             let b = (x1[i] * 2.0 - x2[i]) - x0[i];
             for r in 0..3 {
                 for (k, (_, reference)) in probes.iter().enumerate() {
@@ -852,6 +869,9 @@ pub struct ExactReport {
     pub notes: Vec<String>,
     /// Why the solve failed; the answer is then the starting point.
     pub error: Option<String>,
+    /// Rows left out on a scene with Provot limits ([`super::provot_rows`]); absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub provot: Option<ProvotRows>,
 }
 
 impl ExactReport {
@@ -878,6 +898,13 @@ impl ExactReport {
             w.push(format!(
                 "{}: the unconstrained solution is outside the box (clamped onto it)",
                 self.clamped.join(", ")
+            ));
+        }
+        if let Some(p) = self.provot.as_ref().filter(|p| !p.consistent) {
+            w.push(format!(
+                "Provot limit: after {} solves the estimate still marks rows that were kept \
+                 (the answer may be biased by the limit)",
+                p.iterations
             ));
         }
         w
@@ -1029,7 +1056,7 @@ pub(crate) fn solve_linear(
             genome = g2;
             cost = c2;
         }
-    } else if cost.is_finite() {
+    } else if cost.is_finite() && !system.partial {
         // Below an rmse of 1e-10 m both are rounding of an exact fit.
         let floor = 1e-20 * problem.objective.terms() as f64;
         let scale = cost.abs().max(best.residual.abs());

@@ -19,11 +19,15 @@
 //! landscape with several separate basins can trap the grid in the wrong one; this has not
 //! been seen on driven scenes, where misclassified samples grow steadily away from the truth.
 //!
-//! **Ranges only, masses known** (the fluids): [`super::range_sweep`] replaces the grid. One
+//! **Ranges only, masses known, no Provot limit** (the fluids): [`super::range_sweep`] replaces the grid. One
 //! sweep per range bounds *every* interval (normal equations updated pair by pair), the
 //! intervals are solved exactly in order of bound until none can beat the best, so each
 //! coordinate step finds the best interval of all, not of a grid; a range whose neighbours'
 //! intervals have not moved since its last sweep is not swept again.
+//!
+//! With Provot limits the inner solve is [`super::provot_rows`]'s iteration, and candidates are
+//! compared by the problem's own cost (each one drops its own rows, so the inner minima are
+//! sums over different rows).
 
 use std::collections::HashMap;
 
@@ -31,6 +35,7 @@ use cordis_core::forces::grid::Grid;
 use rayon::prelude::*;
 
 use super::exact::{self, ExactReport, OneShot, Solution, Spec, Weighting};
+use super::provot_rows;
 use super::range_sweep::{self, Sweeper, MAX_EXACT_PER_SWEEP};
 use crate::problem::Problem;
 use crate::space::Role;
@@ -159,8 +164,17 @@ fn solve_with(problem: &Problem, sweeps: bool) -> Result<Solution, String> {
         }
         p
     };
+    let provot = provot_rows::applies(&problem.objective);
     let score = |at: &[usize]| -> f64 {
         let p = params_at(at);
+        if provot {
+            // Masks differ between candidates: compare them by the problem's own cost.
+            let mut r = ExactReport::default();
+            return match provot_rows::solve(problem, &cols, p, &split, &mut r) {
+                Ok((_, cost)) if cost.is_finite() => cost,
+                _ => f64::INFINITY,
+            };
+        }
         let system = exact::assemble(&problem.objective, &problem.scene, &cols, &p);
         let spec = Spec {
             problem,
@@ -174,7 +188,7 @@ fn solve_with(problem: &Problem, sweeps: bool) -> Result<Solution, String> {
             _ => f64::INFINITY,
         }
     };
-    if sweeps && range_sweep::applies(problem, &split.nonlinear, split.free_masses) {
+    if sweeps && !provot && range_sweep::applies(problem, &split.nonlinear, split.free_masses) {
         let mut sweeper = Sweeper::new(
             problem,
             &cols,
@@ -301,9 +315,13 @@ fn finish(
         let (lo, hi) = interval(c, u.min, u.max, j);
         p[u.slot] = 0.5 * (lo + hi);
     }
-    let system =
-        system.unwrap_or_else(|| exact::assemble(&problem.objective, &problem.scene, cols, &p));
-    let (genome, cost) = exact::solve_linear(problem, &system, p, split, &mut report)?;
+    let (genome, cost) = if provot_rows::applies(&problem.objective) {
+        provot_rows::solve(problem, cols, p, split, &mut report)?
+    } else {
+        let system =
+            system.unwrap_or_else(|| exact::assemble(&problem.objective, &problem.scene, cols, &p));
+        exact::solve_linear(problem, &system, p, split, &mut report)?
+    };
     Ok(Solution {
         genome,
         cost,

@@ -5,11 +5,14 @@
 //! generating parameters to rounding. Known masses use the objective's precomputed factor
 //! ([`crate::cost::LinearShortCost`]); free masses (under a known total, thesis §3.3) and
 //! nonlinear drags at a known v_max use the generic assembly. The solve is rank-revealing (SVD):
-//! the report gives the condition number and names what the data cannot determine.
+//! the report gives the condition number and names what the data cannot determine. On a scene
+//! with Provot limits the rows the limit acts on are found by iteration and left out
+//! ([`super::provot_rows`]).
 //!
 //! As a [`Strategy`]: `init` solves (generation 0); later generations change nothing.
 
 use super::exact::{self, ExactReport, OneShot, Solution};
+use super::provot_rows;
 use crate::problem::Problem;
 
 /// Solves `problem` exactly; `Err` when it is not linear in its unknowns (a range or v_max
@@ -24,6 +27,17 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
         ));
     }
     let mut report = ExactReport::default();
+    if provot_rows::applies(&problem.objective) {
+        let cols = exact::generic_cols(&problem.scene)?;
+        exact::check_scale(problem, &split, &cols)?;
+        let base = problem.space.base.clone();
+        let (genome, cost) = provot_rows::solve(problem, &cols, base, &split, &mut report)?;
+        return Ok(Solution {
+            genome,
+            cost,
+            report,
+        });
+    }
     let system = match problem.objective.linear().filter(|_| !split.free_masses) {
         Some(lin) => exact::from_linear(lin),
         None => {

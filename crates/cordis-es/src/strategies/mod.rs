@@ -8,6 +8,7 @@ pub mod hybrid;
 pub mod islands;
 pub mod least_squares;
 pub mod parisian;
+pub mod provot_rows;
 mod range_sweep;
 pub mod self_adaptive;
 pub mod thesis;

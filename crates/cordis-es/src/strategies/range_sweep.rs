@@ -136,7 +136,7 @@ impl<'a> Sweeper<'a> {
                 Col::G(_) => false,
             })
             .collect();
-        exact::design_rows(obj, scene, cols, &p0, &zero_cols, |_, l, row| {
+        exact::design_rows(obj, scene, cols, &p0, &zero_cols, None, |_, l, row| {
             let inv = 1.0 / mass(free[l]);
             for v in &mut row[..width - 1] {
                 *v *= inv;
@@ -277,6 +277,7 @@ impl<'a> Sweeper<'a> {
                 particle: None,
                 rows: DMatrix::from_row_slice(self.rows(), self.width, &w),
             }],
+            partial: false,
         }
     }
 
