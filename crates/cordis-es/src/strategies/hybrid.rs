@@ -23,7 +23,8 @@
 //! sweep per range bounds *every* interval (normal equations updated pair by pair), the
 //! intervals are solved exactly in order of bound until none can beat the best, so each
 //! coordinate step finds the best interval of all, not of a grid; a range whose neighbours'
-//! intervals have not moved since its last sweep is not swept again.
+//! intervals have not moved since its last sweep is not swept again. It holds every row of the
+//! short cost uncompressed, so scenes beyond [`range_sweep::MAX_ROW_VALUES`] keep the grid.
 //!
 //! With Provot limits the inner solve is [`super::provot_rows`]'s iteration, and candidates are
 //! compared by the problem's own cost (each one drops its own rows, so the inner minima are
@@ -188,7 +189,10 @@ fn solve_with(problem: &Problem, sweeps: bool) -> Result<Solution, String> {
             _ => f64::INFINITY,
         }
     };
-    if sweeps && !provot && range_sweep::applies(problem, &split.nonlinear, split.free_masses) {
+    if sweeps
+        && !provot
+        && range_sweep::applies(problem, cols.len(), &split.nonlinear, split.free_masses)
+    {
         let mut sweeper = Sweeper::new(
             problem,
             &cols,

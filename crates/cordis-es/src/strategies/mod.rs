@@ -9,7 +9,7 @@ pub mod islands;
 pub mod least_squares;
 pub mod parisian;
 pub mod provot_rows;
-mod range_sweep;
+pub mod range_sweep;
 pub mod self_adaptive;
 pub mod thesis;
 

@@ -17,7 +17,7 @@
 //!
 //! **Why it stays exact.** Normal equations lose digits, so the sweep's scores are only used
 //! as lower bounds: the intervals are then solved exactly (the same solver as every other inner
-//! solve, [`exact::solve`], with box clamping and rank handling), best bound first, until the
+//! solve, `exact::solve`, with box clamping and rank handling), best bound first, until the
 //! next bound exceeds the best exact score; the chosen interval is the best exactly scored one,
 //! over *every* interval rather than a coarse-to-fine grid's. To keep the bounds sharp the
 //! rows are expressed around the latest exact solution θ̂ (last column `a + Φθ̂`), so the
@@ -87,9 +87,27 @@ pub(crate) struct Sweeper<'a> {
     pub floor: f64,
 }
 
-/// Whether the fast path applies: known masses (position weighting) and only ranges searched.
-pub(crate) fn applies(problem: &Problem, nonlinear: &[usize], free_masses: bool) -> bool {
+/// Most values of the uncompressed rows `W` (8 bytes each; a sweep holds about three copies):
+/// beyond this (e.g. the default 80×48 fluid over 400 frames, ~10⁸) the grid of per-particle
+/// factors is used instead.
+pub const MAX_ROW_VALUES: usize = 1 << 23;
+
+/// Whether the fast path applies: known masses (position weighting), only ranges searched, and
+/// rows small enough to hold ([`MAX_ROW_VALUES`]).
+pub(crate) fn applies(
+    problem: &Problem,
+    cols: usize,
+    nonlinear: &[usize],
+    free_masses: bool,
+) -> bool {
+    let obj = &problem.objective;
+    let values = obj
+        .frames()
+        .saturating_sub(2)
+        .saturating_mul(obj.free.len() * 3)
+        .saturating_mul(cols + 1);
     !free_masses
+        && values <= MAX_ROW_VALUES
         && !nonlinear.is_empty()
         && nonlinear
             .iter()
@@ -628,7 +646,7 @@ mod tests {
         let problem = Problem::new(&unknown, &traj, CostKind::Short).unwrap();
         let cols = exact::generic_cols(&problem.scene).unwrap();
         let sp = split(&problem);
-        assert!(applies(&problem, &sp.nonlinear, sp.free_masses));
+        assert!(applies(&problem, cols.len(), &sp.nonlinear, sp.free_masses));
         let dims: Vec<(usize, Vec<f64>)> = sp
             .nonlinear
             .iter()
