@@ -559,6 +559,11 @@ def identify(
     that many thesis populations exchanging their ``migrants`` best every ``migrate_every``
     generations (deterministic given the seed and the island count).
 
+    ``strategy``: ``"auto"``, ``"thesis"``, ``"least-squares"``, ``"hybrid"``, ``"cmaes"``,
+    ``"self-adaptive"``, ``"annealing"``, ``"parisian"`` or ``"levenberg-marquardt"``
+    (nonlinear least squares on the short cost's residuals; ``cost="short"`` only, residuals
+    computed in this process even with an ``executor``; ``population`` is ignored).
+
     ``stable_horizon=H`` rejects (cost ``inf``) every candidate whose stability bound exceeds
     1 or whose free run from the observed frames 0 and 1 diverges within ``H`` frames: a
     non-finite or runaway position, or the free particles' spread about their centroid beyond

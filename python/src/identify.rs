@@ -14,7 +14,9 @@ use std::time::Duration;
 use cordis_es::executor::{
     self, HistoryRow, Observer, RunConfig, RunResult, StopReason, StopRules,
 };
-use cordis_es::identify::{add_noise, make_islands, make_strategy, StrategyName, StrategyOptions};
+use cordis_es::identify::{
+    add_noise, check_strategy, make_islands, make_strategy, StrategyName, StrategyOptions,
+};
 use cordis_es::problem::Problem;
 use cordis_es::space::ParameterSpace;
 use cordis_es::strategies::islands::IslandConfig;
@@ -365,12 +367,16 @@ pub fn identify(
         population,
         ..StrategyOptions::default()
     };
-    let (mut strategy, _) = match islands {
+    let (mut strategy, ran) = match islands {
         Some(config) => {
             make_islands(name, &problem, &options, config).map_err(|e| bad("islands", e))?
         }
         None => make_strategy(name, &problem, &options),
     };
+    if ran == "levenberg-marquardt" {
+        // It needs the short cost's residuals: say so before the run, as the CLI does.
+        check_strategy(ran, &problem).map_err(|e| bad("strategy", e))?;
+    }
     // The executor's workers compile the same problem from the same data (the noisy
     // trajectory, not the caller's): only genomes and costs travel from here on.
     let evaluator = match &executor {

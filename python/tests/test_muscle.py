@@ -2,6 +2,7 @@
 a dict, simulates, and its neurons sustain the motion that passive springs damp out."""
 
 import numpy as np
+import pytest
 
 import cordis
 
@@ -37,3 +38,18 @@ def test_muscle_unknowns_include_the_weights():
         for key in ("w_len", "w_rate"):
             for box, w in zip(t[key], truth["types"][name][key]):
                 assert isinstance(box, dict) and box["min"] < w < box["max"]
+
+
+def test_levenberg_marquardt_identifies_the_muscle():
+    truth = cordis.example("muscle")
+    traj = truth.simulate(300)
+    scene = cordis.example("muscle", unknowns=True, seed=0)
+    res = cordis.identify(
+        scene, traj, strategy="levenberg-marquardt", generations=None, truth=truth
+    )
+    assert res.strategy == "levenberg-marquardt"
+    assert res.stopped_by == "converged"
+    assert res.param_error_pct < 0.01
+    assert res.evals < 1000
+    with pytest.raises(ValueError, match="short cost"):
+        cordis.identify(scene, traj, strategy="levenberg-marquardt", cost="horizon:3")

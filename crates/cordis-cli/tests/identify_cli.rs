@@ -138,3 +138,52 @@ fn stable_horizon_is_reported_and_checked() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("`nope`"));
 }
+
+#[test]
+fn levenberg_marquardt_identifies_the_muscle_and_refuses_other_costs() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for args in [
+        &["example", "muscle", "--out", "truth.json"][..],
+        &["example", "muscle", "--unknowns", "--out", "unknown.json"],
+        &[
+            "simulate",
+            "truth.json",
+            "--frames",
+            "300",
+            "--out",
+            "t.npy",
+        ],
+    ] {
+        let out = cordis(d, args);
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "identify",
+            "unknown.json",
+            "-t",
+            "t.npy",
+            "--truth",
+            "truth.json",
+            "--strategy",
+            "levenberg-marquardt",
+        ];
+        args.extend_from_slice(extra);
+        cordis(d, &args)
+    };
+    let s = summary(&run(&[]));
+    assert_eq!(s["strategy"], "levenberg-marquardt");
+    assert_eq!(s["stopped_by"], "converged");
+    assert!(s["param_error_pct"].as_f64().unwrap() < 0.01, "{s}");
+    assert!(s["evals"].as_u64().unwrap() < 1000, "{s}");
+
+    let out = run(&["--cost", "horizon:3"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("short cost"), "{err}");
+}

@@ -12,6 +12,7 @@ use crate::strategies::annealing::{Annealing, AnnealingConfig};
 use crate::strategies::cmaes::{Cmaes, CmaesConfig};
 use crate::strategies::exact;
 use crate::strategies::islands::{IslandConfig, Islands};
+use crate::strategies::levenberg_marquardt::{self, LevenbergMarquardt, LmConfig};
 use crate::strategies::parisian::{Parisian, ParisianConfig};
 use crate::strategies::self_adaptive::{SelfAdaptive, SelfAdaptiveConfig};
 use crate::strategies::thesis::{Thesis, ThesisConfig};
@@ -31,6 +32,7 @@ pub enum StrategyName {
     SelfAdaptive,
     Annealing,
     Parisian,
+    LevenbergMarquardt,
 }
 
 impl FromStr for StrategyName {
@@ -46,9 +48,10 @@ impl FromStr for StrategyName {
             "self-adaptive" => Ok(StrategyName::SelfAdaptive),
             "annealing" => Ok(StrategyName::Annealing),
             "parisian" => Ok(StrategyName::Parisian),
+            "levenberg-marquardt" => Ok(StrategyName::LevenbergMarquardt),
             _ => Err(format!(
                 "unknown strategy `{s}` (expected one of: auto, thesis, least-squares, hybrid, \
-                 cmaes, self-adaptive, annealing, parisian)"
+                 cmaes, self-adaptive, annealing, parisian, levenberg-marquardt)"
             )),
         }
     }
@@ -137,6 +140,11 @@ pub fn make_strategy(
             };
             (Box::new(Parisian::new(c)), "parisian")
         }
+        // No population: one point, its Jacobian's columns evaluated in parallel.
+        StrategyName::LevenbergMarquardt => (
+            Box::new(LevenbergMarquardt::new(LmConfig::default())),
+            "levenberg-marquardt",
+        ),
     }
 }
 
@@ -161,9 +169,13 @@ pub fn make_islands(
 }
 
 /// Whether the strategy that will run (as named by [`make_strategy`]) can run on `problem`:
-/// the exact solvers say why not (a nonlinear cost kind, free masses without a total…)
+/// the exact solvers say why not (a nonlinear cost kind, free masses without a total…),
+/// `levenberg-marquardt` that it needs the short cost,
 /// before a run starts.
 pub fn check_strategy(ran: &str, problem: &Problem) -> Result<(), String> {
+    if ran == "levenberg-marquardt" {
+        return levenberg_marquardt::supported(problem);
+    }
     if ran != "least-squares" && ran != "hybrid" {
         return Ok(());
     }

@@ -217,6 +217,66 @@ impl Problem {
         }
     }
 
+    /// Short-cost residuals of a population of genomes (row-major, [`Problem::dim`] values
+    /// each): each genome's [`Objective::residuals`] into its row of `out` (row-major,
+    /// [`Objective::residual_len`] each) and its cost into `costs` (`+inf` when it diverged or
+    /// the stable horizon rejects it: its row must then not be used). Counts `costs.len()`
+    /// evaluations and their time. Computed on this process' rayon pool, whatever evaluator is
+    /// plugged in (a residual vector is too large to be worth shipping); the kind must be
+    /// `short` (the least-squares strategies check it before a run).
+    pub fn residuals_population(&self, genomes: &[f64], out: &mut [f64], costs: &mut [f64]) {
+        use rayon::prelude::*;
+        self.evals.fetch_add(costs.len() as u64, Ordering::Relaxed);
+        let dim = self.dim();
+        let len = self.objective.residual_len();
+        debug_assert_eq!(out.len(), costs.len() * len, "one residual row per cost");
+        if self.objective.kind() != CostKind::Short {
+            costs.fill(f64::INFINITY);
+            let mut slot = self.eval_error.lock().unwrap_or_else(|p| p.into_inner());
+            slot.get_or_insert(format!(
+                "cost kind `{}`: residuals are written for the short cost only",
+                self.objective.kind()
+            ));
+            return;
+        }
+        if len == 0 {
+            // No free particle: nothing to predict, nothing to miss.
+            costs.fill(0.0);
+            return;
+        }
+        let rows: Vec<&[f64]> = if dim == 0 {
+            vec![&[][..]; costs.len()]
+        } else {
+            genomes.chunks_exact(dim).collect()
+        };
+        self.timed(|| {
+            rows.par_iter()
+                .zip(out.par_chunks_mut(len))
+                .zip(costs.par_iter_mut())
+                .for_each_init(
+                    || self.scratch(),
+                    |s, ((g, r), c)| *c = self.residuals_uncounted(g, s, r),
+                )
+        });
+    }
+
+    /// [`Problem::residuals_population`] of one genome, not counted.
+    fn residuals_uncounted(&self, genome: &[f64], s: &mut EvalScratch, out: &mut [f64]) -> f64 {
+        self.space.fill_params(genome, &mut s.params);
+        if self.guard.is_some() {
+            let params = std::mem::take(&mut s.params);
+            let rejected = self.stability_check(&params, s).is_some();
+            s.params = params;
+            if rejected {
+                return f64::INFINITY;
+            }
+        }
+        match self.objective.residuals(&s.params, &mut s.cost, out) {
+            Ok(c) if !c.is_nan() => c,
+            _ => f64::INFINITY,
+        }
+    }
+
     /// The first evaluator failure since the last call, if any.
     pub fn take_eval_error(&self) -> Option<String> {
         self.eval_error

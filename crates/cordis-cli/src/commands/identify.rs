@@ -23,8 +23,8 @@ pub struct Args {
     #[arg(long, short = 't')]
     trajectory: PathBuf,
     /// Strategy: auto | thesis | least-squares | hybrid | cmaes | self-adaptive | annealing |
-    /// parisian. auto = least-squares when every unknown enters linearly, hybrid when only
-    /// ranges or v_max do not, else thesis.
+    /// parisian | levenberg-marquardt. auto = least-squares when every unknown enters linearly,
+    /// hybrid when only ranges or v_max do not, else thesis.
     #[arg(long, default_value = "auto")]
     strategy: StrategyName,
     /// Stop after this many generations.

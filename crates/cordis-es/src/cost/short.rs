@@ -5,7 +5,9 @@
 //! the conditional grid by the pairs precomputed from the observation.
 
 use super::kernels::{springs, PairGeometry, SpringBuf};
+use super::kind::CostKind;
 use super::objective::{CostScratch, Objective};
+use crate::error::CostError;
 use cordis_core::world::{Clock, OneClock, WorldClock};
 use cordis_core::Vec3;
 use std::ops::Range;
@@ -150,6 +152,22 @@ impl Objective {
         s: &mut CostScratch,
         per: &mut [f64],
     ) -> f64 {
+        self.short_terms(clock, p, s, |i, xh, x0| per[i] += squared_error(xh, x0));
+        s.plain = self.free.iter().map(|&i| per[i]).sum();
+        s.plain
+    }
+
+    /// Every term of the short cost, in order (predicted frame t = 2 … T-1, then free particle
+    /// ascending): `term(i, x̂_i(t), x_i(t))`. The one loop behind the cost and its residuals,
+    /// so both see the same predictions bit for bit.
+    #[inline(always)]
+    fn short_terms<C: Clock>(
+        &self,
+        clock: &C,
+        p: &[f64],
+        s: &mut CostScratch,
+        mut term: impl FnMut(usize, &Vec3, &Vec3),
+    ) {
         let n = self.plan.n;
         let (m, _) = self.masses_gravity(p);
         let provot = !self.plan.provot.links.is_empty();
@@ -179,17 +197,101 @@ impl Objective {
                 }
                 self.plan.provot.apply(p, &mut s.xhat, &self.plan.free);
                 for &i in &self.free {
-                    per[i] += squared_error(&s.xhat[i], &x0[i]);
+                    term(i, &s.xhat[i], &x0[i]);
                 }
             } else {
                 for &i in &self.free {
                     let xh = (x1[i] * 2.0 - x2[i]) + clock.kick(i, f[i] / m[i]);
-                    per[i] += squared_error(&xh, &x0[i]);
+                    term(i, &xh, &x0[i]);
                 }
             }
         }
-        s.plain = self.free.iter().map(|&i| per[i]).sum();
-        s.plain
+    }
+
+    /// Number of residual components of the short cost: 3 per (predicted frame, free
+    /// particle), the length [`Objective::residuals`] writes.
+    pub fn residual_len(&self) -> usize {
+        3 * self.obs.frames.saturating_sub(2) * self.free.len()
+    }
+
+    /// The short cost as a residual vector, for least-squares solvers: writes the components
+    /// `x̂_i(t) - x_i(t)` (m; x, y, z of every free particle ascending, frame t = 2 … T-1) into
+    /// `out` (length [`Objective::residual_len`], owned by the caller: nothing is allocated)
+    /// and returns the short cost of `p`, bit for bit what the generic path of
+    /// [`Objective::evaluate`] returns (`Σ out² ` equals it to rounding: the cost sums each
+    /// particle's terms first). When a prediction is not finite the cost is `+inf` and `out`
+    /// must not be used.
+    ///
+    /// Errors unless the kind is `short` (the residuals of other kinds are not written), or
+    /// when `p` or `out` has the wrong length.
+    pub fn residuals(
+        &self,
+        p: &[f64],
+        s: &mut CostScratch,
+        out: &mut [f64],
+    ) -> Result<f64, CostError> {
+        if self.kind != CostKind::Short {
+            return Err(CostError::kind(
+                format!("cost kind `{}`", self.kind),
+                "residuals are written for the short cost only",
+            ));
+        }
+        self.check_params(p)?;
+        let len = self.residual_len();
+        if out.len() != len {
+            return Err(CostError::length("residual buffer", len, out.len()));
+        }
+        Ok(self.residuals_unchecked(p, s, out))
+    }
+
+    pub(crate) fn residuals_unchecked(
+        &self,
+        p: &[f64],
+        s: &mut CostScratch,
+        out: &mut [f64],
+    ) -> f64 {
+        let mut per = std::mem::take(&mut s.per);
+        per.fill(0.0);
+        let (_, g) = self.masses_gravity(p);
+        let mut k = 0;
+        let mut write = |i: usize, xh: &Vec3, x0: &Vec3| {
+            let e = xh - x0;
+            out[k] = e.x;
+            out[k + 1] = e.y;
+            out[k + 2] = e.z;
+            k += 3;
+            per[i] += squared_error(xh, x0);
+        };
+        match &self.plan.worlds {
+            None => self.short_terms(&OneClock::new(self.plan.dt, g), p, s, &mut write),
+            Some(steps) => self.short_terms(&WorldClock { steps, g }, p, s, &mut write),
+        }
+        let c: f64 = self.free.iter().map(|&i| per[i]).sum();
+        s.per = per;
+        s.plain = c;
+        if c.is_nan() {
+            f64::INFINITY
+        } else {
+            c
+        }
+    }
+
+    /// The short cost of a model with no force and no gravity, `Σ |x(t) - 2x(t-1) + x(t-2)|²`
+    /// over the free particles (m²): the scale of what the forces must explain, against which
+    /// a least-squares solver judges whether a minimum it found is a fit.
+    pub fn acceleration_cost(&self) -> f64 {
+        let mut c = 0.0;
+        for t in 2..self.obs.frames {
+            let (x0, x1, x2) = (
+                self.obs.frame(t),
+                self.obs.frame(t - 1),
+                self.obs.frame(t - 2),
+            );
+            for &i in &self.free {
+                c += (x0[i] - x1[i] * 2.0 + x2[i]).norm_squared();
+            }
+        }
+        c
     }
 }
 

@@ -7,6 +7,7 @@ pub mod exact;
 pub mod hybrid;
 pub mod islands;
 pub mod least_squares;
+pub mod levenberg_marquardt;
 pub mod parisian;
 pub mod provot_rows;
 pub mod range_sweep;

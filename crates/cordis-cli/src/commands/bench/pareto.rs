@@ -42,7 +42,8 @@ use cordis_es::problem::Problem;
 use serde_json::{json, Value};
 
 /// Every strategy but `auto` (which only picks one of these).
-const STRATEGIES: &str = "thesis,self-adaptive,parisian,annealing,cmaes,least-squares,hybrid";
+const STRATEGIES: &str =
+    "thesis,self-adaptive,parisian,annealing,cmaes,least-squares,hybrid,levenberg-marquardt";
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
