@@ -406,7 +406,7 @@ struct Xi {
 pub(crate) struct Reduction {
     xi: Vec<Xi>,
     pub terms: Vec<Option<(usize, f64)>>,
-    pub consts: Vec<f64>,
+    consts: Vec<f64>,
 }
 
 impl Reduction {

@@ -77,9 +77,11 @@ pub(crate) struct Sweeper<'a> {
     pub dims: Vec<Dim>,
     red: Reduction,
     linear: Vec<usize>,
-    /// Exact solves and sweeps so far.
+    /// Exact inner solves so far.
     pub exact_solves: u64,
+    /// Sweeps so far.
     pub sweeps: u64,
+    /// Intervals bounded by the sweeps so far.
     pub scored: u64,
     /// Sweeps whose exact solves stopped at [`MAX_EXACT_PER_SWEEP`].
     pub capped: u64,
