@@ -323,7 +323,11 @@ impl Design {
 
     /// The cost of the full parameter vector `p` in `weighting`, summed row by row.
     pub fn residual(&self, scene: &Scene, p: &[f64], weighting: Weighting) -> f64 {
-        let theta: Vec<f64> = self.cols.iter().map(|&c| theta(scene, c, p)).collect();
+        let theta: Vec<f64> = self
+            .cols
+            .iter()
+            .map(|&c| exact::theta_of(scene, c, p))
+            .collect();
         let mass_offset = scene.param_layout().mass_offset;
         let n = self.cols.len() + 1;
         let mut sum = 0.0;
@@ -345,19 +349,6 @@ impl Design {
         } else {
             f64::INFINITY
         }
-    }
-}
-
-/// θ of column `c` in the full parameter vector `p`.
-fn theta(scene: &Scene, c: Col, p: &[f64]) -> f64 {
-    let s = |t| exact::slots(scene, t);
-    match c {
-        Col::K(t) => p[s(t).0],
-        Col::KRest(t) => p[s(t).0] * p[s(t).1],
-        Col::Z(t) => p[s(t).2],
-        Col::Z2(t) | Col::Rest(t) => p[s(t).1],
-        Col::G(axis) => p[scene.param_layout().gravity_offset + axis],
-        Col::Known => 1.0,
     }
 }
 

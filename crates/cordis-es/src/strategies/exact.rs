@@ -285,6 +285,42 @@ pub(crate) fn assemble_masked(
     p: &[f64],
     dropped: Option<&RowMask>,
 ) -> System {
+    let nc = cols.len();
+    let free = &obj.free;
+    let mut factors: Vec<Factor> = free.iter().map(|_| Factor::new(nc + 1)).collect();
+    let none = vec![false; nc];
+    design_rows(obj, scene, cols, p, &none, dropped, |_, l, row| {
+        factors[l].add_row(row)
+    });
+    System {
+        cols: cols.to_vec(),
+        blocks: free
+            .iter()
+            .zip(factors)
+            .map(|(&i, f)| Block {
+                particle: Some(i),
+                rows: f.matrix(),
+            })
+            .collect(),
+        partial: dropped.is_some(),
+    }
+}
+
+/// The force-space rows of [`assemble_masked`], uncompressed: `visit(frame, l, row)` for every
+/// frame the short cost computes forces at (`frame` = 0 for observed frame 1 …), free particle
+/// `l` (index into `obj.free`) and axis, in that order (frame-major, then particle, then axis),
+/// except the rows `dropped` marks; `row` holds `nc + 1` values and may be destroyed. Columns
+/// flagged in `zero_cols` are known to vanish at `p` (a conditional type with range 0): their
+/// force passes are skipped.
+pub(crate) fn design_rows(
+    obj: &Objective,
+    scene: &Scene,
+    cols: &[Col],
+    p: &[f64],
+    zero_cols: &[bool],
+    dropped: Option<&RowMask>,
+    mut visit: impl FnMut(usize, usize, &mut [f64]),
+) {
     let plan = obj.plan();
     let n = plan.n;
     let nc = cols.len();
@@ -332,7 +368,6 @@ pub(crate) fn assemble_masked(
         Vec3::zeros()
     };
     let free = &obj.free;
-    let mut factors: Vec<Factor> = free.iter().map(|_| Factor::new(nc + 1)).collect();
     let geo = obj.geometry();
     let mut s = obj.scratch();
     let mut f0 = vec![Vec3::zeros(); n];
@@ -355,7 +390,7 @@ pub(crate) fn assemble_masked(
         states[..h].copy_from_slice(&s.hidden);
         f0.copy_from_slice(&s.core.f);
         for (k, (q, _)) in probes.iter().enumerate() {
-            if cols[k] == Col::Known {
+            if cols[k] == Col::Known || zero_cols[k] {
                 continue;
             }
             let st = &mut states[h * (k + 1)..h * (k + 2)];
@@ -376,6 +411,10 @@ pub(crate) fn assemble_masked(
                         row[k] = dt2 * f0[i][r];
                         continue;
                     }
+                    if zero_cols[k] {
+                        row[k] = 0.0;
+                        continue;
+                    }
                     let base = match reference {
                         Some(j) => raw[*j][i][r],
                         None => f0[i][r],
@@ -383,21 +422,9 @@ pub(crate) fn assemble_masked(
                     row[k] = dt2 * (raw[k][i][r] - base);
                 }
                 row[nc] = dt2 * g[r] + b[r];
-                factors[l].add_row(&mut row);
+                visit(t - 2, l, &mut row);
             }
         }
-    }
-    System {
-        cols: cols.to_vec(),
-        blocks: free
-            .iter()
-            .zip(factors)
-            .map(|(&i, f)| Block {
-                particle: Some(i),
-                rows: f.matrix(),
-            })
-            .collect(),
-        partial: dropped.is_some(),
     }
 }
 
@@ -410,13 +437,41 @@ struct Xi {
 }
 
 /// θ = Aξ + c: per column, at most one term (ξ index, coefficient), and a constant.
-struct Reduction {
+pub(crate) struct Reduction {
     xi: Vec<Xi>,
-    terms: Vec<Option<(usize, f64)>>,
+    pub terms: Vec<Option<(usize, f64)>>,
     consts: Vec<f64>,
 }
 
-fn reduce(scene: &Scene, cols: &[Col], p: &[f64], free: &[bool]) -> Reduction {
+impl Reduction {
+    /// Number of reduced unknowns ξ.
+    pub fn len(&self) -> usize {
+        self.xi.len()
+    }
+}
+
+/// The value of θ column `c` at the full parameter vector `p`.
+pub(crate) fn theta_of(scene: &Scene, c: Col, p: &[f64]) -> f64 {
+    match c {
+        Col::K(t) | Col::Z(t) | Col::Z2(t) => {
+            let (ks, rs, zs) = slots(scene, t);
+            p[match c {
+                Col::K(_) => ks,
+                Col::Z(_) => zs,
+                _ => rs,
+            }]
+        }
+        Col::KRest(t) => {
+            let (ks, rs, _) = slots(scene, t);
+            p[ks] * p[rs]
+        }
+        Col::G(axis) => p[scene.param_layout().gravity_offset + axis],
+        Col::Rest(t) => p[slots(scene, t).1],
+        Col::Known => 1.0,
+    }
+}
+
+pub(crate) fn reduce(scene: &Scene, cols: &[Col], p: &[f64], free: &[bool]) -> Reduction {
     let mut xi: Vec<Xi> = Vec::new();
     let mut index: HashMap<usize, usize> = HashMap::new();
     let mut get = |slot: usize, per: Option<usize>, xi: &mut Vec<Xi>| -> usize {

@@ -12,11 +12,19 @@
 //! the observed speeds (distances) within the box are sorted, an interval is scored at its
 //! middle, and the best one is found by a coarse-to-fine grid over the interval index (24
 //! points, then the bracket around the best, until ≤ 48 intervals remain and all are
-//! scored; the points of a grid are scored in parallel). Several nonlinear unknowns are searched one at a time, cycling until none moves
-//! (coordinate descent, at most [`MAX_CYCLES`] cycles). The answer is the middle of the
+//! scored; the points of a grid are scored in parallel). Several nonlinear unknowns are
+//! searched one at a time, cycling until none moves (coordinate descent, at most
+//! [`MAX_CYCLES`] cycles). The answer is the middle of the
 //! best interval; every value in it fits the data equally, and the report gives it. A
 //! landscape with several separate basins can trap the grid in the wrong one; this has not
 //! been seen on driven scenes, where misclassified samples grow steadily away from the truth.
+//!
+//! **Ranges only, masses known, no Provot limit** (the fluids): [`super::range_sweep`] replaces the grid. One
+//! sweep per range bounds *every* interval (normal equations updated pair by pair), the
+//! intervals are solved exactly in order of bound until none can beat the best, so each
+//! coordinate step finds the best interval of all, not of a grid; a range whose neighbours'
+//! intervals have not moved since its last sweep is not swept again. It holds every row of the
+//! short cost uncompressed, so scenes beyond [`range_sweep::MAX_ROW_VALUES`] keep the grid.
 //!
 //! **Continuous unknowns** — a TGR's K and tendon parameters ([`super::tgr_cols`]: at a fixed K
 //! the TGR's force is affine in l0 and Z) — are searched by a 1-D profile search over the box
@@ -39,6 +47,7 @@ use super::design::Design;
 use super::exact::{self, ExactReport, OneShot, Solution, Spec, Weighting};
 use super::profile;
 use super::provot_rows;
+use super::range_sweep::{self, Sweeper, MAX_EXACT_PER_SWEEP};
 use crate::problem::Problem;
 use crate::space::Role;
 
@@ -51,7 +60,7 @@ pub const MAX_CANDIDATES: usize = 1 << 18;
 /// The sorted distinct observed values of a nonlinear unknown inside its box: speeds of the
 /// nonlinear drag's particles, or distances of the conditional type's candidate pairs, at the
 /// frames the short cost computes forces at (1 … T-2).
-fn candidates(problem: &Problem, k: usize) -> (Vec<f64>, bool) {
+pub(crate) fn candidates(problem: &Problem, k: usize) -> (Vec<f64>, bool) {
     let u = &problem.space.unknowns[k];
     let obj = &problem.objective;
     let plan = obj.plan();
@@ -133,6 +142,12 @@ fn search(n: usize, mut f: impl FnMut(&[usize]) -> Vec<f64>) -> usize {
 
 /// Solves `problem` by variable projection; `Err` when the exact solvers do not apply.
 pub fn solve(problem: &Problem) -> Result<Solution, String> {
+    solve_with(problem, true)
+}
+
+/// [`solve`], with the range sweeps only where `sweeps` allows them (false: always the
+/// coarse-to-fine grid, as before the sweeps existed; kept to check one against the other).
+fn solve_with(problem: &Problem, sweeps: bool) -> Result<Solution, String> {
     exact::supported(problem)?;
     let cols = exact::generic_cols(&problem.scene)?;
     let split = exact::split(problem);
@@ -202,8 +217,70 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
             _ => f64::INFINITY,
         }
     };
+    if sweeps
+        && !provot
+        && range_sweep::applies(problem, cols.len(), &split.nonlinear, split.free_masses)
+    {
+        let mut sweeper = Sweeper::new(
+            problem,
+            &cols,
+            &split.linear,
+            dims.iter().map(|(k, c, _)| (*k, c.clone())).collect(),
+        );
+        let mut at: Vec<usize> = dims
+            .iter()
+            .map(|(k, c, _)| c.partition_point(|&v| v < space.base[space.unknowns[*k].slot]))
+            .collect();
+        let mut best = sweeper.exact(&at);
+        let mut bounds = Vec::new();
+        // A dim swept with every other interval as now would give the same answer.
+        let mut swept_at: Vec<Option<Vec<usize>>> = vec![None; dims.len()];
+        for _ in 0..MAX_CYCLES {
+            let before = at.clone();
+            for d in 0..dims.len() {
+                if swept_at[d].as_ref() == Some(&at) {
+                    continue;
+                }
+                let (j, v, p) = sweeper.search(d, &at, best, &mut bounds);
+                at[d] = j;
+                best = (v, p);
+                swept_at[d] = Some(at.clone());
+            }
+            if at == before {
+                break;
+            }
+        }
+        let evals = sweeper.exact_solves + sweeper.sweeps;
+        problem.set_evals(problem.evals() + evals);
+        let note = format!(
+            "variable projection by range sweeps: {} intervals bounded in {} incremental sweeps, \
+             {} exact inner least-squares solves{} over {} ranges",
+            sweeper.scored,
+            sweeper.sweeps,
+            sweeper.exact_solves,
+            if sweeper.capped > 0 {
+                format!(
+                    " ({} sweeps stopped at {MAX_EXACT_PER_SWEEP} exact solves)",
+                    sweeper.capped
+                )
+            } else {
+                String::new()
+            },
+            dims.len()
+        );
+        let system = sweeper.system_at(&at);
+        return finish(
+            problem,
+            &cols,
+            &split,
+            (&dims, &at),
+            &[],
+            note,
+            Some(system),
+        );
+    }
     // With continuous unknowns, the cached typed design when every column has one: the same
-    // inner solve at a fraction of the cost (see `super::design`); serial, it is ~10 µs.
+    // inner solve at a fraction of the cost (see `super::design`); serial, it is ~15 µs.
     let mut design = if conts.is_empty() || provot {
         None
     } else {
@@ -272,8 +349,7 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
                 score_batch(points)
             });
         }
-        let still = at == before;
-        if still && settled {
+        if at == before && settled {
             break;
         }
         let vals_before = vals.clone();
@@ -297,13 +373,36 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
         settled = conts.len() <= 1 || vals == vals_before;
     }
     problem.set_evals(problem.evals() + evals);
-
-    let mut report = ExactReport::default();
-    report.notes.push(format!(
+    let note = format!(
         "variable projection: {evals} inner least-squares solves over {} nonlinear unknowns",
         dims.len() + conts.len()
-    ));
-    for ((k, c, thinned), &j) in dims.iter().zip(&at) {
+    );
+    // The answer from an orthogonal factor of the rows (not the normal equations): the
+    // design's own rows when it has them, else (in `finish`) the generic assembly.
+    let system = design.as_mut().map(|d| {
+        d.update(&problem.objective, &problem.scene, &params_at(&at, &vals));
+        d.qr_system()
+    });
+    let conts: Vec<(usize, f64)> = conts.iter().copied().zip(vals).collect();
+    finish(problem, &cols, &split, (&dims, &at), &conts, note, system)
+}
+
+/// The answer at the chosen intervals `at` of `dims` and values of the continuous unknowns
+/// `conts` ((unknown, internal coordinate)): the intervals' middles, the linear unknowns
+/// solved there (on `system`, the short cost's system at that point, when the caller has it).
+fn finish(
+    problem: &Problem,
+    cols: &[exact::Col],
+    split: &exact::Split,
+    (dims, at): (&[(usize, Vec<f64>, bool)], &[usize]),
+    conts: &[(usize, f64)],
+    note: String,
+    system: Option<exact::System>,
+) -> Result<Solution, String> {
+    let space = &problem.space;
+    let mut report = ExactReport::default();
+    report.notes.push(note);
+    for ((k, c, thinned), &j) in dims.iter().zip(at) {
         let u = &space.unknowns[*k];
         let (lo, hi) = interval(c, u.min, u.max, j);
         report.notes.push(format!(
@@ -314,7 +413,7 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
             if *thinned { ", evenly subsampled" } else { "" }
         ));
     }
-    for (&k, &z) in conts.iter().zip(&vals) {
+    for &(k, z) in conts {
         let u = &space.unknowns[k];
         report.notes.push(format!(
             "{}: least profile cost at {:.12e} (1-D search over the box: {} grid points, then \
@@ -324,20 +423,22 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
             profile::GRID
         ));
     }
-    let p = params_at(&at, &vals);
-    let (genome, cost) = if provot {
-        provot_rows::solve(problem, &cols, p, &split, &mut report)?
+    let mut p = space.base.clone();
+    for ((k, c, _), &j) in dims.iter().zip(at) {
+        let u = &space.unknowns[*k];
+        let (lo, hi) = interval(c, u.min, u.max, j);
+        p[u.slot] = 0.5 * (lo + hi);
+    }
+    for &(k, z) in conts {
+        let u = &space.unknowns[k];
+        p[u.slot] = u.from_internal(z);
+    }
+    let (genome, cost) = if provot_rows::applies(&problem.objective) {
+        provot_rows::solve(problem, cols, p, split, &mut report)?
     } else {
-        // The answer from an orthogonal factor of the rows (not the normal equations): the
-        // design's own rows when it has them, else the generic assembly.
-        let system = match &mut design {
-            Some(d) => {
-                d.update(&problem.objective, &problem.scene, &p);
-                d.qr_system()
-            }
-            None => exact::assemble(&problem.objective, &problem.scene, &cols, &p),
-        };
-        exact::solve_linear(problem, &system, p, &split, &mut report)?
+        let system =
+            system.unwrap_or_else(|| exact::assemble(&problem.objective, &problem.scene, cols, &p));
+        exact::solve_linear(problem, &system, p, split, &mut report)?
     };
     Ok(Solution {
         genome,
@@ -349,4 +450,78 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
 /// The `hybrid` strategy: everything happens in generation 0.
 pub fn strategy() -> OneShot {
     OneShot::new("hybrid", solve)
+}
+
+#[cfg(test)]
+mod tests {
+    use cordis_core::{LinkKind, LinkType, Particle, Scene};
+
+    use super::*;
+    use crate::cost::CostKind;
+    use crate::identify::with_unknown_boxes;
+
+    /// Eight particles held by anchors, one conditional type (K, l0, range unknown).
+    fn gas() -> Scene {
+        let mut s = Scene::new(0.005);
+        for n in 0..8 {
+            let a = n as f64;
+            s.add_particle(
+                Particle::new(
+                    0.5 + 0.1 * a,
+                    [
+                        0.4 * (2.0 * a).cos(),
+                        0.4 * (3.0 * a).sin(),
+                        0.3 * (a).sin(),
+                    ],
+                )
+                .with_vel([(1.3 * a).sin(), (0.7 * a).cos(), (2.1 * a).sin() * 0.5])
+                .in_group("gas"),
+            );
+        }
+        let mut pair = LinkType::new("pair", LinkKind::Conditional)
+            .with("stiffness", 40.0)
+            .with("rest_length", 0.3)
+            .with("range", 0.45);
+        pair.groups = vec!["gas".into()];
+        s.add_type(pair);
+        let mut hold = LinkType::new("hold", LinkKind::Anchor).with("stiffness", 6.0);
+        hold.point = Some([0.0, 0.0, 0.0]);
+        s.add_type(hold);
+        for i in 0..8 {
+            s.add_link("hold", &[i]);
+        }
+        s
+    }
+
+    /// The range sweeps pick the same interval as the coarse-to-fine grid of exact solves
+    /// (the grid scores every interval of the final bracket exactly) and end at the same
+    /// cost, with fewer exact inner solves.
+    #[test]
+    fn range_sweeps_pick_the_grids_interval() {
+        let truth = gas();
+        let unknown = with_unknown_boxes(&truth, 25.0, 5);
+        let traj = truth.simulate(200).unwrap();
+        let problem = Problem::new(&unknown, &traj, CostKind::Short).unwrap();
+        let grid = solve_with(&problem, false).unwrap();
+        let grid_evals = problem.evals();
+        let sweep = solve_with(&problem, true).unwrap();
+        let sweep_evals = problem.evals() - grid_evals;
+        let interval = |s: &Solution| s.report.notes[1].clone();
+        assert!(interval(&grid).contains("types.pair.range: every value in ("));
+        assert_eq!(interval(&grid), interval(&sweep));
+        assert_eq!(grid.genome.len(), sweep.genome.len());
+        // Equal, or both the rounding of an exact fit (rmse below 1e-10 m).
+        let floor = 1e-20 * problem.objective.terms() as f64;
+        assert!(
+            (grid.cost - sweep.cost).abs() <= 1e-9 * grid.cost || grid.cost.max(sweep.cost) < floor,
+            "grid {} sweep {}",
+            grid.cost,
+            sweep.cost
+        );
+        assert!(sweep.report.notes[0].contains("range sweeps"));
+        assert!(
+            sweep_evals < grid_evals,
+            "{sweep_evals} against {grid_evals}"
+        );
+    }
 }

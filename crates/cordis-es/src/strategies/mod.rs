@@ -12,6 +12,7 @@ pub mod levenberg_marquardt;
 pub mod parisian;
 mod profile;
 pub mod provot_rows;
+pub mod range_sweep;
 pub mod self_adaptive;
 mod tgr_cols;
 pub mod thesis;
