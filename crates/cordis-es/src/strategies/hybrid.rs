@@ -387,6 +387,9 @@ fn solve_with(problem: &Problem, sweeps: bool) -> Result<Solution, String> {
     finish(problem, &cols, &split, (&dims, &at), &conts, note, system)
 }
 
+/// An interval unknown: its index, its sorted observed values, whether they were thinned.
+type Dim = (usize, Vec<f64>, bool);
+
 /// The answer at the chosen intervals `at` of `dims` and values of the continuous unknowns
 /// `conts` ((unknown, internal coordinate)): the intervals' middles, the linear unknowns
 /// solved there (on `system`, the short cost's system at that point, when the caller has it).
@@ -394,7 +397,7 @@ fn finish(
     problem: &Problem,
     cols: &[exact::Col],
     split: &exact::Split,
-    (dims, at): (&[(usize, Vec<f64>, bool)], &[usize]),
+    (dims, at): (&[Dim], &[usize]),
     conts: &[(usize, f64)],
     note: String,
     system: Option<exact::System>,
