@@ -44,6 +44,11 @@ pub(crate) struct Design {
     /// Per column: the parameter slots its values depend on, and their bits when computed.
     deps: Vec<Vec<usize>>,
     keys: Vec<Option<Vec<u64>>>,
+    /// Per block, the Gram matrix of `[Φ | a]` (upper triangle, `n × n`), and the columns
+    /// changed since it was last brought up to date (each entry is the sum over the rows in
+    /// row order, so a cached entry has the same bits as a fresh one).
+    gram: Vec<f64>,
+    dirty: Vec<bool>,
     /// Every TGR instance with what its tendon reads at each frame 0 … T-2, which no
     /// parameter changes.
     tgrs: Vec<TgrInstance>,
@@ -131,6 +136,8 @@ impl Design {
             }
         }
         Some(Design {
+            gram: vec![0.0; free.len() * n * n],
+            dirty: vec![true; n],
             tgrs,
             cols: cols.to_vec(),
             free,
@@ -153,6 +160,7 @@ impl Design {
                 .is_some_and(|old| old.iter().copied().eq(key.clone()))
             {
                 stale[k] = true;
+                self.dirty[k] = true;
                 self.keys[k] = Some(key.collect());
                 for row in self.data.chunks_exact_mut(n) {
                     row[k] = 0.0;
@@ -240,24 +248,27 @@ impl Design {
     /// The system of the current columns: per free particle, the Cholesky factor of the Gram
     /// matrix of `[Φ | a]` (semi-definite: a pivot that vanishes gives a zero row). Rows that
     /// are all zero (an axis the motion never uses) are skipped.
-    pub fn system(&self) -> System {
+    pub fn system(&mut self) -> System {
         let n = self.cols.len() + 1;
+        let dirty = &self.dirty;
+        let pairs: Vec<(usize, usize)> = (0..n)
+            .flat_map(|k| (k..n).map(move |l| (k, l)))
+            .filter(|&(k, l)| dirty[k] || dirty[l])
+            .collect();
         let mut blocks = Vec::with_capacity(self.free.len());
-        let mut g = vec![0.0; n * n];
         for (b, &i) in self.free.iter().enumerate() {
-            g.fill(0.0);
-            let block = &self.data[b * self.rows * n..(b + 1) * self.rows * n];
-            for row in block.chunks_exact(n) {
-                if row.iter().all(|&v| v == 0.0) {
-                    continue;
+            let g = &mut self.gram[b * n * n..(b + 1) * n * n];
+            if !pairs.is_empty() {
+                for &(k, l) in &pairs {
+                    g[k * n + l] = 0.0;
                 }
-                for k in 0..n {
-                    let rk = row[k];
-                    if rk == 0.0 {
+                let block = &self.data[b * self.rows * n..(b + 1) * self.rows * n];
+                for row in block.chunks_exact(n) {
+                    if row.iter().all(|&v| v == 0.0) {
                         continue;
                     }
-                    for (gl, rl) in g[k * n + k..(k + 1) * n].iter_mut().zip(&row[k..]) {
-                        *gl += rk * rl;
+                    for &(k, l) in &pairs {
+                        g[k * n + l] += row[k] * row[l];
                     }
                 }
             }
@@ -285,6 +296,7 @@ impl Design {
                 rows: r,
             });
         }
+        self.dirty.fill(false);
         System {
             cols: self.cols.clone(),
             blocks,
