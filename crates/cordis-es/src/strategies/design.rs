@@ -3,16 +3,18 @@
 //! depends on changes, then reduced to one small triangular factor per free particle.
 //!
 //! [`super::exact::assemble`] runs every force pass once per column and frame and rotates
-//! every row into a factor: ~250 µs per inner solve on the tadpole, ~150 solves per search. In a
-//! search only one nonlinear unknown moves at a time, and its columns have typed kernels:
+//! every row into a factor: ~250 µs per inner solve on the tadpole (loaded 2-core machine),
+//! ~100 solves per search. In a search only one nonlinear unknown moves at a time, and its
+//! columns have typed kernels:
 //!
 //! - a nonlinear drag's `(z1, z2)` at a given v_max: `-v_i` in the column of the regime
 //!   `|v_i| < v_max` selects (the kernel of `cordis_core::forces::nonlinear_drag`);
 //! - a TGR's `(l0, Z)` and the known part at a given K and tendon: the tensions of the three
 //!   tendon series of [`Tendon`] along the link's unit vector.
 //!
-//! Each solve then costs one column group's kernel, a Gram matrix per particle and its Cholesky
-//! factor (the normal equations: cheap, but they square the condition number). So the *score*
+//! Each solve then costs one column group's kernel, the Gram entries touching the changed
+//! columns (per particle) and a Cholesky factor (the normal equations: cheap, but they square
+//! the condition number): ~15 µs on the tadpole. So the *score*
 //! of a candidate is not read from the factor: the inner solution is put back into the rows and
 //! the residual summed explicitly, which is exact up to `|Φ δθ|²` (δθ the solution's error),
 //! second order. The final answer is solved from a Givens (orthogonal) factor of the same rows
