@@ -8,6 +8,7 @@ use cordis_core::Trajectory;
 
 use crate::problem::Problem;
 use crate::rng;
+use crate::space::Role;
 use crate::strategies::annealing::{Annealing, AnnealingConfig};
 use crate::strategies::cmaes::{Cmaes, CmaesConfig};
 use crate::strategies::exact;
@@ -23,7 +24,9 @@ use crate::strategy::Strategy;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StrategyName {
     /// `least-squares` when every unknown enters the short cost linearly, `hybrid` when only
-    /// ranges, v_max and a TGR's stiffness and tendon do not, else `thesis`.
+    /// ranges, v_max and a TGR's stiffness and tendon do not, `levenberg-marquardt` when the
+    /// exact solvers refuse but the short cost is smooth in every unknown (no unknown range
+    /// or v_max: muscles, worlds, couplings), else `thesis`.
     Auto,
     Thesis,
     LeastSquares,
@@ -90,6 +93,7 @@ pub fn make_strategy(
         StrategyName::Auto => match exact::supported(problem) {
             Ok(()) if exact::split(problem).nonlinear.is_empty() => StrategyName::LeastSquares,
             Ok(()) => StrategyName::Hybrid,
+            Err(_) if smooth_short_cost(problem) => StrategyName::LevenbergMarquardt,
             Err(_) => StrategyName::Thesis,
         },
         other => other,
@@ -146,6 +150,19 @@ pub fn make_strategy(
             "levenberg-marquardt",
         ),
     }
+}
+
+/// Whether `levenberg-marquardt` suits a problem the exact solvers refuse: the short cost, and
+/// no unknown that moves it in steps (a conditional range, a nonlinear drag's `v_max`: the
+/// cost reads them only through comparisons with observed values, so a finite difference sees
+/// a zero or a jump). Muscles' neurons, worlds and couplings are smooth in their parameters.
+fn smooth_short_cost(problem: &Problem) -> bool {
+    levenberg_marquardt::supported(problem).is_ok()
+        && problem
+            .space
+            .unknowns
+            .iter()
+            .all(|u| !matches!(u.role, Role::Range | Role::Speed))
 }
 
 /// `config.islands` copies of the named strategy run as an island model

@@ -334,8 +334,11 @@ fn auto_runs_least_squares_through_the_executor() {
     assert!(r.param_error_pct.unwrap() < 1e-6);
     assert!(s.report()["condition"].as_f64().unwrap() >= 1.0);
     // The Provot cloth is solved exactly on the rows the limit leaves (provot_rows), a
-    // muscle's neuron is not linear: auto falls back to the thesis ES.
-    for (c, expected) in [(cloth(5, 5), "least-squares"), (muscle(), "thesis")] {
+    // muscle's neuron is not linear but smooth: auto takes levenberg-marquardt.
+    for (c, expected) in [
+        (cloth(5, 5), "least-squares"),
+        (muscle(), "levenberg-marquardt"),
+    ] {
         let p = Problem::new(
             &with_unknown_boxes(&c, 25.0, 1),
             &c.simulate(20).unwrap(),

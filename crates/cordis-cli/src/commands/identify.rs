@@ -24,7 +24,9 @@ pub struct Args {
     trajectory: PathBuf,
     /// Strategy: auto | thesis | least-squares | hybrid | cmaes | self-adaptive | annealing |
     /// parisian | levenberg-marquardt. auto = least-squares when every unknown enters linearly,
-    /// hybrid when only ranges, v_max or a TGR's stiffness and tendon do not, else thesis.
+    /// hybrid when only ranges, v_max or a TGR's stiffness and tendon do not,
+    /// levenberg-marquardt when the short cost is smooth in every unknown (muscles, worlds),
+    /// else thesis.
     #[arg(long, default_value = "auto")]
     strategy: StrategyName,
     /// Stop after this many generations.
