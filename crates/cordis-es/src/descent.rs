@@ -163,14 +163,14 @@ fn line_min(
     let _ = fa;
     let (lo_t, hi_t) = if a < c { (a, c) } else { (c, a) };
     let (t, ft) = brent(
-        |t, e| eval(t, e),
+        |t| (evals < budget).then(|| eval(t, &mut evals)),
         lo_t,
         b,
         fb,
         hi_t,
+        1e-14,
         1e-10,
-        budget,
-        &mut evals,
+        100,
     );
     if ft < fx {
         (t, ft, evals)
@@ -179,32 +179,37 @@ fn line_min(
     }
 }
 
-/// Brent's minimisation on [a, c] from an interior point b with f(b) known.
+/// (3 − √5) / 2: the golden section.
+const CGOLD: f64 = 0.381_966_011_250_105;
+
+/// Brent's minimisation on `[a, c]` from an interior point `x` where `f` is `fx`, the least
+/// known (Numerical Recipes' `brent`: parabolic steps safeguarded by golden sections). The
+/// tolerance is `abs + rel·|x|`; at most `max_steps` steps, and it stops early when `f` returns
+/// `None` (its caller's budget is spent). A parabolic step that is not finite (a candidate cost
+/// +inf) falls back to a golden section. Returns the least point seen and its value. Shared by
+/// Powell's line searches and `hybrid`'s profile search
+/// ([`crate::strategies::profile`]).
 #[allow(clippy::too_many_arguments)]
-fn brent(
-    mut f: impl FnMut(f64, &mut usize) -> f64,
+pub(crate) fn brent(
+    mut f: impl FnMut(f64) -> Option<f64>,
     a: f64,
-    b: f64,
-    fb: f64,
+    x: f64,
+    fx: f64,
     c: f64,
-    tol: f64,
-    budget: usize,
-    evals: &mut usize,
+    abs: f64,
+    rel: f64,
+    max_steps: usize,
 ) -> (f64, f64) {
-    const CGOLD: f64 = 0.381_966_011_250_105;
-    let (mut a, mut bb) = (a, c);
-    let (mut x, mut w, mut v) = (b, b, b);
-    let (mut fx, mut fw, mut fv) = (fb, fb, fb);
+    let (mut a, mut b) = (a, c);
+    let (mut x, mut w, mut v) = (x, x, x);
+    let (mut fx, mut fw, mut fv) = (fx, fx, fx);
     let mut d: f64 = 0.0;
     let mut e: f64 = 0.0;
-    for _ in 0..100 {
-        if *evals >= budget {
-            break;
-        }
-        let xm = 0.5 * (a + bb);
-        let tol1 = tol * x.abs() + 1e-14;
+    for _ in 0..max_steps {
+        let xm = 0.5 * (a + b);
+        let tol1 = rel * x.abs() + abs;
         let tol2 = 2.0 * tol1;
-        if (x - xm).abs() <= tol2 - 0.5 * (bb - a) {
+        if (x - xm).abs() <= tol2 - 0.5 * (b - a) {
             break;
         }
         let mut golden = true;
@@ -219,17 +224,22 @@ fn brent(
             q = q.abs();
             let etemp = e;
             e = d;
-            if p.abs() < (0.5 * q * etemp).abs() && p > q * (a - x) && p < q * (bb - x) {
-                d = p / q;
+            let step = p / q;
+            if step.is_finite()
+                && p.abs() < (0.5 * q * etemp).abs()
+                && p > q * (a - x)
+                && p < q * (b - x)
+            {
+                d = step;
                 let u = x + d;
-                if u - a < tol2 || bb - u < tol2 {
+                if u - a < tol2 || b - u < tol2 {
                     d = if xm >= x { tol1 } else { -tol1 };
                 }
                 golden = false;
             }
         }
         if golden {
-            e = if x >= xm { a - x } else { bb - x };
+            e = if x >= xm { a - x } else { b - x };
             d = CGOLD * e;
         }
         let u = if d.abs() >= tol1 {
@@ -237,19 +247,21 @@ fn brent(
         } else {
             x + if d >= 0.0 { tol1 } else { -tol1 }
         };
-        let fu = f(u, evals);
+        let Some(fu) = f(u) else {
+            break;
+        };
         if fu <= fx {
             if u >= x {
                 a = x;
             } else {
-                bb = x;
+                b = x;
             }
             (v, fv, w, fw, x, fx) = (w, fw, x, fx, u, fu);
         } else {
             if u < x {
                 a = u;
             } else {
-                bb = u;
+                b = u;
             }
             if fu <= fw || w == x {
                 (v, fv, w, fw) = (w, fw, u, fu);

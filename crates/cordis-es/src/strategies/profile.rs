@@ -10,14 +10,14 @@
 //! is exactly 0 at the truth and grows quadratically away from it, so the tolerance can be far
 //! below the usual √ε: the minimum is located to ~1e-11 of the coordinate.
 
+use crate::descent::brent;
+
 /// Points of the coarse grid (box ends included).
 pub(crate) const GRID: usize = 16;
 /// Brent's relative tolerance on the internal coordinate (ln v for a log-scaled unknown).
 pub(crate) const TOL: f64 = 1e-11;
 /// Most Brent steps.
 const MAX_STEPS: usize = 200;
-/// (3 - √5) / 2: the golden section.
-const CGOLD: f64 = 0.381_966_011_250_105_1;
 
 /// The least `f` over `[lo, hi]` (internal coordinates): `(x, f(x))`. `f` scores a batch of
 /// points. `tol` is relative to the box width plus |x|; [`TOL`] for the final answer, larger
@@ -46,91 +46,16 @@ pub(crate) fn minimize(
     if !fs[b].is_finite() {
         return (xs[b], fs[b]);
     }
-    brent(a, c, xs[b], fs[b], tol * (hi - lo), tol, |x| f(&[x])[0])
-}
-
-/// Brent's minimisation on `[a, b]` from `x` (f(x) = `fx`, the least known), absolute
-/// tolerance `abs` plus `rel`·|x| (Numerical Recipes' `brent`, with a guard against
-/// non-finite parabolic steps: a diverging candidate costs +inf).
-fn brent(
-    mut a: f64,
-    mut b: f64,
-    mut x: f64,
-    mut fx: f64,
-    abs: f64,
-    rel: f64,
-    mut f: impl FnMut(f64) -> f64,
-) -> (f64, f64) {
-    let (mut w, mut v, mut fw, mut fv) = (x, x, fx, fx);
-    let (mut d, mut e): (f64, f64) = (0.0, 0.0);
-    for _ in 0..MAX_STEPS {
-        let xm = 0.5 * (a + b);
-        let tol1 = rel * x.abs() + abs;
-        let tol2 = 2.0 * tol1;
-        if (x - xm).abs() <= tol2 - 0.5 * (b - a) {
-            break;
-        }
-        let golden = |x: f64| if x >= xm { a - x } else { b - x };
-        if e.abs() > tol1 {
-            let r = (x - w) * (fx - fv);
-            let mut q = (x - v) * (fx - fw);
-            let mut p = (x - v) * q - (x - w) * r;
-            q = 2.0 * (q - r);
-            if q > 0.0 {
-                p = -p;
-            }
-            q = q.abs();
-            let etemp = e;
-            e = d;
-            let step = p / q;
-            if !step.is_finite()
-                || p.abs() >= (0.5 * q * etemp).abs()
-                || p <= q * (a - x)
-                || p >= q * (b - x)
-            {
-                e = golden(x);
-                d = CGOLD * e;
-            } else {
-                d = step;
-                let u = x + d;
-                if u - a < tol2 || b - u < tol2 {
-                    d = tol1.copysign(xm - x);
-                }
-            }
-        } else {
-            e = golden(x);
-            d = CGOLD * e;
-        }
-        let u = if d.abs() >= tol1 {
-            x + d
-        } else {
-            x + tol1.copysign(d)
-        };
-        let fu = f(u);
-        if fu <= fx {
-            if u >= x {
-                a = x;
-            } else {
-                b = x;
-            }
-            (v, w, x) = (w, x, u);
-            (fv, fw, fx) = (fw, fx, fu);
-        } else {
-            if u < x {
-                a = u;
-            } else {
-                b = u;
-            }
-            if fu <= fw || w == x {
-                (v, w) = (w, u);
-                (fv, fw) = (fw, fu);
-            } else if fu <= fv || v == x || v == w {
-                v = u;
-                fv = fu;
-            }
-        }
-    }
-    (x, fx)
+    brent(
+        |x| Some(f(&[x])[0]),
+        a,
+        xs[b],
+        fs[b],
+        c,
+        tol * (hi - lo),
+        tol,
+        MAX_STEPS,
+    )
 }
 
 #[cfg(test)]
