@@ -163,21 +163,16 @@ impl Problem {
         local: &mut [f64],
     ) -> f64 {
         self.space.fill_params(genome, &mut s.params);
-        if self.guard.is_some() {
-            let params = std::mem::take(&mut s.params);
-            let rejected = self.stability_check(&params, s).is_some();
-            s.params = params;
-            if rejected {
-                // Every free particle's local cost too, so particle-wise operators (the
-                // thesis strategy's) never take a gene from a rejected candidate.
-                local.fill(0.0);
-                for &i in &self.objective.free {
-                    if let Some(c) = local.get_mut(i) {
-                        *c = f64::INFINITY;
-                    }
+        if self.guard.is_some() && self.rejects_filled(s) {
+            // Every free particle's local cost too, so particle-wise operators (the thesis
+            // strategy's) never take a gene from a rejected candidate.
+            local.fill(0.0);
+            for &i in &self.objective.free {
+                if let Some(c) = local.get_mut(i) {
+                    *c = f64::INFINITY;
                 }
-                return f64::INFINITY;
             }
+            return f64::INFINITY;
         }
         match self.objective.evaluate(&s.params, &mut s.cost, local) {
             Ok(c) if !c.is_nan() => c,
@@ -260,16 +255,19 @@ impl Problem {
         });
     }
 
+    /// Whether the stable horizon rejects the parameters already filled into `s.params`.
+    fn rejects_filled(&self, s: &mut EvalScratch) -> bool {
+        let params = std::mem::take(&mut s.params);
+        let rejected = self.stability_check(&params, s).is_some();
+        s.params = params;
+        rejected
+    }
+
     /// [`Problem::residuals_population`] of one genome, not counted.
     fn residuals_uncounted(&self, genome: &[f64], s: &mut EvalScratch, out: &mut [f64]) -> f64 {
         self.space.fill_params(genome, &mut s.params);
-        if self.guard.is_some() {
-            let params = std::mem::take(&mut s.params);
-            let rejected = self.stability_check(&params, s).is_some();
-            s.params = params;
-            if rejected {
-                return f64::INFINITY;
-            }
+        if self.guard.is_some() && self.rejects_filled(s) {
+            return f64::INFINITY;
         }
         match self.objective.residuals(&s.params, &mut s.cost, out) {
             Ok(c) if !c.is_nan() => c,
