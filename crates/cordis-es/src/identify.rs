@@ -167,13 +167,20 @@ fn smooth_short_cost(problem: &Problem) -> bool {
 
 /// `config.islands` copies of the named strategy run as an island model
 /// ([`Islands`]), each with `options.population` individuals; errors when that strategy
-/// cannot exchange individuals. Returns the strategy with the name of what each island runs.
+/// cannot exchange individuals. `auto` means the thesis ES here: islands are populations
+/// exchanging individuals, and what `auto` picks otherwise (an exact solver, one
+/// levenberg-marquardt point) has none. Returns the strategy with the name of what each
+/// island runs.
 pub fn make_islands(
     name: StrategyName,
     problem: &Problem,
     options: &StrategyOptions,
     config: IslandConfig,
 ) -> Result<(Box<dyn Strategy>, &'static str), String> {
+    let name = match name {
+        StrategyName::Auto => StrategyName::Thesis,
+        other => other,
+    };
     let mut ran = "islands";
     let islands = (0..config.islands)
         .map(|_| {

@@ -232,3 +232,22 @@ fn a_strategy_that_cannot_migrate_is_refused() {
         .expect("cmaes cannot migrate");
     assert!(err.contains("cmaes"), "{err}");
 }
+
+#[test]
+fn islands_with_auto_run_thesis_populations_even_where_auto_alone_would_not() {
+    // Alone, `auto` picks least-squares on the rigid scene and levenberg-marquardt on the
+    // muscle: neither has a population to exchange. With islands it means the thesis ES.
+    for truth in [
+        cordis_core::examples::rigid(),
+        cordis_core::examples::muscle(),
+    ] {
+        let traj = truth.simulate(40).unwrap();
+        let problem =
+            Problem::new(&with_unknown_boxes(&truth, 25.0, 2), &traj, CostKind::Short).unwrap();
+        let (_, alone) = make_strategy(StrategyName::Auto, &problem, &options());
+        assert_ne!(alone, "thesis");
+        let (_, ran) = make_islands(StrategyName::Auto, &problem, &options(), islands(2))
+            .expect("auto islands");
+        assert_eq!(ran, "thesis");
+    }
+}
