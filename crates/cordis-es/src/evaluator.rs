@@ -29,6 +29,16 @@ pub trait Evaluator: Send + Sync {
     ) -> Result<(), String>;
 }
 
+/// The `count` genomes of `dim` values each in `genomes`, one slice per individual; without
+/// unknowns the slices are empty (each individual still has a cost).
+pub(crate) fn genome_rows(genomes: &[f64], dim: usize, count: usize) -> Vec<&[f64]> {
+    if dim == 0 {
+        vec![&[][..]; count]
+    } else {
+        genomes.chunks_exact(dim).collect()
+    }
+}
+
 /// Evaluation on the current rayon pool, one scratch per worker split: the default.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Local;
@@ -44,12 +54,7 @@ impl Evaluator for Local {
         let dim = problem.dim();
         let n = problem.num_particles;
         debug_assert_eq!(genomes.len(), costs.len() * dim, "one genome per cost");
-        // One row per individual; without unknowns the rows are empty (each still has a cost).
-        let rows: Vec<&[f64]> = if dim == 0 {
-            vec![&[][..]; costs.len()]
-        } else {
-            genomes.chunks_exact(dim).collect()
-        };
+        let rows = genome_rows(genomes, dim, costs.len());
         match local {
             Some(local) if n > 0 => rows
                 .par_iter()

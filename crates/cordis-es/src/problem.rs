@@ -239,11 +239,7 @@ impl Problem {
             costs.fill(0.0);
             return;
         }
-        let rows: Vec<&[f64]> = if dim == 0 {
-            vec![&[][..]; costs.len()]
-        } else {
-            genomes.chunks_exact(dim).collect()
-        };
+        let rows = crate::evaluator::genome_rows(genomes, dim, costs.len());
         self.timed(|| {
             rows.par_iter()
                 .zip(out.par_chunks_mut(len))

@@ -13,6 +13,9 @@ use cordis_es::identify::{StrategyName, StrategyOptions};
 use cordis_es::problem::Problem;
 use cordis_es::strategies::islands::IslandConfig;
 
+mod common;
+use common::rigid_problem;
+
 /// Evaluates one genome at a time in reverse order, counting its batches.
 #[derive(Default)]
 struct Reversed {
@@ -61,16 +64,6 @@ impl Evaluator for Failing {
         }
         cordis_es::evaluator::Local.evaluate(problem, genomes, costs, local)
     }
-}
-
-fn rigid_problem() -> Problem {
-    let truth = cordis_core::examples::rigid();
-    let traj = truth.simulate(40).expect("rigid simulates");
-    let scene = with_unknown_boxes(&truth, 10.0, 3);
-    Problem::new(&scene, &traj, CostKind::Short)
-        .expect("problem")
-        .with_truth(&truth)
-        .expect("truth")
 }
 
 fn config(seed: u64, g: u64) -> RunConfig {

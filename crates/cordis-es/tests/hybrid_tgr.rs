@@ -13,6 +13,8 @@ use cordis_es::identify::{check_strategy, make_strategy, with_unknown_boxes, Str
 use cordis_es::problem::Problem;
 use cordis_es::strategies::{hybrid, least_squares};
 
+mod common;
+
 /// Table 6.1's unknowns (z1, z2, v_max, K, l0) in boxes 25× wide around the truth.
 fn table_6_1(seed: u64) -> (Scene, Problem, cordis_core::Trajectory) {
     let truth = tadpole();
@@ -140,25 +142,8 @@ fn least_squares_solves_l0_and_the_medium_through_a_known_tgr() {
 /// typed design: the generic assembly throughout): K searched, l0, Z and the drag solved.
 #[test]
 fn hybrid_solves_a_damped_tgr_through_the_generic_assembly() {
-    use cordis_core::{Bounds, LinkKind, LinkType, Particle, Shape, Signal};
-    let mut truth = Scene::new(0.01);
-    truth.add_particle(Particle::new(1.0, [0.0; 3]));
-    truth.add_particle(Particle::new(2.0, [1.1, 0.2, 0.0]));
-    truth.add_signal(Signal::new("cmd", Shape::Sawtooth, 3.0, 0.6).with_rise(0.8));
-    truth.add_type(LinkType::new("water", LinkKind::Drag).with("damping", 0.5));
-    truth.add_type(
-        LinkType::new("t", LinkKind::Tgr)
-            .with("stiffness", 20.0)
-            .with("rest_length", 1.0)
-            .with("damping", 0.3)
-            .with("tendon_mass", 0.05)
-            .with("tendon_stiffness", 10.0)
-            .with("tendon_damping", 0.5)
-            .with_signal("cmd"),
-    );
-    truth.add_link("water", &[0]);
-    truth.add_link("water", &[1]);
-    truth.add_coupling("t", &[0, 1]);
+    use cordis_core::Bounds;
+    let truth = common::driven_tgr_pair();
     let traj = truth.simulate(150).unwrap();
     let mut scene = truth.clone();
     for (t, name, v) in [

@@ -345,33 +345,20 @@ fn auto_runs_least_squares_through_the_executor() {
             CostKind::Short,
         )
         .unwrap();
-        assert_eq!(
-            make_strategy(
-                StrategyName::Auto,
-                &p,
-                &StrategyOptions {
-                    population: 10,
-                    ..StrategyOptions::default()
-                }
-            )
-            .1,
-            expected
-        );
+        assert_eq!(auto_pick(&p), expected);
     }
     // A long-term cost is not the short cost.
     let p = Problem::new(&unknown, &traj, CostKind::Long).unwrap();
-    assert_eq!(
-        make_strategy(
-            StrategyName::Auto,
-            &p,
-            &StrategyOptions {
-                population: 10,
-                ..StrategyOptions::default()
-            }
-        )
-        .1,
-        "thesis"
-    );
+    assert_eq!(auto_pick(&p), "thesis");
+}
+
+/// What `--strategy auto` runs on `p`.
+fn auto_pick(p: &Problem) -> &'static str {
+    let options = StrategyOptions {
+        population: 10,
+        ..StrategyOptions::default()
+    };
+    make_strategy(StrategyName::Auto, p, &options).1
 }
 
 #[test]

@@ -13,6 +13,9 @@ use cordis_es::strategies::parisian::{Parisian, ParisianConfig};
 use cordis_es::strategies::self_adaptive::{SelfAdaptive, SelfAdaptiveConfig};
 use cordis_es::strategy::Strategy;
 
+mod common;
+use common::rigid_problem;
+
 const NAMES: [&str; 4] = ["cmaes", "self-adaptive", "annealing", "parisian"];
 
 /// Small populations so a few dozen generations do real work in well under a second.
@@ -31,18 +34,6 @@ fn strategy(name: &str) -> Box<dyn Strategy> {
         })),
         _ => unreachable!(),
     }
-}
-
-/// The `rigid` example (15 particles, 10 link types) over 40 frames, every positive link
-/// parameter unknown in a box 10× wide.
-fn rigid_problem() -> Problem {
-    let truth = cordis_core::examples::rigid();
-    let traj = truth.simulate(40).expect("rigid simulates");
-    let scene = with_unknown_boxes(&truth, 10.0, 3);
-    Problem::new(&scene, &traj, CostKind::Short)
-        .expect("problem")
-        .with_truth(&truth)
-        .expect("truth")
 }
 
 fn run(problem: &mut Problem, name: &str, config: &RunConfig) -> RunResult {

@@ -2,32 +2,16 @@
 //! the tendon along the observed frames, so the true parameters predict the simulated motion
 //! exactly; `least-squares` refuses an unknown TGR stiffness and names `hybrid`, which takes it.
 
-use cordis_core::{Bounds, LinkKind, LinkType, Param, Particle, Scene, Shape, Signal};
+use cordis_core::{Bounds, Param, Scene};
 use cordis_es::cost::{CostKind, Objective};
 use cordis_es::identify::check_strategy;
 use cordis_es::problem::Problem;
 
+mod common;
+
 /// Two free particles in a drag, driven by a TGR with a damped, sprung tendon.
 fn scene() -> Scene {
-    let mut s = Scene::new(0.01);
-    s.add_particle(Particle::new(1.0, [0.0; 3]));
-    s.add_particle(Particle::new(2.0, [1.1, 0.2, 0.0]));
-    s.add_signal(Signal::new("cmd", Shape::Sawtooth, 3.0, 0.6).with_rise(0.8));
-    s.add_type(LinkType::new("water", LinkKind::Drag).with("damping", 0.5));
-    s.add_type(
-        LinkType::new("t", LinkKind::Tgr)
-            .with("stiffness", 20.0)
-            .with("rest_length", 1.0)
-            .with("damping", 0.3)
-            .with("tendon_mass", 0.05)
-            .with("tendon_stiffness", 10.0)
-            .with("tendon_damping", 0.5)
-            .with_signal("cmd"),
-    );
-    s.add_link("water", &[0]);
-    s.add_link("water", &[1]);
-    s.add_coupling("t", &[0, 1]);
-    s
+    common::driven_tgr_pair()
 }
 
 const KINDS: [&str; 4] = ["short", "horizon:7", "long", "progressive:3"];

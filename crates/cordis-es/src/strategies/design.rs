@@ -51,6 +51,9 @@ pub(crate) struct Design {
     /// row order, so a cached entry has the same bits as a fresh one).
     gram: Vec<f64>,
     dirty: Vec<bool>,
+    /// The Gram entries `(k, l)` to bring up to date (scratch of [`Design::system`], kept to
+    /// avoid an allocation per inner solve).
+    stale: Vec<(usize, usize)>,
     /// Every TGR instance with what its tendon reads at each frame 0 … T-2, which no
     /// parameter changes.
     tgrs: Vec<TgrInstance>,
@@ -140,6 +143,7 @@ impl Design {
         Some(Design {
             gram: vec![0.0; free.len() * n * n],
             dirty: vec![true; n],
+            stale: Vec::with_capacity(n * (n + 1) / 2),
             tgrs,
             cols: cols.to_vec(),
             free,
@@ -253,15 +257,18 @@ impl Design {
     pub fn system(&mut self) -> System {
         let n = self.cols.len() + 1;
         let dirty = &self.dirty;
-        let pairs: Vec<(usize, usize)> = (0..n)
-            .flat_map(|k| (k..n).map(move |l| (k, l)))
-            .filter(|&(k, l)| dirty[k] || dirty[l])
-            .collect();
+        self.stale.clear();
+        self.stale.extend(
+            (0..n)
+                .flat_map(|k| (k..n).map(move |l| (k, l)))
+                .filter(|&(k, l)| dirty[k] || dirty[l]),
+        );
+        let pairs = &self.stale;
         let mut blocks = Vec::with_capacity(self.free.len());
         for (b, &i) in self.free.iter().enumerate() {
             let g = &mut self.gram[b * n * n..(b + 1) * n * n];
             if !pairs.is_empty() {
-                for &(k, l) in &pairs {
+                for &(k, l) in pairs {
                     g[k * n + l] = 0.0;
                 }
                 let block = &self.data[b * self.rows * n..(b + 1) * self.rows * n];
@@ -269,7 +276,7 @@ impl Design {
                     if row.iter().all(|&v| v == 0.0) {
                         continue;
                     }
-                    for &(k, l) in &pairs {
+                    for &(k, l) in pairs {
                         g[k * n + l] += row[k] * row[l];
                     }
                 }

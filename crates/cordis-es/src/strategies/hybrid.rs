@@ -457,7 +457,7 @@ pub fn strategy() -> OneShot {
 
 #[cfg(test)]
 mod tests {
-    use cordis_core::{LinkKind, LinkType, Particle, Scene};
+    use cordis_core::Scene;
 
     use super::*;
     use crate::cost::CostKind;
@@ -465,35 +465,17 @@ mod tests {
 
     /// Eight particles held by anchors, one conditional type (K, l0, range unknown).
     fn gas() -> Scene {
-        let mut s = Scene::new(0.005);
-        for n in 0..8 {
-            let a = n as f64;
-            s.add_particle(
-                Particle::new(
-                    0.5 + 0.1 * a,
-                    [
-                        0.4 * (2.0 * a).cos(),
-                        0.4 * (3.0 * a).sin(),
-                        0.3 * (a).sin(),
-                    ],
-                )
-                .with_vel([(1.3 * a).sin(), (0.7 * a).cos(), (2.1 * a).sin() * 0.5])
-                .in_group("gas"),
-            );
-        }
-        let mut pair = LinkType::new("pair", LinkKind::Conditional)
-            .with("stiffness", 40.0)
-            .with("rest_length", 0.3)
-            .with("range", 0.45);
-        pair.groups = vec!["gas".into()];
-        s.add_type(pair);
-        let mut hold = LinkType::new("hold", LinkKind::Anchor).with("stiffness", 6.0);
-        hold.point = Some([0.0, 0.0, 0.0]);
-        s.add_type(hold);
-        for i in 0..8 {
-            s.add_link("hold", &[i]);
-        }
-        s
+        let pts: Vec<[f64; 3]> = (0..8)
+            .map(|n| {
+                let a = n as f64;
+                [
+                    0.4 * (2.0 * a).cos(),
+                    0.4 * (3.0 * a).sin(),
+                    0.3 * (a).sin(),
+                ]
+            })
+            .collect();
+        crate::strategies::test_scenes::anchored_gas(&pts, false)
     }
 
     /// The range sweeps pick the same interval as the coarse-to-fine grid of exact solves

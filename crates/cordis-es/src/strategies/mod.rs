@@ -14,6 +14,8 @@ mod profile;
 pub mod provot_rows;
 pub mod range_sweep;
 pub mod self_adaptive;
+#[cfg(test)]
+mod test_scenes;
 mod tgr_cols;
 pub mod thesis;
 

@@ -586,7 +586,7 @@ impl Schur {
 
 #[cfg(test)]
 mod tests {
-    use cordis_core::{LinkKind, LinkType, Particle, Scene};
+    use cordis_core::Scene;
 
     use super::*;
     use crate::cost::CostKind;
@@ -597,7 +597,6 @@ mod tests {
     /// range unknown) and a second one reaching further, damped (Z, range unknown): pairs
     /// come in and out of both ranges all the time.
     fn gas() -> Scene {
-        let mut s = Scene::new(0.005);
         let pts = [
             [0.0, 0.0, 0.0],
             [0.4, 0.1, 0.0],
@@ -608,34 +607,7 @@ mod tests {
             [0.2, 0.3, -0.4],
             [-0.1, -0.1, 0.5],
         ];
-        for (n, p) in pts.iter().enumerate() {
-            let a = n as f64;
-            s.add_particle(
-                Particle::new(0.5 + 0.1 * a, *p)
-                    .with_vel([(1.3 * a).sin(), (0.7 * a).cos(), (2.1 * a).sin() * 0.5])
-                    .in_group("gas"),
-            );
-        }
-        let mut pair = LinkType::new("pair", LinkKind::Conditional)
-            .with("stiffness", 40.0)
-            .with("rest_length", 0.3)
-            .with("range", 0.45);
-        pair.groups = vec!["gas".into()];
-        s.add_type(pair);
-        let mut visc = LinkType::new("visc", LinkKind::Conditional)
-            .with("stiffness", 0.0)
-            .with("rest_length", 0.0)
-            .with("damping", 0.8)
-            .with("range", 0.6);
-        visc.groups = vec!["gas".into()];
-        s.add_type(visc);
-        let mut hold = LinkType::new("hold", LinkKind::Anchor).with("stiffness", 6.0);
-        hold.point = Some([0.0, 0.0, 0.0]);
-        s.add_type(hold);
-        for i in 0..pts.len() {
-            s.add_link("hold", &[i]);
-        }
-        s
+        crate::strategies::test_scenes::anchored_gas(&pts, true)
     }
 
     /// The sweep's bound of every interval against a full inner solve built the old way

@@ -2,7 +2,10 @@
 //! per link, brute-force conditional pairs, no `Plan`).
 #![allow(dead_code)]
 
-use cordis_core::{Bounds, LinkKind, LinkType, Param, Particle, Scene, Trajectory};
+use cordis_core::{Bounds, LinkKind, LinkType, Param, Particle, Scene, Shape, Signal, Trajectory};
+use cordis_es::cost::CostKind;
+use cordis_es::identify::with_unknown_boxes;
+use cordis_es::problem::Problem;
 
 pub type V = [f64; 3];
 
@@ -565,4 +568,40 @@ pub fn naive_cost(scene: &Scene, traj: &Trajectory, p: &[f64], kind: Naive) -> (
             (per.iter().sum(), per)
         }
     }
+}
+
+/// The `rigid` example (15 particles, 10 link types) over 40 frames, every positive link
+/// parameter unknown in a box 10× wide, the truth attached.
+pub fn rigid_problem() -> Problem {
+    let truth = cordis_core::examples::rigid();
+    let traj = truth.simulate(40).expect("rigid simulates");
+    let scene = with_unknown_boxes(&truth, 10.0, 3);
+    Problem::new(&scene, &traj, CostKind::Short)
+        .expect("problem")
+        .with_truth(&truth)
+        .expect("truth")
+}
+
+/// Two free particles in a linear drag, driven by a damped TGR with a damped, sprung tendon
+/// (signal `cmd`: a sawtooth).
+pub fn driven_tgr_pair() -> Scene {
+    let mut s = Scene::new(0.01);
+    s.add_particle(Particle::new(1.0, [0.0; 3]));
+    s.add_particle(Particle::new(2.0, [1.1, 0.2, 0.0]));
+    s.add_signal(Signal::new("cmd", Shape::Sawtooth, 3.0, 0.6).with_rise(0.8));
+    s.add_type(LinkType::new("water", LinkKind::Drag).with("damping", 0.5));
+    s.add_type(
+        LinkType::new("t", LinkKind::Tgr)
+            .with("stiffness", 20.0)
+            .with("rest_length", 1.0)
+            .with("damping", 0.3)
+            .with("tendon_mass", 0.05)
+            .with("tendon_stiffness", 10.0)
+            .with("tendon_damping", 0.5)
+            .with_signal("cmd"),
+    );
+    s.add_link("water", &[0]);
+    s.add_link("water", &[1]);
+    s.add_coupling("t", &[0, 1]);
+    s
 }
