@@ -196,7 +196,8 @@ pub fn to_py(err: CoreError) -> PyErr {
 }
 
 fn build(py: Python<'_>, err: &CoreError) -> PyResult<PyErr> {
-    let text = err.to_string();
+    // The message as a terminal may show it: input bytes escaped, long values cut.
+    let text = cordis_core::error::printable(&err.to_string());
     let value = match err {
         CoreError::Scene { place, message } => placed::<SceneError>(py, &text, place, message)?,
         CoreError::Trajectory { place, message } => {

@@ -120,7 +120,8 @@ where
     }
 }
 
-/// The error and its causes on one line.
+/// The error and its causes on one line, printable (input bytes escaped, long values cut:
+/// `cordis_core::error::printable`).
 fn one_line(e: &anyhow::Error) -> String {
     let mut s = e.to_string();
     for cause in e.chain().skip(1) {
@@ -130,7 +131,7 @@ fn one_line(e: &anyhow::Error) -> String {
             s.push_str(&c);
         }
     }
-    s.replace('\n', " ")
+    cordis_core::error::printable(&s.replace('\n', " "))
 }
 
 /// 0 success, 1 a run that failed (divergence, a file that cannot be read or written), 2 bad

@@ -176,6 +176,33 @@ fn mk(place: String, message: String) -> CordisError {
     CordisError::format(place, message)
 }
 
+/// The files [`import`] reads for model `base`: `NAME.mas`, `.cat`, `.ini`, `.tra`, `.lock`
+/// and the `Param.gene` beside them (the last four when they exist), so that a caller can keep
+/// its outputs off them.
+pub fn model_files(base: &Path) -> [PathBuf; 6] {
+    let [mas, cat, ini, tra, lock] =
+        ["mas", "cat", "ini", "tra", "lock"].map(|ext| model_file(base, ext));
+    [mas, cat, ini, tra, lock, gene_file(base)]
+}
+
+/// The `Param.gene` beside model `base`.
+fn gene_file(base: &Path) -> PathBuf {
+    base.parent()
+        .map_or_else(|| PathBuf::from("Param.gene"), |d| d.join("Param.gene"))
+}
+
+/// `base` (without extension, or ending in `.mas`) with extension `ext`.
+fn model_file(base: &Path, ext: &str) -> PathBuf {
+    let base = match base.extension() {
+        Some(e) if e.eq_ignore_ascii_case("mas") => base.with_extension(""),
+        _ => base.to_path_buf(),
+    };
+    let mut s = base.into_os_string();
+    s.push(".");
+    s.push(ext);
+    PathBuf::from(s)
+}
+
 /// Reads model `base` (a path without extension, or ending in `.mas`). `dt` (s) is not in the
 /// thesis' files. Initial positions and velocities come from `NAME.ini`, or else from the first
 /// two frames of `NAME.tra` (`v = (x1 - x0) / dt`). Anchors hold their particle's initial
@@ -187,16 +214,7 @@ pub fn import(base: &Path, dt: f64) -> Result<ThesisModel> {
             format!("must be a positive number, got {dt}"),
         ));
     }
-    let base = match base.extension() {
-        Some(e) if e.eq_ignore_ascii_case("mas") => base.with_extension(""),
-        _ => base.to_path_buf(),
-    };
-    let file = |ext: &str| -> PathBuf {
-        let mut s = base.clone().into_os_string();
-        s.push(".");
-        s.push(ext);
-        PathBuf::from(s)
-    };
+    let file = |ext: &str| model_file(base, ext);
     let shown = |p: &Path| p.display().to_string();
     let (mas_path, cat_path) = (file("mas"), file("cat"));
     let mas = parse_mas(&shown(&mas_path), &read_text(&mas_path)?)?;
@@ -275,9 +293,7 @@ pub fn import(base: &Path, dt: f64) -> Result<ThesisModel> {
         Vec::new()
     };
 
-    let gene_path = base
-        .parent()
-        .map_or_else(|| PathBuf::from("Param.gene"), |d| d.join("Param.gene"));
+    let gene_path = gene_file(base);
     let gene = if gene_path.exists() {
         Some(parse_gene(&shown(&gene_path), &read_text(&gene_path)?)?)
     } else {

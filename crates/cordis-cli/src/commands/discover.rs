@@ -55,6 +55,16 @@ fn read_masses(path: &PathBuf) -> Result<Vec<f64>> {
 }
 
 pub fn run(a: Args, output: Output) -> Result<()> {
+    super::guard_outputs(
+        &[
+            ("--trajectory", Some(&a.trajectory)),
+            ("--masses", a.masses.as_deref()),
+        ],
+        &[
+            ("--out", a.out.as_deref()),
+            ("--scores", a.scores.as_deref()),
+        ],
+    )?;
     let traj = cordis_core::io::read_trajectory(&a.trajectory)?;
     let dt = match (a.dt, traj.dt) {
         (Some(dt), _) => dt,

@@ -34,6 +34,7 @@ pub struct Args {
 }
 
 pub fn run(a: Args, output: Output) -> Result<()> {
+    super::guard_outputs(&[], &[("--out", a.out.as_deref())])?;
     let scene = examples::by_name(&a.name).ok_or_else(|| {
         anyhow!(
             "example `{}` does not exist (expected one of: {})",

@@ -1,6 +1,6 @@
 use std::fs::File;
 use std::io::{BufWriter, IsTerminal, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
@@ -105,6 +105,26 @@ pub struct Args {
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
 pub fn run(a: Args, output: Output) -> Result<()> {
+    // Issue 17 hook: outputs off the inputs and each other, writable, before any work.
+    // `--checkpoint` may be the `--resume` file (a run that goes on saving where it resumed).
+    let lock_file = a
+        .lock
+        .as_deref()
+        .filter(|l| l.ends_with(".lock"))
+        .map(Path::new);
+    let inputs = [
+        ("scene", Some(a.scene.as_path())),
+        ("--trajectory", Some(&a.trajectory)),
+        ("--truth", a.truth.as_deref()),
+        ("--param-gene", a.param_gene.as_deref()),
+        ("--lock", lock_file),
+    ];
+    let (out, log) = (("--out", a.out.as_deref()), ("--log", a.log.as_deref()));
+    super::guard_outputs(
+        &inputs,
+        &[("--checkpoint", a.checkpoint.as_deref()), out, log],
+    )?;
+    super::guard_outputs(&[("--resume", a.resume.as_deref())], &[out, log])?;
     let scene = Scene::from_json_path(&a.scene)?;
     if !scene.has_unknowns() {
         bail!(

@@ -20,6 +20,15 @@ pub struct Args {
 }
 
 pub fn run(a: Args, output: Output) -> Result<()> {
+    let read = cordis_core::thesis::model_files(&a.name);
+    let inputs: Vec<_> = read.iter().map(|p| ("NAME", Some(p.as_path()))).collect();
+    super::guard_outputs(
+        &inputs,
+        &[
+            ("--out", a.out.as_deref()),
+            ("--trajectory", a.trajectory.as_deref()),
+        ],
+    )?;
     let model = cordis_core::thesis::import(&a.name, a.dt)?;
     // The trajectory is checked before anything is written: a failed import writes nothing.
     let traj = match (&a.trajectory, &model.trajectory) {

@@ -91,6 +91,20 @@ pub fn check_dt(scene: &Scene, traj_dt: Option<f64>, traj_path: &Path) -> Result
     Ok(())
 }
 
+/// Refuses, before any work, an output that is an input or another output, or that cannot be
+/// written (`cordis_core::io::check_outputs`); each path is named by its option (`None`: not
+/// given). A same-file pair exits 2 (usage), an unwritable output 1 (I/O).
+pub fn guard_outputs(
+    inputs: &[(&str, Option<&Path>)],
+    outputs: &[(&str, Option<&Path>)],
+) -> Result<()> {
+    fn given<'a>(v: &[(&'a str, Option<&'a Path>)]) -> Vec<(&'a str, &'a Path)> {
+        v.iter().filter_map(|&(n, p)| p.map(|p| (n, p))).collect()
+    }
+    cordis_core::io::check_outputs(&given(inputs), &given(outputs))?;
+    Ok(())
+}
+
 /// Writes a scene as JSON (atomically) or to stdout when no path is given.
 pub fn write_scene(scene: &Scene, out: Option<&Path>) -> Result<()> {
     let text = scene.to_json_string();

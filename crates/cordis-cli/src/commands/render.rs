@@ -26,6 +26,14 @@ pub struct Args {
 }
 
 pub fn run(a: Args, output: Output) -> Result<()> {
+    super::guard_outputs(
+        &[
+            ("scene", Some(&a.scene)),
+            ("--trajectory", Some(&a.trajectory)),
+            ("--compare", a.compare.as_deref()),
+        ],
+        &[("--html", Some(&a.html))],
+    )?;
     let scene = Scene::from_json_path(&a.scene)?;
     let traj = read_trajectory(&a.trajectory)?;
     let compare = a.compare.as_deref().map(read_trajectory).transpose()?;

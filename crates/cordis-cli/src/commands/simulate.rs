@@ -19,6 +19,7 @@ pub struct Args {
 }
 
 pub fn run(a: Args, output: Output) -> Result<()> {
+    super::guard_outputs(&[("scene", Some(&a.scene))], &[("--out", a.out.as_deref())])?;
     let scene = Scene::from_json_path(&a.scene)?;
     check_frames(a.frames, scene.num_particles())?;
     let r = stability(&scene)?;

@@ -7,6 +7,7 @@
 
 pub mod csv;
 pub mod npy;
+pub mod paths;
 pub(crate) mod tokens;
 pub mod tra;
 
@@ -17,6 +18,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::error::{CordisError, Result};
 use crate::Trajectory;
+
+pub use paths::check_outputs;
 
 /// The trajectory formats, by file extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -121,7 +124,45 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         // The temporary may not exist (open failed); nothing to report if removal fails.
         let _ = std::fs::remove_file(&tmp);
         CordisError::io(path, e)
-    })
+    })?;
+    remove_stale_temporaries(&dir, file_name);
+    Ok(())
+}
+
+/// Removes the temporaries that a killed writer of `file_name` left in `dir` (kill -9 or
+/// Ctrl-C during a large write: `.NAME.PID.N.tmp`, or a `.NAME.PID.probe.tmp` of
+/// [`paths::check_outputs`]), once the file is written again. Only on Linux, where a process
+/// that no longer exists has no `/proc/PID`: a live writer's temporary is never touched.
+fn remove_stale_temporaries(dir: &Path, file_name: &std::ffi::OsStr) {
+    let proc = Path::new("/proc");
+    if !proc.join("self").exists() {
+        return;
+    }
+    let (Some(name), Ok(entries)) = (file_name.to_str(), std::fs::read_dir(dir)) else {
+        return;
+    };
+    let prefix = format!(".{name}.");
+    for entry in entries.flatten() {
+        let entry_name = entry.file_name();
+        let Some(rest) = entry_name
+            .to_str()
+            .and_then(|n| n.strip_prefix(&prefix))
+            .and_then(|n| n.strip_suffix(".tmp"))
+        else {
+            continue;
+        };
+        let Some((pid, n)) = rest.split_once('.') else {
+            continue;
+        };
+        let ours = pid.parse::<u32>().ok();
+        let numbered = n == "probe" || (!n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()));
+        if let (Some(pid), true) = (ours, numbered) {
+            if pid != std::process::id() && !proc.join(pid.to_string()).exists() {
+                // Best effort: a temporary that cannot be removed harms nothing more than before.
+                let _ = std::fs::remove_file(entry.path());
+            }
+        }
+    }
 }
 
 /// Text of a file: UTF-8 (a leading byte-order mark dropped), or else Latin-1, which the

@@ -1,0 +1,316 @@
+//! Issue 17, outputs: every output path is checked before any work — not an input (by
+//! canonical path, symlinks and hard links included), not another output, writable — and a
+//! write that fails at the end names the file and exits 1. No temporary is left behind.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn cordis(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_cordis"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("cordis runs")
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// A failed run: `code`, one line on stderr holding every piece of `says`, nothing on stdout.
+fn fails(dir: &Path, args: &[&str], code: i32, says: &[&str]) {
+    let out = cordis(dir, args);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(code), "{args:?}: {err}");
+    assert_eq!(err.lines().count(), 1, "{args:?}: {err}");
+    for s in says {
+        assert!(err.contains(s), "{args:?}: `{s}` not in {err}");
+    }
+    assert!(out.stdout.is_empty(), "{args:?} wrote on stdout");
+}
+
+/// A directory with a rigid scene `r.json`, its unknown version `u.json` and motion `r.csv`.
+fn rigid_dir() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for args in [
+        &["example", "rigid", "--out", "r.json"][..],
+        &["example", "rigid", "--unknowns", "--out", "u.json"],
+        &["simulate", "r.json", "--frames", "30", "--out", "r.csv"],
+    ] {
+        let out = cordis(d, args);
+        assert!(out.status.success(), "{args:?}: {}", stderr(&out));
+    }
+    dir
+}
+
+/// No file of `dir` is a temporary (`.NAME.PID.N.tmp` or a writability probe).
+fn no_temporaries(dir: &Path) {
+    let left: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "temporaries left: {left:?}");
+}
+
+#[test]
+fn render_html_onto_the_trajectory_is_refused_and_the_trajectory_kept() {
+    let dir = rigid_dir();
+    let d = dir.path();
+    let before = std::fs::read(d.join("r.csv")).unwrap();
+    fails(
+        d,
+        &["render", "r.json", "-t", "r.csv", "--html", "r.csv"],
+        2,
+        &["--html", "--trajectory", "r.csv", "same file"],
+    );
+    // Through another spelling, a symlink, a hard link: the same file, refused.
+    std::fs::create_dir(d.join("sub")).unwrap();
+    std::os::unix::fs::symlink("../r.csv", d.join("sub/link.csv")).unwrap();
+    std::fs::hard_link(d.join("r.csv"), d.join("hard.csv")).unwrap();
+    for html in ["./sub/../r.csv", "sub/link.csv", "hard.csv"] {
+        fails(
+            d,
+            &["render", "r.json", "-t", "r.csv", "--html", html],
+            2,
+            &["--html", "same file"],
+        );
+    }
+    // The scene and --compare are inputs too.
+    fails(
+        d,
+        &["render", "r.json", "-t", "r.csv", "--html", "r.json"],
+        2,
+        &["--html", "scene"],
+    );
+    fails(
+        d,
+        &[
+            "render",
+            "r.json",
+            "-t",
+            "r.csv",
+            "-c",
+            "hard.csv",
+            "--html",
+            "sub/link.csv",
+        ],
+        2,
+        &["--html", "same file"],
+    );
+    assert_eq!(std::fs::read(d.join("r.csv")).unwrap(), before);
+    no_temporaries(d);
+}
+
+#[test]
+fn simulate_out_onto_its_scene_is_refused() {
+    let dir = rigid_dir();
+    let d = dir.path();
+    let before = std::fs::read(d.join("r.json")).unwrap();
+    std::os::unix::fs::symlink("r.json", d.join("r-link.csv")).unwrap();
+    fails(
+        d,
+        &["simulate", "r.json", "-n", "5", "--out", "r-link.csv"],
+        2,
+        &["--out", "r-link.csv", "scene r.json"],
+    );
+    assert_eq!(std::fs::read(d.join("r.json")).unwrap(), before);
+}
+
+#[test]
+fn two_outputs_on_one_file_are_refused() {
+    let dir = rigid_dir();
+    let d = dir.path();
+    fails(
+        d,
+        &[
+            "discover",
+            "-t",
+            "r.csv",
+            "--dt",
+            "0.01",
+            "--total-mass",
+            "1",
+            "--out",
+            "f.json",
+            "--scores",
+            "./f.json",
+        ],
+        2,
+        &["--scores", "--out", "one would overwrite the other"],
+    );
+    let thesis = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/fixtures/thesis/exemple");
+    let thesis = thesis.to_str().unwrap();
+    fails(
+        d,
+        &["import", thesis, "--out", "t.tra", "--trajectory", "t.tra"],
+        2,
+        &["--trajectory", "--out"],
+    );
+    assert!(!d.join("f.json").exists() && !d.join("t.tra").exists());
+}
+
+#[test]
+fn import_never_writes_onto_the_thesis_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/fixtures/thesis");
+    for e in std::fs::read_dir(&fixtures).unwrap() {
+        let e = e.unwrap();
+        if e.file_type().unwrap().is_file() {
+            std::fs::copy(e.path(), d.join(e.file_name())).unwrap();
+        }
+    }
+    let tra = std::fs::read(d.join("exemple.tra")).unwrap();
+    fails(
+        d,
+        &["import", "exemple", "--trajectory", "exemple.tra"],
+        2,
+        &["--trajectory", "exemple.tra", "same file"],
+    );
+    fails(
+        d,
+        &["import", "exemple.mas", "--out", "exemple.cat"],
+        2,
+        &["--out", "exemple.cat"],
+    );
+    assert_eq!(std::fs::read(d.join("exemple.tra")).unwrap(), tra);
+}
+
+#[test]
+fn identify_outputs_off_its_inputs_and_each_other() {
+    let dir = rigid_dir();
+    let d = dir.path();
+    let before = std::fs::read(d.join("r.csv")).unwrap();
+    fn run<'a>(extra: &[&'a str]) -> Vec<&'a str> {
+        let mut args = vec!["identify", "u.json", "-t", "r.csv", "-g", "3"];
+        args.extend(extra);
+        args
+    }
+    for (extra, says) in [
+        (&["--out", "r.csv"][..], &["--out", "--trajectory"][..]),
+        (&["--log", "u.json"], &["--log", "scene"]),
+        (
+            &["--checkpoint", "r.csv"],
+            &["--checkpoint", "--trajectory"],
+        ),
+        (
+            &["--truth", "r.json", "--out", "r.json"],
+            &["--out", "--truth"],
+        ),
+        (
+            &["--checkpoint", "c.json", "--out", "c.json"],
+            &["--out", "--checkpoint"],
+        ),
+        (&["--log", "l.csv", "--out", "l.csv"], &["--log", "--out"]),
+        (
+            &["--resume", "c.json", "--out", "c.json"],
+            &["--out", "--resume"],
+        ),
+    ] {
+        fails(d, &run(extra), 2, says);
+    }
+    assert_eq!(std::fs::read(d.join("r.csv")).unwrap(), before);
+    // Resuming from the checkpoint it goes on writing is the documented use: allowed.
+    let args = run(&["--strategy", "cmaes", "--checkpoint", "c.json", "-q"]);
+    assert!(cordis(d, &args).status.success());
+    let args = run(&[
+        "--strategy",
+        "cmaes",
+        "--resume",
+        "c.json",
+        "--checkpoint",
+        "c.json",
+        "-q",
+    ]);
+    let out = cordis(d, &args);
+    assert!(out.status.success(), "{}", stderr(&out));
+}
+
+#[test]
+fn an_unwritable_output_fails_before_the_run() {
+    let dir = rigid_dir();
+    let d = dir.path();
+    // A directory that does not exist, a file in the place of a directory, a directory in the
+    // place of the file: exit 1 (a file that cannot be written), naming the option and path.
+    std::fs::create_dir(d.join("adir")).unwrap();
+    for (args, says) in [
+        (
+            &["example", "rigid", "--out", "nodir/x.json"][..],
+            &["nodir/x.json", "--out"][..],
+        ),
+        (
+            &["simulate", "r.json", "-n", "5", "--out", "r.json/x.csv"],
+            &["r.json/x.csv", "--out"],
+        ),
+        (
+            &["render", "r.json", "-t", "r.csv", "--html", "adir"],
+            &["adir", "--html", "directory"],
+        ),
+        // identify finds it before generation 0, not after the whole run.
+        (
+            &["identify", "u.json", "-t", "r.csv", "--out", "nodir/i.json"],
+            &["nodir/i.json", "--out"],
+        ),
+    ] {
+        fails(d, args, 1, says);
+    }
+    no_temporaries(d);
+}
+
+#[test]
+fn a_failed_final_write_names_the_file_and_exits_1() {
+    if !Path::new("/dev/full").exists() {
+        return; // Linux only: a device on which every write fails (ENOSPC)
+    }
+    let dir = rigid_dir();
+    let d = dir.path();
+    std::os::unix::fs::symlink("/dev/full", d.join("full.csv")).unwrap();
+    std::os::unix::fs::symlink("/dev/full", d.join("full.json")).unwrap();
+    fails(
+        d,
+        &["simulate", "r.json", "-n", "5", "--out", "full.csv"],
+        1,
+        &["full.csv", "No space left"],
+    );
+    fails(
+        d,
+        &["example", "rigid", "--out", "full.json"],
+        1,
+        &["full.json", "No space left"],
+    );
+    no_temporaries(d);
+}
+
+#[test]
+fn stale_temporaries_of_a_killed_writer_are_removed_by_the_next_write() {
+    let dir = rigid_dir();
+    let d = dir.path();
+    // No process has a pid above pid_max: the writer of these temporaries is gone.
+    let pid_max: u64 = std::fs::read_to_string("/proc/sys/kernel/pid_max")
+        .map(|s| s.trim().parse().unwrap())
+        .unwrap_or(4_194_304);
+    let dead = pid_max + 1;
+    let stale = [
+        format!(".r.csv.{dead}.0.tmp"),
+        format!(".r.csv.{dead}.probe.tmp"),
+    ];
+    // A live writer's temporary (this test's own pid) and unrelated files stay.
+    let live = format!(".r.csv.{}.3.tmp", std::process::id());
+    let other = [
+        format!(".q.csv.{dead}.0.tmp"),
+        format!(".r.csv.{dead}.x.tmp"),
+    ];
+    for n in stale.iter().chain([&live]).chain(&other) {
+        std::fs::write(d.join(n), "partial").unwrap();
+    }
+    let out = cordis(d, &["simulate", "r.json", "-n", "5", "--out", "r.csv"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    for n in &stale {
+        assert!(!d.join(n).exists(), "{n} left");
+    }
+    for n in [&live].into_iter().chain(&other) {
+        assert!(d.join(n).exists(), "{n} removed");
+    }
+}
