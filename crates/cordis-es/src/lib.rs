@@ -11,6 +11,7 @@ pub mod error;
 pub mod evaluator;
 pub mod executor;
 pub mod identify;
+pub mod output_error;
 pub mod problem;
 pub mod rng;
 pub mod space;

@@ -2,7 +2,7 @@
 
 pub mod annealing;
 pub mod cmaes;
-mod common;
+pub(crate) mod common;
 mod design;
 pub mod exact;
 pub mod hybrid;

@@ -1,0 +1,337 @@
+//! The output-error fit: Levenberg–Marquardt on exact sensitivities, over the unknown
+//! parameters and every take's initial state, on windows that grow to the whole take.
+
+use nalgebra::{DMatrix, DVector};
+
+use super::observations::Take;
+use super::tangent::{Columns, Sens, Tangent};
+use crate::space::Unknown;
+
+/// The fit's variables: `q = [z_θ, state of take 0, state of take 1, …]` where `z_θ` are the
+/// unknowns' internal coordinates ([`crate::space`]: log for wide positive boxes) and a take's
+/// state is `[x0, v0]` (m, m/s) per free particle.
+pub(crate) struct Fitter<'a> {
+    pub tangent: &'a Tangent,
+    pub unknowns: &'a [Unknown],
+    pub base: &'a [f64],
+    pub takes: &'a [Take],
+    pub cols: Columns,
+}
+
+/// What one evaluation with sensitivities returns: `cost = Σ w² e²`, the Gauss–Newton matrix
+/// `H = Σ w² J_rᵀ J_r` and `g = Σ w² e J_r` (half the gradient) over the observed coordinates.
+pub(crate) struct Normal {
+    pub cost: f64,
+    pub h: DMatrix<f64>,
+    pub g: DVector<f64>,
+}
+
+impl Fitter<'_> {
+    pub fn theta(&self) -> usize {
+        self.unknowns.len()
+    }
+
+    pub fn state_len(&self) -> usize {
+        6 * self.tangent.free.len()
+    }
+
+    pub fn len(&self) -> usize {
+        self.theta() + self.takes.len() * self.state_len()
+    }
+
+    /// The scene's parameter vector at `q`.
+    pub fn params(&self, q: &[f64]) -> Vec<f64> {
+        let mut p = self.base.to_vec();
+        for (u, &z) in self.unknowns.iter().zip(q) {
+            p[u.slot] = u.from_internal(z);
+        }
+        p
+    }
+
+    /// `dp/dz` of each unknown at `q`.
+    pub(crate) fn chain(&self, q: &[f64]) -> Vec<f64> {
+        self.unknowns
+            .iter()
+            .zip(q)
+            .map(|(u, &z)| if u.log { u.from_internal(z) } else { 1.0 })
+            .collect()
+    }
+
+    /// Cost over the first `window` frames of each take; +inf when a rollout diverges.
+    pub fn cost(&self, q: &[f64], window: usize, buf: &mut Sens) -> f64 {
+        let p = self.params(q);
+        let mut total = 0.0;
+        for (k, take) in self.takes.iter().enumerate() {
+            let state = &q[self.theta() + k * self.state_len()..][..self.state_len()];
+            let frames = window.min(take.frames());
+            let mut visit = |t: usize, x: &[cordis_core::Vec3], _: Option<&[f64]>| {
+                for (i, xi) in x.iter().enumerate() {
+                    for c in 0..3 {
+                        let (obs, w) = take.at(t, i, c);
+                        if w > 0.0 {
+                            let e = xi[c] - obs;
+                            total += w * w * e * e;
+                        }
+                    }
+                }
+            };
+            if self
+                .tangent
+                .rollout(&p, state, frames, None, buf, &mut visit)
+                .is_err()
+            {
+                return f64::INFINITY;
+            }
+        }
+        if total.is_finite() {
+            total
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// Cost, Gauss–Newton matrix and gradient over the first `window` frames of each take, in
+    /// the fit's variables (internal coordinates for θ); `None` when a rollout diverges.
+    pub fn normal(&self, q: &[f64], window: usize, buf: &mut Sens) -> Option<Normal> {
+        let p = self.params(q);
+        let chain = self.chain(q);
+        let (nt, ns, width) = (self.theta(), self.state_len(), self.cols.len);
+        let len = self.len();
+        let mut h = DMatrix::zeros(len, len);
+        let mut g = DVector::zeros(len);
+        let mut cost = 0.0;
+        let n = self.tangent.plan.n;
+        // Rows of one frame, column-major (observed rows × local columns), for H += GᵀG.
+        let mut rows = DMatrix::<f64>::zeros(3 * n, width);
+        let mut local_h = DMatrix::<f64>::zeros(width, width);
+        let mut local_g = DVector::<f64>::zeros(width);
+        for (k, take) in self.takes.iter().enumerate() {
+            local_h.fill(0.0);
+            local_g.fill(0.0);
+            let state = &q[nt + k * ns..][..ns];
+            let frames = window.min(take.frames());
+            let mut visit = |t: usize, x: &[cordis_core::Vec3], s: Option<&[f64]>| {
+                let s = s.expect("rollout with columns");
+                let mut m = 0;
+                for (i, xi) in x.iter().enumerate() {
+                    for c in 0..3 {
+                        let (obs, w) = take.at(t, i, c);
+                        if w <= 0.0 {
+                            continue;
+                        }
+                        let e = xi[c] - obs;
+                        cost += w * w * e * e;
+                        let src = &s[(3 * i + c) * width..][..width];
+                        for q in 0..width {
+                            let d = if q < nt { src[q] * chain[q] } else { src[q] };
+                            rows[(m, q)] = w * d;
+                            local_g[q] += w * e * rows[(m, q)];
+                        }
+                        m += 1;
+                    }
+                }
+                if m > 0 {
+                    let view = rows.rows(0, m);
+                    local_h.gemm_tr(1.0, &view, &view, 1.0);
+                }
+            };
+            self.tangent
+                .rollout(&p, state, frames, Some(&self.cols), buf, &mut visit)
+                .ok()?;
+            // Scatter the take's local columns (θ, then its own state) into the global system.
+            let global = |a: usize| if a < nt { a } else { nt + k * ns + (a - nt) };
+            for a in 0..width {
+                g[global(a)] += local_g[a];
+                for b in 0..width {
+                    h[(global(a), global(b))] += local_h[(a, b)];
+                }
+            }
+        }
+        cost.is_finite().then_some(Normal { cost, h, g })
+    }
+
+    /// The cost at which residuals are at the rounding of the positions themselves
+    /// (`(8 ε max|y|)²` per observed coordinate): noiseless data fitted exactly, where no step
+    /// can lower the cost any further.
+    fn rounding_floor(&self, window: usize) -> f64 {
+        let (mut count, mut size) = (0usize, 0.0f64);
+        for take in self.takes {
+            for t in 0..window.min(take.frames()) {
+                for i in 0..take.particles() {
+                    for c in 0..3 {
+                        let (y, w) = take.at(t, i, c);
+                        if w > 0.0 {
+                            count += 1;
+                            size = size.max((w * y).abs());
+                        }
+                    }
+                }
+            }
+        }
+        let r = 8.0 * f64::EPSILON * size;
+        count as f64 * r * r
+    }
+
+    /// Projects `q` into the boxes (θ only; states are free).
+    pub fn project(&self, q: &mut [f64]) {
+        for (u, z) in self.unknowns.iter().zip(q.iter_mut()) {
+            *z = u.clamp_internal(*z);
+        }
+    }
+
+    /// Which θ coordinates sit on a bound with the descent direction (-g) pointing out.
+    fn held(&self, q: &[f64], g: &DVector<f64>) -> Vec<bool> {
+        let mut held = vec![false; self.len()];
+        for (k, u) in self.unknowns.iter().enumerate() {
+            let (lo, hi) = u.internal_bounds();
+            let eps = 1e-12 * (hi - lo).abs().max(1e-300);
+            held[k] = (q[k] <= lo + eps && g[k] > 0.0) || (q[k] >= hi - eps && g[k] < 0.0);
+        }
+        held
+    }
+}
+
+/// Levenberg–Marquardt settings of one stage.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LmSettings {
+    pub max_iterations: usize,
+    pub ftol: f64,
+    pub xtol: f64,
+    pub gtol: f64,
+}
+
+/// How one LM stage ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum StageEnd {
+    /// ftol, xtol or gtol held (or the cost is 0).
+    Converged,
+    /// The iteration budget ran out.
+    Budget,
+    /// λ grew past 1e20: no descent direction left from here.
+    Stalled,
+    /// The start of the stage diverged.
+    Diverged,
+}
+
+/// Counters of a fit.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Counts {
+    pub iterations: usize,
+    pub evaluations: usize,
+}
+
+/// Minimises the cost over `window` frames from `q` (changed in place).
+pub(crate) fn lm_stage(
+    fit: &Fitter<'_>,
+    q: &mut [f64],
+    window: usize,
+    set: LmSettings,
+    counts: &mut Counts,
+    buf: &mut Sens,
+) -> StageEnd {
+    let len = fit.len();
+    counts.evaluations += 1;
+    let Some(mut ne) = fit.normal(q, window, buf) else {
+        return StageEnd::Diverged;
+    };
+    let mut scale: Vec<f64> = (0..len).map(|a| ne.h[(a, a)]).collect();
+    let mut lambda = 1e-3;
+    let mut nu = 2.0;
+    let floor = fit.rounding_floor(window);
+    for _ in 0..set.max_iterations {
+        counts.iterations += 1;
+        if ne.cost <= floor {
+            return StageEnd::Converged;
+        }
+        let held = fit.held(q, &ne.g);
+        // gtol: every free column's cosine with the residual.
+        let gmax = (0..len)
+            .filter(|&a| !held[a] && ne.h[(a, a)] > 0.0)
+            .map(|a| ne.g[a].abs() / (ne.h[(a, a)] * ne.cost).sqrt())
+            .fold(0.0, f64::max);
+        if gmax <= set.gtol {
+            return StageEnd::Converged;
+        }
+        let Some(delta) = damped_step(&ne, &scale, &held, lambda) else {
+            lambda *= nu;
+            nu *= 2.0;
+            if lambda > 1e20 {
+                return StageEnd::Stalled;
+            }
+            continue;
+        };
+        let mut trial: Vec<f64> = q.iter().zip(delta.iter()).map(|(a, b)| a + b).collect();
+        fit.project(&mut trial);
+        let step: DVector<f64> =
+            DVector::from_iterator(len, trial.iter().zip(q.iter()).map(|(a, b)| a - b));
+        let predicted = -(2.0 * ne.g.dot(&step) + step.dot(&(&ne.h * &step)));
+        counts.evaluations += 1;
+        let c = fit.cost(&trial, window, buf);
+        if c < ne.cost {
+            let reduction = ne.cost - c;
+            let rho = if predicted > 0.0 {
+                reduction / predicted
+            } else {
+                0.0
+            };
+            lambda *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
+            nu = 2.0;
+            let qnorm = q.iter().map(|x| x * x).sum::<f64>().sqrt();
+            let small_step = step.norm() <= set.xtol * (set.xtol + qnorm);
+            let small_gain = reduction <= set.ftol * ne.cost && predicted <= set.ftol * ne.cost;
+            q.copy_from_slice(&trial);
+            counts.evaluations += 1;
+            let Some(next) = fit.normal(q, window, buf) else {
+                return StageEnd::Diverged;
+            };
+            ne = next;
+            for (s, a) in scale.iter_mut().zip(0..len) {
+                *s = s.max(ne.h[(a, a)]);
+            }
+            if small_step || small_gain {
+                return StageEnd::Converged;
+            }
+        } else {
+            lambda *= nu;
+            nu *= 2.0;
+            if lambda > 1e20 {
+                return StageEnd::Stalled;
+            }
+        }
+    }
+    StageEnd::Budget
+}
+
+/// `(H + λ D) δ = -g` on the coordinates not held (held ones get δ = 0), by Cholesky.
+fn damped_step(ne: &Normal, scale: &[f64], held: &[bool], lambda: f64) -> Option<DVector<f64>> {
+    let free: Vec<usize> = (0..held.len()).filter(|&a| !held[a]).collect();
+    let m = free.len();
+    let mut a = DMatrix::zeros(m, m);
+    let mut b = DVector::zeros(m);
+    for (r, &i) in free.iter().enumerate() {
+        b[r] = -ne.g[i];
+        for (c, &j) in free.iter().enumerate() {
+            a[(r, c)] = ne.h[(i, j)];
+        }
+        let d = if scale[i] > 0.0 { scale[i] } else { 1.0 };
+        a[(r, r)] += lambda * d;
+    }
+    let x = a.cholesky()?.solve(&b);
+    let mut out = DVector::zeros(held.len());
+    for (r, &i) in free.iter().enumerate() {
+        out[i] = x[r];
+    }
+    x.iter().all(|v| v.is_finite()).then_some(out)
+}
+
+/// The growing windows: `first`, `2 first`, … up to the longest take.
+pub(crate) fn windows(first: usize, longest: usize) -> Vec<usize> {
+    let mut out = Vec::new();
+    let mut w = first.max(3);
+    while w < longest {
+        out.push(w);
+        w *= 2;
+    }
+    out.push(longest);
+    out
+}

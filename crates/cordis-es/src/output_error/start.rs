@@ -1,0 +1,146 @@
+//! Where the output-error fit starts: a noise level read from the data, the short-cost estimate
+//! on smoothed positions, and each take's initial state from its first frames.
+
+use cordis_core::{Scene, Trajectory, Vec3};
+
+use super::observations::Take;
+use crate::cost::CostKind;
+use crate::discover::smooth::smooth;
+use crate::problem::Problem;
+use crate::space::ParameterSpace;
+use crate::strategies::least_squares;
+
+/// The noise level of a take's positions (m), from third differences: for a motion sampled far
+/// above its frequencies, `Δ³x` is the noise's `e(t+3) - 3e(t+2) + 3e(t+1) - e(t)`, of variance
+/// `20 σ²`. The median of `(Δ³x)²` (divided by 0.455, the median of χ²₁) keeps the estimate
+/// robust to the motion's own sharp moments and to outliers. 0 for noiseless smooth motion.
+pub fn noise_level(take: &Take) -> f64 {
+    let mut sq = Vec::new();
+    for i in 0..take.particles() {
+        for c in 0..3 {
+            for t in 3..take.frames() {
+                let at = |k: usize| take.at(k, i, c);
+                let q = [at(t - 3), at(t - 2), at(t - 1), at(t)];
+                if q.iter().all(|(_, w)| *w > 0.0) {
+                    let d = q[3].0 - 3.0 * q[2].0 + 3.0 * q[1].0 - q[0].0;
+                    sq.push(d * d);
+                }
+            }
+        }
+    }
+    if sq.is_empty() {
+        return 0.0;
+    }
+    sq.sort_by(f64::total_cmp);
+    let median = sq[sq.len() / 2];
+    (median / 0.455 / 20.0).sqrt()
+}
+
+/// The starting genome: the short cost's exact minimum on smoothed, gap-filled positions when
+/// the scene is linear in its unknowns and every particle is tracked (clamped into the boxes);
+/// otherwise (or when that solve fails) the heuristic start every strategy uses.
+pub fn start_genome(
+    scene: &Scene,
+    space: &ParameterSpace,
+    take: &Take,
+    noise: f64,
+) -> (Vec<f64>, String) {
+    let fallback: Vec<Vec3> = scene.particles.iter().map(|p| Vec3::from(p.pos)).collect();
+    let filled = take.filled(&fallback).with_dt(scene.dt);
+    let heuristic = |why: String| -> (Vec<f64>, String) {
+        let problem = Problem::new(scene, &filled, CostKind::Short).ok();
+        let genome = match problem {
+            Some(mut pr) => {
+                pr.space = space.clone();
+                crate::strategies::common::start_genome(&pr)
+            }
+            None => space
+                .unknowns
+                .iter()
+                .map(|u| {
+                    let (lo, hi) = u.internal_bounds();
+                    0.5 * (lo + hi)
+                })
+                .collect(),
+        };
+        (genome, why)
+    };
+    if (0..take.particles()).any(|i| !take.tracks(i) && !scene.particles[i].fixed) {
+        return heuristic("heuristic start (hidden particles: no short cost)".into());
+    }
+    let fixed: Vec<bool> = scene.particles.iter().map(|p| p.fixed).collect();
+    let smoothed: Trajectory = match smooth(&filled, &fixed, noise) {
+        Some((s, _)) if noise > 0.0 => s,
+        _ => filled.clone(),
+    };
+    let Ok(mut problem) = Problem::new(scene, &smoothed, CostKind::Short) else {
+        return heuristic("heuristic start (no short cost on this take)".into());
+    };
+    problem.space = space.clone();
+    match least_squares::solve(&problem) {
+        Ok(sol) => {
+            let genome = space
+                .unknowns
+                .iter()
+                .zip(&sol.genome)
+                .map(|(u, &z)| u.clamp_internal(z))
+                .collect();
+            (
+                genome,
+                "short-cost least squares on smoothed positions".into(),
+            )
+        }
+        Err(why) => heuristic(format!("heuristic start (short-cost solve refused: {why})")),
+    }
+}
+
+/// Each free particle's `[x0, v0]` from the take's first frames: a least-squares quadratic in
+/// time through its first (at least 3) observed frames per coordinate, `x0` its value at frame
+/// 0 and `v0 = (x(0) - x(-1))/dt` (the scheme's backward difference). A coordinate observed in
+/// fewer than 3 frames starts at the scene's value with no velocity.
+pub fn initial_state(scene: &Scene, free: &[usize], take: &Take) -> Vec<f64> {
+    let dt = scene.dt;
+    let mut out = Vec::with_capacity(6 * free.len());
+    let mut vel = [0.0; 3];
+    for &i in free {
+        let p = &scene.particles[i];
+        let mut pos = p.pos;
+        for c in 0..3 {
+            vel[c] = p.vel[c];
+            let seen: Vec<(f64, f64)> = (0..take.frames())
+                .filter_map(|t| {
+                    let (x, w) = take.at(t, i, c);
+                    (w > 0.0).then_some((t as f64, x))
+                })
+                .take(9)
+                .collect();
+            if seen.len() < 3 {
+                continue;
+            }
+            let (a, b, q) = quadratic(&seen);
+            pos[c] = a;
+            vel[c] = (b - q) / dt;
+        }
+        out.extend_from_slice(&pos);
+        out.extend_from_slice(&vel);
+    }
+    out
+}
+
+/// Least-squares `x = a + b t + c t²` through the points.
+fn quadratic(pts: &[(f64, f64)]) -> (f64, f64, f64) {
+    let mut m = nalgebra::Matrix3::zeros();
+    let mut r = nalgebra::Vector3::zeros();
+    for &(t, x) in pts {
+        let phi = nalgebra::Vector3::new(1.0, t, t * t);
+        m += phi * phi.transpose();
+        r += phi * x;
+    }
+    match m.cholesky() {
+        Some(ch) => {
+            let s = ch.solve(&r);
+            (s[0], s[1], s[2])
+        }
+        None => (pts[0].1, 0.0, 0.0),
+    }
+}

@@ -1,0 +1,443 @@
+//! Exact sensitivities of a simulated trajectory: the tangent recursion of the CORDIS step.
+//!
+//! The step (SPEC §2.1) is `v(n) = (x(n) - x(n-1))/dt`, `x(n+1) = 2x(n) - x(n-1) + dt² (F/m + g)`
+//! with `F = F(x(n), v(n); θ)`. Differentiating it with respect to any quantity q (a link
+//! parameter, a mass, a free particle's initial position or velocity) gives, with
+//! `S(n) = ∂x(n)/∂q` and `V(n) = (S(n) - S(n-1))/dt`,
+//!
+//! ```text
+//! S(n+1) = 2 S(n) - S(n-1) + dt²/m (∂F/∂x S(n) + ∂F/∂v V(n) + ∂F/∂q) - dt² F/m² ∂m/∂q
+//! ```
+//!
+//! from `S(0) = ∂x(0)/∂q`, `S(-1) = ∂(x(0) - v(0) dt)/∂q`. The recursion is exact (no finite
+//! difference): it is the derivative of the same floating-point scheme up to rounding. The
+//! positions themselves come from the core's compiled [`Plan::step`], so the trajectory this
+//! module differentiates is bit for bit the one `cordis simulate` writes.
+//!
+//! `∂F/∂x` is never formed: each link adds its 3×3 blocks times the sensitivity rows of its two
+//! ends (sparsity: a particle's force depends on its neighbours only). For a spring from i to j
+//! with `d = x_j - x_i`, `l = |d|`, `u = d/l`, `w = v_j - v_i`, `s = w·u` and
+//! `f_i = (K (l - l0) + Z s) u = -f_j`:
+//!
+//! ```text
+//! ∂f_i/∂d = K u uᵀ + (m/l) (I - u uᵀ) + (Z/l) u ((I - u uᵀ) w)ᵀ,   m = K (l - l0) + Z s
+//! ∂f_i/∂w = Z u uᵀ
+//! ∂f_i/∂K = (l - l0) u,  ∂f_i/∂l0 = -K u,  ∂f_i/∂Z = s u
+//! ```
+//!
+//! An anchor is the same with `x_j` the fixed point; a damper `f_i = Z w`, a drag `f_i = -Z v_i`.
+//! Kinds without a tangent here (angles, conditional links, muscles, couplings, Provot limits,
+//! several worlds) are refused by name before any work.
+//!
+//! Cost per step: about 30 P multiply-adds per link and 6 P per particle for P sensitivity
+//! columns, no allocation (the matrices are caller-owned scratch, row-major `3N × P`, so each
+//! coordinate's row of P columns is contiguous and every update is an axpy the compiler
+//! vectorises).
+
+use cordis_core::plan::{Plan, Scratch};
+use cordis_core::{LinkKind, Scene, Vec3};
+
+use crate::error::CostError;
+
+/// No column: a known parameter.
+pub(crate) const NONE: usize = usize::MAX;
+
+/// A scene compiled for rollouts with sensitivities.
+#[derive(Clone, Debug)]
+pub(crate) struct Tangent {
+    pub plan: Plan,
+    /// Free particles in scene order.
+    pub free: Vec<usize>,
+}
+
+/// What a rollout calls at every frame n: `(n, x(n), S(n))`.
+pub(crate) type Visit<'a> = dyn FnMut(usize, &[Vec3], Option<&[f64]>) + 'a;
+
+/// Where each sensitivity column comes from.
+#[derive(Clone, Debug)]
+pub(crate) struct Columns {
+    /// `of_slot[k]`: the column of parameter slot k, or [`NONE`].
+    pub of_slot: Vec<usize>,
+    /// Number of parameter columns; columns `theta + 6 f + c` (c < 3) are free particle f's
+    /// initial position, `theta + 6 f + 3 + c` its initial velocity.
+    pub theta: usize,
+    /// Total number of columns.
+    pub len: usize,
+}
+
+/// Caller-owned buffers of one rollout.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Sens {
+    x: Vec<Vec3>,
+    x_prev: Vec<Vec3>,
+    scratch: Option<Scratch>,
+    /// ∂x(n)/∂q and ∂x(n-1)/∂q, row-major 3N × P.
+    pub s: Vec<f64>,
+    s_prev: Vec<f64>,
+    vel: Vec<f64>,
+    df: Vec<f64>,
+    diff: Vec<f64>,
+}
+
+impl Tangent {
+    /// Compiles `scene`; refuses the kinds this module has no tangent for, by name.
+    pub fn new(scene: &Scene) -> Result<Self, CostError> {
+        for (t, ty) in scene.types.iter().enumerate() {
+            let used = scene.links.iter().any(|l| l.type_index == t)
+                || scene.couplings.iter().any(|c| c.type_index == t)
+                || ty.kind == LinkKind::Conditional;
+            let supported = matches!(
+                ty.kind,
+                LinkKind::Spring | LinkKind::Damper | LinkKind::Anchor | LinkKind::Drag
+            );
+            if used && !supported {
+                return Err(CostError::mismatch(
+                    format!("types.{}", ty.name),
+                    format!(
+                        "kind `{}` has no exact sensitivities yet: the output-error estimator \
+                         takes springs, dampers, anchors and drags",
+                        ty.kind.name()
+                    ),
+                ));
+            }
+            if ty.max_elongation.is_some() && used {
+                return Err(CostError::mismatch(
+                    format!("types.{}.max_elongation", ty.name),
+                    "a Provot limit has no exact sensitivities yet (output-error)",
+                ));
+            }
+        }
+        let plan = Plan::compile(scene)?;
+        if plan.worlds.is_some() {
+            return Err(CostError::mismatch(
+                "worlds",
+                "several worlds have no exact sensitivities yet (output-error)",
+            ));
+        }
+        let free: Vec<usize> = (0..plan.n).filter(|&i| plan.free[i]).collect();
+        Ok(Tangent { plan, free })
+    }
+
+    /// Columns for the parameter slots `slots` (in order), then the free particles' states.
+    pub fn columns(&self, slots: &[usize]) -> Columns {
+        let mut of_slot = vec![NONE; self.plan.layout.len];
+        for (c, &k) in slots.iter().enumerate() {
+            of_slot[k] = c;
+        }
+        Columns {
+            of_slot,
+            theta: slots.len(),
+            len: slots.len() + 6 * self.free.len(),
+        }
+    }
+
+    /// Rolls out `frames` frames (frame 0 included) from the initial state `state`
+    /// (`[x0, v0]` per free particle, 6 values each; fixed particles stay at the scene's
+    /// positions), calling `visit(n, x(n), S(n))` at every frame. With `cols`, S(n) is the
+    /// `3N × cols.len` sensitivity matrix; without, `visit` gets `None` and no tangent is
+    /// computed. Returns the first frame whose step diverged, as an error.
+    pub fn rollout(
+        &self,
+        p: &[f64],
+        state: &[f64],
+        frames: usize,
+        cols: Option<&Columns>,
+        buf: &mut Sens,
+        visit: &mut Visit<'_>,
+    ) -> Result<(), usize> {
+        let plan = &self.plan;
+        let n = plan.n;
+        let dt = plan.dt;
+        buf.x.clear();
+        buf.x.extend_from_slice(&plan.x0);
+        buf.x_prev.clear();
+        buf.x_prev.extend_from_slice(&plan.x0);
+        for (f, &i) in self.free.iter().enumerate() {
+            let q = &state[6 * f..6 * f + 6];
+            buf.x[i] = Vec3::new(q[0], q[1], q[2]);
+            buf.x_prev[i] = Vec3::new(q[0] - q[3] * dt, q[1] - q[4] * dt, q[2] - q[5] * dt);
+        }
+        let mut scratch = buf.scratch.take().unwrap_or_else(|| plan.scratch());
+        plan.reset_state(p, &mut scratch);
+        scratch.frame = 0;
+        let width = cols.map_or(0, |c| c.len);
+        if let Some(c) = cols {
+            self.init_sensitivities(c, buf);
+        }
+        let mut out = Ok(());
+        for t in 0..frames {
+            visit(t, &buf.x, cols.map(|_| &buf.s[..]));
+            if t + 1 == frames {
+                break;
+            }
+            if let Some(bad) = plan.step(p, &mut buf.x, &mut buf.x_prev, &mut scratch) {
+                let _ = bad;
+                out = Err(t + 1);
+                break;
+            }
+            if let Some(c) = cols {
+                // After the step: x_prev = x(n), scratch.v = v(n), scratch.f = F(n).
+                self.tangent_step(p, c, width, n, &scratch, buf);
+            }
+        }
+        buf.scratch = Some(scratch);
+        out
+    }
+
+    fn init_sensitivities(&self, c: &Columns, buf: &mut Sens) {
+        let rows = 3 * self.plan.n;
+        for m in [&mut buf.s, &mut buf.s_prev, &mut buf.vel, &mut buf.df] {
+            m.clear();
+            m.resize(rows * c.len, 0.0);
+        }
+        buf.diff.clear();
+        buf.diff.resize(6 * c.len, 0.0);
+        let dt = self.plan.dt;
+        for (f, &i) in self.free.iter().enumerate() {
+            for k in 0..3 {
+                let row = (3 * i + k) * c.len;
+                buf.s[row + c.theta + 6 * f + k] = 1.0;
+                buf.s_prev[row + c.theta + 6 * f + k] = 1.0;
+                buf.s_prev[row + c.theta + 6 * f + 3 + k] = -dt;
+            }
+        }
+    }
+
+    /// One step of the tangent recursion (module docs), S(n) → S(n+1).
+    fn tangent_step(
+        &self,
+        p: &[f64],
+        c: &Columns,
+        w: usize,
+        n: usize,
+        scratch: &Scratch,
+        buf: &mut Sens,
+    ) {
+        let plan = &self.plan;
+        let dt = plan.dt;
+        let inv_dt = 1.0 / dt;
+        let Sens {
+            x_prev: xn,
+            s,
+            s_prev,
+            vel,
+            df,
+            diff,
+            ..
+        } = buf;
+        for ((v, a), b) in vel.iter_mut().zip(s.iter()).zip(s_prev.iter()) {
+            *v = (a - b) * inv_dt;
+        }
+        df.iter_mut().for_each(|x| *x = 0.0);
+        let v = &scratch.v;
+        let cx = Ctx { s, vel, w };
+        for r in &plan.springs.runs {
+            let (k, l0, z) = (p[r.param], p[r.param + 1], p[r.param + 2]);
+            let slots = [r.param, r.param + 1, r.param + 2].map(|q| c.of_slot[q]);
+            for &[i, j] in &plan.springs.pairs[r.start..r.end] {
+                let (i, j) = (i as usize, j as usize);
+                let lk = spring_link(&xn[j], &xn[i], &v[j], &v[i], k, l0, z);
+                cx.diff_rows(Some(j), i, diff);
+                lk.add(df, diff, w, i, Some(j), slots);
+            }
+        }
+        for r in &plan.anchors.runs {
+            let (k, l0, z) = (p[r.param], p[r.param + 1], p[r.param + 2]);
+            let slots = [r.param, r.param + 1, r.param + 2].map(|q| c.of_slot[q]);
+            let items = plan.anchors.particles[r.start..r.end]
+                .iter()
+                .zip(&plan.anchors.points[r.start..r.end]);
+            for (&i, point) in items {
+                let i = i as usize;
+                let lk = spring_link(point, &xn[i], &Vec3::zeros(), &v[i], k, l0, z);
+                cx.diff_rows(None, i, diff);
+                lk.add(df, diff, w, i, None, slots);
+            }
+        }
+        for r in &plan.dampers.runs {
+            let z = p[r.param];
+            let col = c.of_slot[r.param];
+            for &[i, j] in &plan.dampers.pairs[r.start..r.end] {
+                let (i, j) = (i as usize, j as usize);
+                let rel = v[j] - v[i];
+                for k in 0..3 {
+                    let (ri, rj) = ((3 * i + k) * w, (3 * j + k) * w);
+                    for q in 0..w {
+                        let g = z * (vel[rj + q] - vel[ri + q]);
+                        df[ri + q] += g;
+                        df[rj + q] -= g;
+                    }
+                    if col != NONE {
+                        df[ri + col] += rel[k];
+                        df[rj + col] -= rel[k];
+                    }
+                }
+            }
+        }
+        for r in &plan.drags.runs {
+            let z = p[r.param];
+            let col = c.of_slot[r.param];
+            for &i in &plan.drags.particles[r.start..r.end] {
+                let i = i as usize;
+                for (k, vk) in v[i].iter().enumerate() {
+                    let ri = (3 * i + k) * w;
+                    for q in 0..w {
+                        df[ri + q] -= z * vel[ri + q];
+                    }
+                    if col != NONE {
+                        df[ri + col] -= vk;
+                    }
+                }
+            }
+        }
+        let mo = plan.layout.mass_offset;
+        let dt2 = dt * dt;
+        for i in 0..n {
+            let base = 3 * i * w;
+            if !plan.free[i] {
+                s_prev[base..base + 3 * w].iter_mut().for_each(|x| *x = 0.0);
+                continue;
+            }
+            let m = p[mo + i];
+            let h = dt2 / m;
+            let mcol = c.of_slot[mo + i];
+            for k in 0..3 {
+                let row = base + k * w;
+                let (sn, sp, d) = (
+                    &s[row..row + w],
+                    &mut s_prev[row..row + w],
+                    &df[row..row + w],
+                );
+                for q in 0..w {
+                    sp[q] = 2.0 * sn[q] - sp[q] + h * d[q];
+                }
+                if mcol != NONE {
+                    sp[mcol] -= h * scratch.f[i][k] / m;
+                }
+            }
+        }
+        std::mem::swap(s, s_prev);
+    }
+}
+
+/// Read access to the sensitivity rows of one step.
+struct Ctx<'a> {
+    s: &'a [f64],
+    vel: &'a [f64],
+    w: usize,
+}
+
+impl Ctx<'_> {
+    /// `diff[0..3] = S_j - S_i` and `diff[3..6] = V_j - V_i` (row blocks of width w); a fixed
+    /// point (`j = None`) has S = V = 0.
+    fn diff_rows(&self, j: Option<usize>, i: usize, diff: &mut [f64]) {
+        let w = self.w;
+        for k in 0..3 {
+            let ri = (3 * i + k) * w;
+            let (dd, rest) = diff[k * w..].split_at_mut(w);
+            let dv = &mut rest[(2 * w)..(3 * w)];
+            match j {
+                Some(j) => {
+                    let rj = (3 * j + k) * w;
+                    for q in 0..w {
+                        dd[q] = self.s[rj + q] - self.s[ri + q];
+                        dv[q] = self.vel[rj + q] - self.vel[ri + q];
+                    }
+                }
+                None => {
+                    for q in 0..w {
+                        dd[q] = -self.s[ri + q];
+                        dv[q] = -self.vel[ri + q];
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// One spring's force on its end i and its derivatives (module docs).
+struct SpringLink {
+    /// ∂f_i/∂d.
+    a: [[f64; 3]; 3],
+    /// ∂f_i/∂w (zero when undamped).
+    b: [[f64; 3]; 3],
+    /// ∂f_i/∂(K, l0, Z).
+    dp: [Vec3; 3],
+    damped: bool,
+}
+
+/// The spring from `xi` to `xj` (the force acts on i): see the module docs.
+fn spring_link(xj: &Vec3, xi: &Vec3, vj: &Vec3, vi: &Vec3, k: f64, l0: f64, z: f64) -> SpringLink {
+    let d = xj - xi;
+    let l = d.norm();
+    let inv = if l >= cordis_core::forces::MIN_LENGTH {
+        1.0 / l
+    } else {
+        0.0
+    };
+    let u = d * inv;
+    let wv = vj - vi;
+    // The rate is needed even at Z = 0: ∂f/∂Z = s u is what moves an unknown damping off 0.
+    let s = wv.dot(&u);
+    let mag = k * (l - l0) + z * s;
+    let perp = wv - u * s;
+    let mut a = [[0.0; 3]; 3];
+    let mut b = [[0.0; 3]; 3];
+    for r in 0..3 {
+        for c in 0..3 {
+            let id = if r == c { 1.0 } else { 0.0 };
+            a[r][c] = k * u[r] * u[c] + mag * inv * (id - u[r] * u[c]) + z * inv * u[r] * perp[c];
+            b[r][c] = z * u[r] * u[c];
+        }
+    }
+    SpringLink {
+        a,
+        b,
+        dp: [u * (l - l0), -u * k, u * s],
+        damped: z != 0.0,
+    }
+}
+
+impl SpringLink {
+    /// Adds this link's tangent force into `df` rows of i (and minus it into j's).
+    fn add(
+        &self,
+        df: &mut [f64],
+        diff: &[f64],
+        w: usize,
+        i: usize,
+        j: Option<usize>,
+        slots: [usize; 3],
+    ) {
+        for r in 0..3 {
+            let ri = (3 * i + r) * w;
+            let rj = j.map(|j| (3 * j + r) * w);
+            let a = self.a[r];
+            let b = self.b[r];
+            let (d0, d1, d2) = (&diff[0..w], &diff[w..2 * w], &diff[2 * w..3 * w]);
+            let (e0, e1, e2) = (
+                &diff[3 * w..4 * w],
+                &diff[4 * w..5 * w],
+                &diff[5 * w..6 * w],
+            );
+            for q in 0..w {
+                let mut g = a[0] * d0[q] + a[1] * d1[q] + a[2] * d2[q];
+                if self.damped {
+                    g += b[0] * e0[q] + b[1] * e1[q] + b[2] * e2[q];
+                }
+                df[ri + q] += g;
+                if let Some(rj) = rj {
+                    df[rj + q] -= g;
+                }
+            }
+            for (t, &col) in slots.iter().enumerate() {
+                if col != NONE {
+                    df[ri + col] += self.dp[t][r];
+                    if let Some(rj) = rj {
+                        df[rj + col] -= self.dp[t][r];
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,128 @@
+//! The tangent recursion against finite differences and the core's simulation.
+
+use cordis_core::examples::random_network;
+use cordis_core::{Bounds, LinkKind, LinkType, Param, Scene, Vec3};
+
+use super::tangent::{Sens, Tangent};
+
+/// A random network with every damping non-zero, a damper, an anchor and a drag.
+fn scene() -> Scene {
+    let mut s = random_network(3, 6, 2);
+    for t in &mut s.types {
+        t.params[2] = Param::Known(0.2);
+    }
+    s.add_type(LinkType::new("d", LinkKind::Damper).with("damping", 0.3));
+    s.add_type(
+        LinkType::new("a", LinkKind::Anchor)
+            .with("stiffness", 30.0)
+            .with("rest_length", 0.1)
+            .with("damping", 0.1),
+    );
+    s.add_type(LinkType::new("air", LinkKind::Drag).with("damping", 0.05));
+    s.add_link("d", &[1, 2]);
+    let a = s.add_link("a", &[3]);
+    // Away from the particle: an anchor at its own position with l0 > 0 has no direction.
+    let x = s.particles[3].pos;
+    s.links[a].point = Some([x[0] + 0.2, x[1] - 0.1, x[2] + 0.05]);
+    s.add_link("air", &[4]);
+    s
+}
+
+fn state_of(s: &Scene, t: &Tangent) -> Vec<f64> {
+    let mut q = Vec::new();
+    for &i in &t.free {
+        q.extend_from_slice(&s.particles[i].pos);
+        q.extend_from_slice(&s.particles[i].vel);
+    }
+    q
+}
+
+fn positions(t: &Tangent, p: &[f64], q: &[f64], frames: usize) -> Vec<f64> {
+    let mut out = Vec::new();
+    let mut visit = |_: usize, x: &[Vec3], _: Option<&[f64]>| {
+        out.extend(x.iter().flat_map(|v| [v[0], v[1], v[2]]));
+    };
+    t.rollout(p, q, frames, None, &mut Sens::default(), &mut visit)
+        .unwrap();
+    out
+}
+
+#[test]
+fn rollout_is_the_cores_simulation_bit_for_bit() {
+    let s = scene();
+    let t = Tangent::new(&s).unwrap();
+    let x = positions(&t, &s.param_values(), &state_of(&s, &t), 60);
+    assert_eq!(x, s.simulate(60).unwrap().as_flat());
+}
+
+#[test]
+fn sensitivities_match_central_differences() {
+    let mut s = scene();
+    s.particles[2].mass = Param::Unknown(Bounds {
+        min: 0.1,
+        max: 10.0,
+        init: None,
+    });
+    let t = Tangent::new(&s).unwrap();
+    let layout = s.param_layout();
+    // Every parameter of every type, and one mass.
+    let mut slots: Vec<usize> = (0..layout.mass_offset).collect();
+    slots.push(layout.mass_offset + 2);
+    let cols = t.columns(&slots);
+    let p = s.param_values();
+    let q = state_of(&s, &t);
+    let frames = 40;
+    let mut sens = Vec::new();
+    let mut visit = |_: usize, _: &[Vec3], m: Option<&[f64]>| sens.extend_from_slice(m.unwrap());
+    t.rollout(
+        &p,
+        &q,
+        frames,
+        Some(&cols),
+        &mut Sens::default(),
+        &mut visit,
+    )
+    .unwrap();
+    let rows = 3 * t.plan.n;
+    #[allow(clippy::needless_range_loop)] // col indexes the tangent's columns, not only slots
+    for col in 0..cols.len {
+        let h = 1e-6;
+        let (mut pp, mut pm, mut qp, mut qm) = (p.clone(), p.clone(), q.clone(), q.clone());
+        if col < cols.theta {
+            let k = slots[col];
+            let step = h * p[k].abs().max(1.0);
+            pp[k] += step;
+            pm[k] -= step;
+            let (a, b) = (
+                positions(&t, &pp, &q, frames),
+                positions(&t, &pm, &q, frames),
+            );
+            check(&sens, &a, &b, 2.0 * step, rows, cols.len, col);
+        } else {
+            let k = col - cols.theta;
+            qp[k] += h;
+            qm[k] -= h;
+            let (a, b) = (
+                positions(&t, &p, &qp, frames),
+                positions(&t, &p, &qm, frames),
+            );
+            check(&sens, &a, &b, 2.0 * h, rows, cols.len, col);
+        }
+    }
+}
+
+fn check(sens: &[f64], a: &[f64], b: &[f64], step: f64, rows: usize, width: usize, col: usize) {
+    let scale = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| ((x - y) / step).abs())
+        .fold(1e-3, f64::max);
+    for (r, (x, y)) in a.iter().zip(b).enumerate() {
+        let fd = (x - y) / step;
+        let exact = sens[(r / rows) * rows * width + (r % rows) * width + col];
+        assert!(
+            (fd - exact).abs() <= 1e-5 * scale,
+            "column {col}, row {r}: tangent {exact}, central difference {fd}"
+        );
+    }
+}

@@ -1,0 +1,104 @@
+//! Standard errors, intervals, correlations and the directions the data do not determine, from
+//! the Gauss–Newton information matrix at the optimum.
+//!
+//! With residuals `e = x_sim - x_obs` weighted by `w` (1/σ relative), the information matrix of
+//! the fit's variables q is `H = Σ w² J_rᵀ J_r` and, when the noise is Gaussian of scale σ,
+//! `Cov(q̂) ≈ σ² H⁻¹` (the Cramér–Rao bound at the truth, the asymptotic covariance of the
+//! maximum-likelihood estimate). σ² is estimated as `σ̂² = C / (m - P)` (m observed
+//! coordinates, P variables). The initial states are nuisance variables: a parameter's variance
+//! is its diagonal entry of the *full* inverse, so their uncertainty is accounted for.
+//!
+//! H is inverted in its equilibrated form `Ĥ = D⁻¹ H D⁻¹` (`D = diag(H)^½`) by a symmetric
+//! eigendecomposition; eigenvalues below `1e-10 λ_max` are directions the data do not determine.
+//! Each is reported by the names of the variables that carry it (components ≥ 0.3 of the unit
+//! eigenvector), and those variables get an infinite standard error instead of the
+//! pseudo-inverse's finite, meaningless one.
+
+use nalgebra::{DMatrix, SymmetricEigen};
+
+/// Relative eigenvalue below which a direction is not determined.
+pub const RANK_TOL: f64 = 1e-10;
+/// Component of an undetermined eigenvector above which a variable is named.
+const NAMED: f64 = 0.3;
+
+/// Covariance of the fit's variables `σ² H⁺` and the undetermined directions (indices of the
+/// variables each carries).
+pub(crate) fn covariance(h: &DMatrix<f64>, sigma2: f64) -> (DMatrix<f64>, Vec<Vec<usize>>) {
+    let n = h.nrows();
+    let d: Vec<f64> = (0..n)
+        .map(|a| {
+            let v = h[(a, a)];
+            if v > 0.0 {
+                1.0 / v.sqrt()
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let mut hs = h.clone();
+    for a in 0..n {
+        for b in 0..n {
+            hs[(a, b)] *= d[a] * d[b];
+        }
+    }
+    let eig = SymmetricEigen::new(hs);
+    let lmax = eig.eigenvalues.iter().cloned().fold(0.0, f64::max);
+    let mut inv = DMatrix::zeros(n, n);
+    let mut undetermined = Vec::new();
+    for (k, &l) in eig.eigenvalues.iter().enumerate() {
+        let v = eig.eigenvectors.column(k);
+        if l.partial_cmp(&(RANK_TOL * lmax)) != Some(std::cmp::Ordering::Greater) {
+            let mut carried: Vec<usize> = (0..n).filter(|&a| v[a].abs() >= NAMED).collect();
+            if carried.is_empty() {
+                carried = vec![v.iamax()];
+            }
+            undetermined.push(carried);
+            continue;
+        }
+        inv += (v * v.transpose()) / l;
+    }
+    let mut cov = inv;
+    for a in 0..n {
+        for b in 0..n {
+            cov[(a, b)] *= sigma2 * d[a] * d[b];
+        }
+        if d[a] == 0.0 {
+            cov[(a, a)] = f64::INFINITY;
+        }
+    }
+    for dir in &undetermined {
+        for &a in dir {
+            cov[(a, a)] = f64::INFINITY;
+        }
+    }
+    (cov, undetermined)
+}
+
+/// The parameter block (first `dim` variables) of a covariance in internal coordinates,
+/// turned into physical units: `Cov(p) = C Cov(z) C` with `C = diag(dp/dz)`.
+pub(crate) fn physical(cov: &DMatrix<f64>, chain: &[f64]) -> DMatrix<f64> {
+    let dim = chain.len();
+    DMatrix::from_fn(dim, dim, |a, b| {
+        let c = cov[(a, b)];
+        if a == b && c.is_infinite() {
+            c
+        } else {
+            chain[a] * chain[b] * c
+        }
+    })
+}
+
+/// Correlations from a covariance (0 where a variance is infinite or 0).
+pub(crate) fn correlation(cov: &DMatrix<f64>) -> DMatrix<f64> {
+    let n = cov.nrows();
+    DMatrix::from_fn(n, n, |a, b| {
+        let s = (cov[(a, a)] * cov[(b, b)]).sqrt();
+        if a == b {
+            1.0
+        } else if s.is_finite() && s > 0.0 {
+            cov[(a, b)] / s
+        } else {
+            0.0
+        }
+    })
+}
