@@ -12,6 +12,8 @@ fn main() {
     let rel: f64 = args.get(1).map_or(1e-3, |s| s.parse().unwrap());
     let seeds: u64 = args.get(2).map_or(5, |s| s.parse().unwrap());
     let masses: usize = args.get(3).map_or(12, |s| s.parse().unwrap());
+    let missing: f64 = args.get(4).map_or(0.0, |s| s.parse().unwrap());
+    let hidden: f64 = args.get(5).map_or(0.0, |s| s.parse().unwrap());
     for seed in 0..seeds {
         let mut truth = random_network(100 + seed, masses, 7);
         for (k, t) in truth.types.iter_mut().enumerate() {
@@ -26,7 +28,15 @@ fn main() {
         };
         let guess = with_unknown_boxes(&truth, 25.0, seed);
         let space = ParameterSpace::from_scene(&guess);
-        let take = Take::complete(&noisy);
+        let n = truth.num_particles();
+        let hide: Vec<bool> = (0..n)
+            .map(|i| i > 0 && (i as f64) < 1.0 + hidden * (n as f64))
+            .collect();
+        let take = Take::complete(&noisy).masked(|t, i, c| {
+            let h =
+                (t as u64 * 7919 + i as u64 * 104729 + c as u64 * 1299709 + seed * 15485863) % 1000;
+            !hide[i] && (h as f64) >= missing * 1000.0
+        });
         let t0 = Instant::now();
         let est = estimate(
             &guess,

@@ -300,6 +300,22 @@ pub fn cramer_rao(
     takes: &[Take],
     sigma: f64,
 ) -> Result<Vec<f64>, CostError> {
+    let truths = vec![truth; takes.len()];
+    cramer_rao_takes(&truths, space, takes, sigma)
+}
+
+/// [`cramer_rao`] for takes that start from different initial states: `truths[k]` holds the
+/// parameters (the same in every scene) and take k's true initial state.
+pub fn cramer_rao_takes(
+    truths: &[&Scene],
+    space: &ParameterSpace,
+    takes: &[Take],
+    sigma: f64,
+) -> Result<Vec<f64>, CostError> {
+    if truths.len() != takes.len() {
+        return Err(CostError::length("truths", takes.len(), truths.len()));
+    }
+    let truth = truths[0];
     let tangent = Tangent::new(truth)?;
     check_takes(truth, &tangent, takes)?;
     let slots: Vec<usize> = space.unknowns.iter().map(|u| u.slot).collect();
@@ -318,10 +334,10 @@ pub fn cramer_rao(
         .iter()
         .map(|u| u.to_internal(base[u.slot]))
         .collect();
-    for _ in takes {
+    for t in truths {
         for &i in &tangent.free {
-            q.extend_from_slice(&truth.particles[i].pos);
-            q.extend_from_slice(&truth.particles[i].vel);
+            q.extend_from_slice(&t.particles[i].pos);
+            q.extend_from_slice(&t.particles[i].vel);
         }
     }
     let longest = takes.iter().map(Take::frames).max().unwrap_or(0);
