@@ -184,6 +184,7 @@ fn stop_text(s: StopReason) -> &'static str {
         StopReason::Interrupted => "interrupted",
         StopReason::Observer => "callback",
         StopReason::Converged => "converged",
+        other => other.as_str(),
     }
 }
 
@@ -400,6 +401,7 @@ pub fn identify(
         checkpoint,
         checkpoint_every: 50,
         resume,
+        fingerprint: None,
     };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)

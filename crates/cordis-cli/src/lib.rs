@@ -138,10 +138,21 @@ fn one_line(e: &anyhow::Error) -> String {
 /// input or usage, 130 interrupted by Ctrl-C (after writing the best result so far).
 fn exit_code(e: &anyhow::Error) -> i32 {
     use cordis_core::CordisError;
+    use cordis_es::CostError;
     if e.is::<commands::Interrupted>() {
         return 130;
     }
-    match e.downcast_ref::<CordisError>() {
+    let core = e
+        .downcast_ref::<CordisError>()
+        .or(match e.downcast_ref::<CostError>() {
+            Some(CostError::Core(c)) => Some(c),
+            _ => None,
+        });
+    if matches!(e.downcast_ref::<CostError>(), Some(CostError::Run { .. })) {
+        // A run that failed (no estimate, a failed evaluation, a checkpoint not written).
+        return 1;
+    }
+    match core {
         Some(CordisError::Diverged { .. }) | Some(CordisError::Io { .. }) => 1,
         _ => 2,
     }

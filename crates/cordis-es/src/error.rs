@@ -29,6 +29,26 @@ pub enum CostError {
     /// The trajectory does not fit the scene (particle count, too few frames, another `dt`).
     #[error("{place}: {message}")]
     Mismatch { place: String, message: String },
+
+    /// An identification option out of its range (`--time-limit inf`, `population 1e11`),
+    /// named with its unit.
+    #[error("{place}: {message}")]
+    Invalid { place: String, message: String },
+
+    /// The strategy cannot run on this problem (a nonlinear cost kind for an exact solver,
+    /// free masses without a total…): refused before any work, saying what to do instead.
+    #[error("{place}: {message}")]
+    Refused { place: String, message: String },
+
+    /// A checkpoint that cannot resume this run (unreadable, another strategy, seed, scene,
+    /// data or options — the message names which).
+    #[error("{place}: {message}")]
+    Resume { place: String, message: String },
+
+    /// The run failed: a solver that found no estimate, an evaluation that failed, a checkpoint
+    /// that could not be written.
+    #[error("{place}: {message}")]
+    Run { place: String, message: String },
 }
 
 impl CostError {
@@ -49,6 +69,34 @@ impl CostError {
 
     pub fn mismatch(place: impl Into<String>, message: impl Into<String>) -> Self {
         Self::Mismatch {
+            place: place.into(),
+            message: message.into(),
+        }
+    }
+
+    pub fn invalid(place: impl Into<String>, message: impl Into<String>) -> Self {
+        Self::Invalid {
+            place: place.into(),
+            message: message.into(),
+        }
+    }
+
+    pub fn refused(place: impl Into<String>, message: impl Into<String>) -> Self {
+        Self::Refused {
+            place: place.into(),
+            message: message.into(),
+        }
+    }
+
+    pub fn resume(place: impl Into<String>, message: impl Into<String>) -> Self {
+        Self::Resume {
+            place: place.into(),
+            message: message.into(),
+        }
+    }
+
+    pub fn run(place: impl Into<String>, message: impl Into<String>) -> Self {
+        Self::Run {
             place: place.into(),
             message: message.into(),
         }

@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::problem::Problem;
 use crate::strategy::{lossless, Strategy};
+use crate::CostError;
 
 /// When to stop; the first rule met ends the run. `None` everywhere runs until stopped.
 #[derive(Clone, Debug, Default)]
@@ -27,6 +28,8 @@ pub struct RunConfig {
     pub checkpoint_every: u64,
     /// Continue from this checkpoint.
     pub resume: Option<PathBuf>,
+    /// Written into checkpoints and compared on resume (`None`: neither).
+    pub fingerprint: Option<Fingerprint>,
 }
 
 /// One line of the convergence log.
@@ -82,18 +85,67 @@ pub trait Observer: Send {
     }
 }
 
+/// Why a run stopped. The budgets (`generations`, `max_evals`, `time_limit`) and the target
+/// are the run loop's rules; the last three are the strategy's own word, read from its
+/// [`crate::report::Report`] once it says it is [finished](Strategy::finished).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
+#[non_exhaustive]
 pub enum StopReason {
+    /// The generation budget was spent.
     Generations,
+    /// The evaluation budget was spent.
     MaxEvals,
+    /// The time budget was spent.
     TimeLimit,
+    /// The best cost reached the target.
     TargetCost,
+    /// Ctrl-C (or the caller's interrupt flag).
     Interrupted,
+    /// An observer asked to stop (the Python callback).
     Observer,
-    /// The strategy has nothing left to do (exact solvers).
+    /// The strategy finished and its own criterion was met (an exact solve that determined
+    /// every unknown, levenberg-marquardt at a small cost).
     Converged,
+    /// The strategy finished on its own budget short of its criterion (levenberg-marquardt's
+    /// restarts, hybrid's cycle cap): the report's warnings say which.
+    StrategyBudget,
+    /// The strategy finished but the data do not determine some unknowns (named in the
+    /// report; held at their starting value).
+    NotDetermined,
 }
+
+impl StopReason {
+    /// The name used in JSON and Python (`converged`, `max_evals`, `callback`…).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            StopReason::Generations => "generations",
+            StopReason::MaxEvals => "max_evals",
+            StopReason::TimeLimit => "time_limit",
+            StopReason::TargetCost => "target_cost",
+            StopReason::Interrupted => "interrupted",
+            StopReason::Observer => "observer",
+            StopReason::Converged => "converged",
+            StopReason::StrategyBudget => "strategy_budget",
+            StopReason::NotDetermined => "not_determined",
+        }
+    }
+
+    /// How a finished strategy ended, from its report.
+    fn of_finished(report: &crate::report::Report) -> Self {
+        if report.unconverged().is_some() {
+            StopReason::StrategyBudget
+        } else if !report.undetermined().is_empty() {
+            StopReason::NotDetermined
+        } else {
+            StopReason::Converged
+        }
+    }
+}
+
+/// What a checkpoint records of the request it was made for, by component (`scene`, `data`,
+/// `cost`, `noise`, options…) → a digest of it, so that a resume names what differs.
+pub type Fingerprint = std::collections::BTreeMap<String, String>;
 
 #[derive(Clone, Debug)]
 pub struct RunResult {
@@ -126,11 +178,15 @@ struct Checkpoint {
     seconds: f64,
     history: Vec<HistoryRow>,
     state: serde_json::Value,
+    /// Absent in checkpoints written before fingerprints (accepted as they are).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    fingerprint: Option<Fingerprint>,
 }
 
 const CHECKPOINT_FORMAT: &str = "cordis-checkpoint/1";
 
-/// Runs `strategy` on `problem` until a stop rule, an observer or `interrupt` says stop.
+/// Runs `strategy` on `problem` until a stop rule, an observer or `interrupt` says stop; the
+/// error as one line ([`run_typed`] keeps its kind).
 pub fn run(
     problem: &mut Problem,
     strategy: &mut dyn Strategy,
@@ -138,63 +194,57 @@ pub fn run(
     observers: &mut [&mut dyn Observer],
     interrupt: Option<&AtomicBool>,
 ) -> Result<RunResult, String> {
+    run_typed(problem, strategy, config, observers, interrupt).map_err(|e| e.to_string())
+}
+
+/// Where a run starts: generation, evaluations and seconds before it, history so far.
+struct Start {
+    generation: u64,
+    seconds_before: f64,
+    history: Vec<HistoryRow>,
+}
+
+/// [`run`] with a typed error: [`CostError::Resume`] for a checkpoint that cannot resume this
+/// run, [`CostError::Run`] for a run that failed (no estimate, a failed evaluation, a
+/// checkpoint not written).
+pub fn run_typed(
+    problem: &mut Problem,
+    strategy: &mut dyn Strategy,
+    config: &RunConfig,
+    observers: &mut [&mut dyn Observer],
+    interrupt: Option<&AtomicBool>,
+) -> Result<RunResult, CostError> {
     let start = Instant::now();
-    let mut history = Vec::new();
-    let mut generation = 0;
-    let mut seconds_before = 0.0;
     // A failure left over from an earlier run on this problem is not this run's.
     problem.take_eval_error();
-    if let Some(path) = &config.resume {
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let cp: Checkpoint = serde_json::from_str(&text)
-            .map_err(|e| format!("{}: not a checkpoint: {e}", path.display()))?;
-        if cp.format != CHECKPOINT_FORMAT
-            || cp.strategy != strategy.name()
-            || cp.dim != problem.dim()
-        {
-            return Err(format!(
-                "{}: checkpoint of strategy `{}` with {} unknowns cannot resume `{}` with {}",
-                path.display(),
-                cp.strategy,
-                cp.dim,
-                strategy.name(),
-                problem.dim()
-            ));
+    let Start {
+        mut generation,
+        seconds_before,
+        mut history,
+    } = match &config.resume {
+        Some(path) => resume(path, problem, strategy, config)?,
+        None => {
+            problem.set_evals(0);
+            problem.objective.set_generation(0);
+            strategy.init(problem, config.seed);
+            if let Some(e) = problem.take_eval_error() {
+                return Err(CostError::run("generation 0", e));
+            }
+            // A strategy that found no estimate is an error, not its start point as a result.
+            if let Some(e) = strategy.failure() {
+                return Err(CostError::run(strategy.name(), e));
+            }
+            let row = make_row(problem, &*strategy, 0, start.elapsed().as_secs_f64());
+            for o in observers.iter_mut() {
+                o.observe_best(&row, strategy.best().0);
+            }
+            Start {
+                generation: 0,
+                seconds_before: 0.0,
+                history: vec![row],
+            }
         }
-        if cp.seed != config.seed {
-            return Err(format!(
-                "{}: checkpoint was made with seed {}, not {}",
-                path.display(),
-                cp.seed,
-                config.seed
-            ));
-        }
-        strategy
-            .load_state(problem, &cp.state)
-            .map_err(|e| format!("{}: {e}", path.display()))?;
-        problem.set_evals(cp.evals);
-        generation = cp.generation;
-        problem.objective.set_generation(generation as usize);
-        seconds_before = cp.seconds;
-        history = cp.history;
-    } else {
-        problem.set_evals(0);
-        problem.objective.set_generation(0);
-        strategy.init(problem, config.seed);
-        if let Some(e) = problem.take_eval_error() {
-            return Err(format!("generation 0: {e}"));
-        }
-        let row = make_row(
-            problem,
-            &*strategy,
-            0,
-            seconds_before + start.elapsed().as_secs_f64(),
-        );
-        for o in observers.iter_mut() {
-            o.observe_best(&row, strategy.best().0);
-        }
-        history.push(row);
-    }
+    };
     let elapsed = |start: &Instant| seconds_before + start.elapsed().as_secs_f64();
     let stop = &config.stop;
     let stopped_by = loop {
@@ -220,7 +270,7 @@ pub fn run(
             break StopReason::Interrupted;
         }
         if strategy.finished() {
-            break StopReason::Converged;
+            break StopReason::of_finished(&strategy.report());
         }
         generation += 1;
         // A progressive horizon grows with the generations: stored costs are then stale.
@@ -233,7 +283,7 @@ pub fn run(
         // A failed evaluation left +inf costs in the strategy's state: stop before that state
         // reaches a checkpoint, which keeps the last good generation.
         if let Some(e) = problem.take_eval_error() {
-            return Err(format!("generation {generation}: {e}"));
+            return Err(CostError::run(format!("generation {generation}"), e));
         }
         let row = make_row(problem, &*strategy, generation, elapsed(&start));
         let mut go_on = true;
@@ -241,35 +291,22 @@ pub fn run(
             go_on &= o.observe_best(&row, strategy.best().0);
         }
         history.push(row);
-        if let Some(path) = &config.checkpoint {
-            if config.checkpoint_every > 0 && generation % config.checkpoint_every == 0 {
-                write_checkpoint(
-                    path,
-                    problem,
-                    &*strategy,
-                    config.seed,
-                    generation,
-                    elapsed(&start),
-                    &history,
-                )?;
-            }
+        if config.checkpoint_every > 0 && generation % config.checkpoint_every == 0 {
+            write_checkpoint(
+                config,
+                problem,
+                &*strategy,
+                generation,
+                elapsed(&start),
+                &history,
+            )?;
         }
         if !go_on {
             break StopReason::Observer;
         }
     };
     let seconds = elapsed(&start);
-    if let Some(path) = &config.checkpoint {
-        write_checkpoint(
-            path,
-            problem,
-            &*strategy,
-            config.seed,
-            generation,
-            seconds,
-            &history,
-        )?;
-    }
+    write_checkpoint(config, problem, &*strategy, generation, seconds, &history)?;
     let (genome, cost) = strategy.best();
     let mut params = problem.space.base.clone();
     problem.space.fill_params(genome, &mut params);
@@ -289,6 +326,62 @@ pub fn run(
     })
 }
 
+/// Reads the checkpoint at `path` into `strategy` and `problem`, after checking that it was
+/// made for this run: format, strategy, dimension, seed, then the request's fingerprint.
+fn resume(
+    path: &std::path::Path,
+    problem: &mut Problem,
+    strategy: &mut dyn Strategy,
+    config: &RunConfig,
+) -> Result<Start, CostError> {
+    let place = path.display().to_string();
+    let bad = |m: String| CostError::resume(&place, m);
+    let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
+    let cp: Checkpoint =
+        serde_json::from_str(&text).map_err(|e| bad(format!("not a checkpoint: {e}")))?;
+    if cp.format != CHECKPOINT_FORMAT || cp.strategy != strategy.name() || cp.dim != problem.dim() {
+        return Err(bad(format!(
+            "checkpoint of strategy `{}` with {} unknowns cannot resume `{}` with {}",
+            cp.strategy,
+            cp.dim,
+            strategy.name(),
+            problem.dim()
+        )));
+    }
+    if cp.seed != config.seed {
+        return Err(bad(format!(
+            "checkpoint was made with seed {}, not {}",
+            cp.seed, config.seed
+        )));
+    }
+    if let (Some(was), Some(now)) = (&cp.fingerprint, &config.fingerprint) {
+        let differs: Vec<&str> = now
+            .iter()
+            .filter(|(k, v)| was.get(*k) != Some(*v))
+            .map(|(k, _)| k.as_str())
+            .chain(
+                was.keys()
+                    .filter(|k| !now.contains_key(*k))
+                    .map(|k| k.as_str()),
+            )
+            .collect();
+        if !differs.is_empty() {
+            return Err(bad(format!(
+                "checkpoint was made for another request: its {} differ from this run's",
+                differs.join(", ")
+            )));
+        }
+    }
+    strategy.load_state(problem, &cp.state).map_err(bad)?;
+    problem.set_evals(cp.evals);
+    problem.objective.set_generation(cp.generation as usize);
+    Ok(Start {
+        generation: cp.generation,
+        seconds_before: cp.seconds,
+        history: cp.history,
+    })
+}
+
 fn make_row(problem: &Problem, s: &dyn Strategy, generation: u64, seconds: f64) -> HistoryRow {
     let st = s.stats();
     let (genome, _) = s.best();
@@ -304,26 +397,33 @@ fn make_row(problem: &Problem, s: &dyn Strategy, generation: u64, seconds: f64) 
     }
 }
 
+/// Writes `config.checkpoint` (when set), atomically.
 fn write_checkpoint(
-    path: &std::path::Path,
+    config: &RunConfig,
     problem: &Problem,
     s: &dyn Strategy,
-    seed: u64,
     generation: u64,
     seconds: f64,
     history: &[HistoryRow],
-) -> Result<(), String> {
+) -> Result<(), CostError> {
+    let Some(path) = &config.checkpoint else {
+        return Ok(());
+    };
     let cp = Checkpoint {
         format: CHECKPOINT_FORMAT.into(),
         strategy: s.name().into(),
-        seed,
+        seed: config.seed,
         dim: problem.dim(),
         generation,
         evals: problem.evals(),
         seconds,
         history: history.to_vec(),
         state: s.save_state(),
+        fingerprint: config.fingerprint.clone(),
     };
-    let text = serde_json::to_string(&cp).map_err(|e| e.to_string())?;
-    cordis_core::io::write_atomic(path, text.as_bytes()).map_err(|e| e.to_string())
+    let place = path.display().to_string();
+    let text = serde_json::to_string(&cp).map_err(|e| CostError::run(&place, e.to_string()))?;
+    // The core's error names the path already.
+    cordis_core::io::write_atomic(path, text.as_bytes())
+        .map_err(|e| CostError::run("checkpoint", e.to_string()))
 }

@@ -220,16 +220,20 @@ pub fn check_strategy(ran: &str, problem: &Problem) -> Result<(), String> {
 /// The trajectory with Gaussian noise of standard deviation `sigma` (m) added to every
 /// coordinate (thesis §4.1), drawn from the run's seed.
 pub fn add_noise(traj: &Trajectory, sigma: f64, seed: u64) -> Trajectory {
+    try_add_noise(traj, sigma, seed).expect("finite data plus finite noise")
+}
+
+/// [`add_noise`], `None` when the noise makes a coordinate overflow (σ near f64's range).
+pub fn try_add_noise(traj: &Trajectory, sigma: f64, seed: u64) -> Option<Trajectory> {
     let mut r = rng::stream(seed, u64::MAX, 0);
     let data: Vec<f64> = traj
         .as_flat()
         .iter()
         .map(|x| x + sigma * rng::normal(&mut r))
         .collect();
-    let mut out = Trajectory::from_flat(traj.frames(), traj.particles(), data)
-        .expect("finite data plus finite noise");
+    let mut out = Trajectory::from_flat(traj.frames(), traj.particles(), data).ok()?;
     out.dt = traj.dt;
-    out
+    Some(out)
 }
 
 /// A copy of `scene` whose positive link-type parameters are unknown, each in a box `width`

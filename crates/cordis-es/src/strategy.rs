@@ -25,9 +25,24 @@ pub trait Strategy: Send {
     fn next_generation(&mut self, problem: &Problem, seed: u64, generation: u64);
 
     /// True when the strategy has nothing left to do (an exact solver after its solve): the
-    /// run loop then stops with [`crate::executor::StopReason::Converged`].
+    /// run loop then stops, as [`crate::executor::StopReason::Converged`] only when
+    /// [`Strategy::report`] says its criterion was met and every unknown determined.
     fn finished(&self) -> bool {
         false
+    }
+
+    /// Why the strategy could not produce an estimate at all (an exact solve that failed):
+    /// the run is then an error, never its starting point handed back as a result. Read after
+    /// [`Strategy::init`].
+    fn failure(&self) -> Option<String> {
+        None
+    }
+
+    /// The estimated initial state of the free particles (positions, m, and velocities, m/s),
+    /// for strategies that estimate it along with the parameters (an output-error estimator);
+    /// the session writes it into the identified scene. `None` (the default) keeps the scene's.
+    fn initial_state(&self) -> Option<crate::report::InitialState> {
+        None
     }
 
     /// The cost function changed (a progressive horizon grew): re-evaluate every stored cost.
@@ -73,9 +88,9 @@ pub trait Strategy: Send {
     }
 
     /// What the strategy wants the run summary to say beside the numbers (an exact solver's
-    /// condition number and warnings); `null` for nothing.
-    fn report(&self) -> serde_json::Value {
-        serde_json::Value::Null
+    /// condition number and warnings, a local solver's restarts); empty for nothing.
+    fn report(&self) -> crate::report::Report {
+        crate::report::Report::default()
     }
 }
 

@@ -332,7 +332,7 @@ fn auto_runs_least_squares_through_the_executor() {
     let r = executor::run(&mut problem, s.as_mut(), &config, &mut [], None).unwrap();
     assert_eq!(r.strategy, "least-squares");
     assert!(r.param_error_pct.unwrap() < 1e-6);
-    assert!(s.report()["condition"].as_f64().unwrap() >= 1.0);
+    assert!(s.report().as_exact().unwrap().condition >= 1.0);
     // The Provot cloth is solved exactly on the rows the limit leaves (provot_rows), a
     // muscle's neuron is not linear but smooth: auto takes levenberg-marquardt.
     for (c, expected) in [

@@ -2,16 +2,14 @@ use std::fs::File;
 use std::io::{BufWriter, IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Duration;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use cordis_core::Scene;
 use cordis_es::cost::CostKind;
-use cordis_es::executor::{self, HistoryRow, Observer, RunConfig, StopRules};
-use cordis_es::identify::{
-    add_noise, check_strategy, make_strategy, StrategyName, StrategyOptions,
-};
-use cordis_es::problem::Problem;
+use cordis_es::executor::{HistoryRow, Observer, StopReason};
+use cordis_es::identify::StrategyName;
+use cordis_es::session::{Generations, IdentifyRequest, Lock, Outcome, Session, Style};
+use cordis_es::strategies::islands::IslandConfig;
 
 use super::Output;
 
@@ -65,6 +63,16 @@ pub struct Args {
     /// Stop after this many cost evaluations.
     #[arg(long)]
     max_evals: Option<u64>,
+    /// An island model of this many populations of the strategy (2 or more), exchanging
+    /// their best individuals in a ring.
+    #[arg(long)]
+    islands: Option<usize>,
+    /// With --islands: generations between two migrations.
+    #[arg(long, default_value_t = 10)]
+    migrate_every: u64,
+    /// With --islands: individuals each island sends per migration.
+    #[arg(long, default_value_t = 2)]
+    migrants: usize,
     /// Thesis file Param.gene (key=value): population, pcross, pmut, reducer, generation, noise.
     #[arg(long)]
     param_gene: Option<PathBuf>,
@@ -105,8 +113,50 @@ pub struct Args {
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
 pub fn run(a: Args, output: Output) -> Result<()> {
-    // Issue 17 hook: outputs off the inputs and each other, writable, before any work.
-    // `--checkpoint` may be the `--resume` file (a run that goes on saving where it resumed).
+    guard(&a)?;
+    let session = Session::new(request(&a)?)?;
+    // Known before the run (threads capped): said before the wait, not after it.
+    let early = session.warnings().len();
+    for w in session.warnings() {
+        eprintln!("warning: {w}");
+    }
+    let ran = session.strategy();
+    let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::Relaxed));
+    let mut log = match &a.log {
+        Some(p) => Some(LogWriter::create(p)?),
+        None => None,
+    };
+    let mut progress = Progress::new(session.stop_rules().generations, output.quiet);
+    let mut observers: Vec<&mut dyn Observer> = vec![&mut progress];
+    if let Some(l) = log.as_mut() {
+        observers.push(l);
+    }
+    let outcome = session.run(&mut observers, Some(&INTERRUPTED))?;
+    drop(observers);
+    progress.finish();
+    if let Some(mut l) = log {
+        l.flush()?;
+    }
+    if let Some(out) = &a.out {
+        super::write_scene(&outcome.scene, Some(out))?;
+    }
+    if output.human() {
+        print_human(ran, &outcome);
+    }
+    // Warnings print even with --quiet: they say the answer is not to be trusted as it is.
+    for w in &outcome.warnings[early..] {
+        eprintln!("warning: {w}");
+    }
+    output.json_line(&summary(ran, &outcome, a.stable_horizon))?;
+    if outcome.result.stopped_by == StopReason::Interrupted {
+        return Err(super::Interrupted.into());
+    }
+    Ok(())
+}
+
+/// Issue 17 hook: outputs off the inputs and each other, writable, before any work.
+/// `--checkpoint` may be the `--resume` file (a run that goes on saving where it resumed).
+fn guard(a: &Args) -> Result<()> {
     let lock_file = a
         .lock
         .as_deref()
@@ -124,197 +174,84 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         &inputs,
         &[("--checkpoint", a.checkpoint.as_deref()), out, log],
     )?;
-    super::guard_outputs(&[("--resume", a.resume.as_deref())], &[out, log])?;
+    super::guard_outputs(&[("--resume", a.resume.as_deref())], &[out, log])
+}
+
+/// The command line as a request: nothing is checked here, the session checks it all.
+fn request(a: &Args) -> Result<IdentifyRequest> {
     let scene = Scene::from_json_path(&a.scene)?;
-    if !scene.has_unknowns() {
-        bail!(
-            "{}: no parameter to identify: write unknowns as {{\"min\": …, \"max\": …}}",
-            a.scene.display()
-        );
-    }
-    let mut traj = cordis_core::io::read_trajectory(&a.trajectory)?;
+    let traj = cordis_core::io::read_trajectory(&a.trajectory)?;
     super::check_dt(&scene, a.dt.or(traj.dt), &a.trajectory)?;
-    let kind: CostKind = a.cost.parse().map_err(|e| anyhow::anyhow!("--cost: {e}"))?;
-    let gene = match &a.param_gene {
-        Some(p) => {
-            let text = std::fs::read_to_string(p).with_context(|| p.display().to_string())?;
-            Some(cordis_core::thesis::parse_gene(
-                &p.display().to_string(),
-                &text,
-            )?)
-        }
+    let cost: CostKind = a.cost.parse().map_err(|e| anyhow::anyhow!("--cost: {e}"))?;
+    let truth = match &a.truth {
+        Some(t) => Some(Scene::from_json_path(t)?),
         None => None,
     };
-    let noise = if a.noise > 0.0 {
-        a.noise
-    } else {
-        gene.as_ref().and_then(|g| g.noise).unwrap_or(0.0)
-    };
-    if noise > 0.0 {
-        traj = add_noise(&traj, noise, a.seed);
-    }
-    let mut problem = Problem::new(&scene, &traj, kind)?;
-    if let Some(lock) = &a.lock {
-        let (names, from_file) = lock_names(lock)?;
-        let known: Vec<&str> = problem
-            .space
-            .unknowns
-            .iter()
-            .map(|u| u.name.as_str())
-            .collect();
-        // A .lock file may lock what the scene already knows; a name given by hand must exist.
-        if let Some(bad) = names
-            .iter()
-            .find(|n| !from_file && !known.contains(&n.as_str()))
-        {
-            bail!("--lock: `{bad}` is not an unknown of {}", a.scene.display());
-        }
-        problem.space.lock(&names);
-    }
-    if let Some(t) = &a.truth {
-        problem = problem.with_truth(&Scene::from_json_path(t)?)?;
-    }
-    if let Some(h) = a.stable_horizon {
-        let h = cordis_es::stable::StableHorizon::new(h, a.stable_spread)?;
-        problem = problem.with_stable_horizon(h);
-    }
-    if let Some(m) = a.total_mass {
-        problem = problem.with_total_mass(m).context("--total-mass")?;
-    }
-    let population = a
-        .population
-        .or(gene.as_ref().and_then(|g| g.population).map(|p| p as usize))
-        .unwrap_or(100);
-    let generations = a
+    let mut r = IdentifyRequest::new(scene, traj);
+    r.scene_place = a.scene.display().to_string();
+    r.strategy = a.strategy;
+    r.population = a.population;
+    r.param_gene = a.param_gene.clone();
+    r.descent_start = a.descent_start;
+    r.descent_every = a.descent_every;
+    r.islands = a.islands.map(|islands| IslandConfig {
+        islands,
+        migrate_every: a.migrate_every,
+        migrants: a.migrants,
+    });
+    r.cost = cost;
+    r.generations = a
         .generations
-        .or(gene.as_ref().and_then(|g| g.generation))
-        .or(
-            if a.time_limit.is_none() && a.max_evals.is_none() && a.target_cost.is_none() {
-                Some(1000)
-            } else {
-                None
-            },
-        );
-    let options = StrategyOptions {
-        population,
-        gene,
-        descent_start: a.descent_start,
-        descent_every: a.descent_every,
-    };
-    let (mut strategy, ran) = make_strategy(a.strategy, &problem, &options);
-    check_strategy(ran, &problem).map_err(|e| anyhow::anyhow!("{}: {e}", a.scene.display()))?;
-    // An exact solver is done after generation 0: the run loop stops it as `converged`.
-    let config = RunConfig {
-        seed: a.seed,
-        stop: StopRules {
-            generations,
-            max_evals: a.max_evals,
-            time_limit: a.time_limit.map(Duration::from_secs_f64),
-            target_cost: a.target_cost,
-        },
-        checkpoint: a.checkpoint.clone(),
-        checkpoint_every: 50,
-        resume: a.resume.clone(),
-    };
-    let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::Relaxed));
-    let mut log = match &a.log {
-        Some(p) => Some(LogWriter::create(p)?),
-        None => None,
-    };
-    let mut progress = Progress::new(generations, output.quiet);
-    let mut observers: Vec<&mut dyn Observer> = vec![&mut progress];
-    if let Some(l) = log.as_mut() {
-        observers.push(l);
-    }
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(a.threads.unwrap_or(0))
-        .build()
-        .context("--threads")?;
-    let result = pool
-        .install(|| {
-            executor::run(
-                &mut problem,
-                strategy.as_mut(),
-                &config,
-                &mut observers,
-                Some(&INTERRUPTED),
-            )
-        })
-        .map_err(|e| anyhow::anyhow!(e))?;
-    drop(observers);
-    progress.finish();
-    if let Some(mut l) = log {
-        l.flush()?;
-    }
-    let identified = problem.space.scene_with(&scene, &result.genome);
-    if let Some(out) = &a.out {
-        super::write_scene(&identified, Some(out))?;
-    }
-    if output.human() {
-        eprintln!(
-            "{ran}: {} generations, {} evaluations in {:.2} s; cost {:.6e}, rmse {:.6e}{}",
-            result.generations,
-            result.evals,
-            result.seconds,
-            result.cost,
-            result.rmse,
-            result
-                .param_error_pct
-                .map(|e| format!(", mean parameter error {e:.3e} %"))
-                .unwrap_or_default()
-        );
-        for (u, v) in problem
-            .space
-            .unknowns
-            .iter()
-            .zip(problem.space.values(&result.genome))
-        {
-            let truth = problem
-                .truth
-                .as_ref()
-                .map(|t| format!("  (truth {:.6e})", t[u.slot]))
-                .unwrap_or_default();
-            eprintln!("  {:<40} {:>14.6e}{truth}", u.name, v);
-        }
-    }
-    let report = strategy.report();
-    // Warnings print even with --quiet: they say the answer is not to be trusted as it is.
-    if let Some(e) = report.get("error").and_then(|v| v.as_str()) {
-        eprintln!("warning: {e}");
-    }
-    for (key, what) in [
-        (
-            "undetermined",
-            "not determined by the data (held at the starting value)",
-        ),
-        (
-            "poorly_determined",
-            "poorly determined (large condition number)",
-        ),
-        (
-            "clamped",
-            "unconstrained solution outside the box (clamped onto it)",
-        ),
-    ] {
-        let names: Vec<&str> = report
-            .get(key)
-            .and_then(|v| v.as_array())
-            .map(|a| a.iter().filter_map(|v| v.as_str()).collect())
-            .unwrap_or_default();
-        if !names.is_empty() {
-            eprintln!("warning: {}: {what}", names.join(", "));
-        }
-    }
-    if let Some(p) = report
-        .get("provot")
-        .filter(|p| p.get("consistent").and_then(|c| c.as_bool()) == Some(false))
+        .map_or(Generations::Default, Generations::Limit);
+    r.max_evals = a.max_evals;
+    r.time_limit = a.time_limit;
+    r.target_cost = a.target_cost;
+    r.seed = a.seed;
+    r.noise = a.noise;
+    r.lock = a.lock.as_deref().map(Lock::parse);
+    r.total_mass = a.total_mass;
+    r.stable_horizon = a.stable_horizon;
+    r.stable_spread = a.stable_spread;
+    r.truth = truth;
+    r.checkpoint = a.checkpoint.clone();
+    r.resume = a.resume.clone();
+    r.threads = a.threads;
+    r.style = Style::Cli;
+    Ok(r)
+}
+
+fn print_human(ran: &str, outcome: &Outcome) {
+    let (result, problem) = (&outcome.result, &outcome.problem);
+    eprintln!(
+        "{ran}: {} generations, {} evaluations in {:.2} s; cost {:.6e}, rmse {:.6e}{}",
+        result.generations,
+        result.evals,
+        result.seconds,
+        result.cost,
+        result.rmse,
+        result
+            .param_error_pct
+            .map(|e| format!(", mean parameter error {e:.3e} %"))
+            .unwrap_or_default()
+    );
+    for (u, v) in problem
+        .space
+        .unknowns
+        .iter()
+        .zip(problem.space.values(&result.genome))
     {
-        eprintln!(
-            "warning: Provot limit: after {} solves the estimate still marks rows that were kept \
-             (the answer may be biased by the limit)",
-            p.get("iterations").and_then(|v| v.as_u64()).unwrap_or(0)
-        );
+        let truth = problem
+            .truth
+            .as_ref()
+            .map(|t| format!("  (truth {:.6e})", t[u.slot]))
+            .unwrap_or_default();
+        eprintln!("  {:<40} {:>14.6e}{truth}", u.name, v);
     }
+}
+
+/// The one JSON line of a run.
+fn summary(ran: &str, outcome: &Outcome, stable_horizon: Option<usize>) -> serde_json::Value {
+    let result = &outcome.result;
     let mut summary = serde_json::json!({
         "strategy": ran,
         "cost": result.cost,
@@ -328,47 +265,14 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     if let Some(e) = result.param_error_pct {
         summary["param_error_pct"] = e.into();
     }
-    if let Some(h) = a.stable_horizon {
+    if let Some(h) = stable_horizon {
         summary["stable_horizon"] = h.into();
-        if !result.cost.is_finite() {
-            eprintln!(
-                "warning: --stable-horizon {h}: every candidate evaluated was rejected as \
-                 unstable (widen the budget, or narrow the boxes)"
-            );
-        }
     }
+    let report = outcome.report.to_json();
     if !report.is_null() {
         summary["solver"] = report;
     }
-    output.json_line(&summary)?;
-    if result.stopped_by == executor::StopReason::Interrupted {
-        return Err(super::Interrupted.into());
-    }
-    Ok(())
-}
-
-/// The unknowns named by `--lock`: a thesis `.lock` file (its `x` flags mark l0 — or the rest
-/// cosine —, K and Z of a type as known) or a comma-separated list of names.
-fn lock_names(lock: &str) -> Result<(Vec<String>, bool)> {
-    if lock.ends_with(".lock") {
-        let text = std::fs::read_to_string(lock).with_context(|| lock.to_string())?;
-        let mut names = Vec::new();
-        for t in cordis_core::thesis::parse_lock(lock, &text)? {
-            let params: &[&str] = match t.family.kind() {
-                cordis_core::LinkKind::Angle => &["rest_cos", "stiffness", "damping"],
-                _ => &["rest_length", "stiffness", "damping"],
-            };
-            for (flag, p) in t.locked.iter().zip(params) {
-                if *flag {
-                    names.push(format!("types.{}.{p}", t.type_name()));
-                }
-            }
-        }
-        Ok((names, true))
-    } else {
-        let names = lock.split(',').map(|s| s.trim().to_string());
-        Ok((names.filter(|s| !s.is_empty()).collect(), false))
-    }
+    summary
 }
 
 /// Convergence log, CSV or JSON lines by extension, flushed every row.
@@ -418,13 +322,22 @@ impl Progress {
         if quiet || !std::io::stderr().is_terminal() {
             return Progress { bar: None };
         }
-        let bar = indicatif::ProgressBar::new(generations.unwrap_or(0));
-        bar.set_style(
-            indicatif::ProgressStyle::with_template(
+        // Without a generation budget (a time or evaluation limit) there is no length to
+        // fill and no ETA to give: a counter, not a bar reading `gen 123/0 (eta 0s)`.
+        let (bar, template) = match generations {
+            Some(g) => (
+                indicatif::ProgressBar::new(g),
                 "{elapsed_precise} [{bar:30}] gen {pos}/{len} (eta {eta}) {msg}",
-            )
-            .expect("valid template")
-            .progress_chars("=> "),
+            ),
+            None => (
+                indicatif::ProgressBar::no_length(),
+                "{elapsed_precise} gen {pos} {msg}",
+            ),
+        };
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(template)
+                .expect("valid template")
+                .progress_chars("=> "),
         );
         Progress { bar: Some(bar) }
     }

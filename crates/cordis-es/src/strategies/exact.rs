@@ -917,6 +917,10 @@ pub struct ExactReport {
     /// Rows left out on a scene with Provot limits ([`super::provot_rows`]); absent otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub provot: Option<ProvotRows>,
+    /// Why the search stopped short of its own criterion (`hybrid`'s coordinate descent at its
+    /// cycle cap while still moving); absent when it met it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unconverged: Option<String>,
 }
 
 impl ExactReport {
@@ -944,6 +948,9 @@ impl ExactReport {
                 "{}: the unconstrained solution is outside the box (clamped onto it)",
                 self.clamped.join(", ")
             ));
+        }
+        if let Some(u) = &self.unconverged {
+            w.push(u.clone());
         }
         if let Some(p) = self.provot.as_ref().filter(|p| !p.consistent) {
             w.push(format!(
@@ -1199,6 +1206,10 @@ impl Strategy for OneShot {
         true
     }
 
+    fn failure(&self) -> Option<String> {
+        self.state.report.error.clone()
+    }
+
     fn best(&self) -> (&[f64], f64) {
         (&self.state.genome, self.state.cost)
     }
@@ -1228,7 +1239,7 @@ impl Strategy for OneShot {
         Ok(())
     }
 
-    fn report(&self) -> serde_json::Value {
-        serde_json::to_value(&self.state.report).unwrap_or_default()
+    fn report(&self) -> crate::report::Report {
+        crate::report::Report::exact(self.state.report.clone())
     }
 }

@@ -235,6 +235,7 @@ fn solve_with(problem: &Problem, sweeps: bool) -> Result<Solution, String> {
         let mut bounds = Vec::new();
         // A dim swept with every other interval as now would give the same answer.
         let mut swept_at: Vec<Option<Vec<usize>>> = vec![None; dims.len()];
+        let mut capped = true;
         for _ in 0..MAX_CYCLES {
             let before = at.clone();
             for d in 0..dims.len() {
@@ -247,6 +248,7 @@ fn solve_with(problem: &Problem, sweeps: bool) -> Result<Solution, String> {
                 swept_at[d] = Some(at.clone());
             }
             if at == before {
+                capped = false;
                 break;
             }
         }
@@ -269,7 +271,7 @@ fn solve_with(problem: &Problem, sweeps: bool) -> Result<Solution, String> {
             dims.len()
         );
         let system = sweeper.system_at(&at);
-        return finish(
+        let solution = finish(
             problem,
             &cols,
             &split,
@@ -278,6 +280,7 @@ fn solve_with(problem: &Problem, sweeps: bool) -> Result<Solution, String> {
             note,
             Some(system),
         );
+        return solution.map(|s| at_cap(s, capped));
     }
     // With continuous unknowns, the cached typed design when every column has one: the same
     // inner solve at a fraction of the cost (see `super::design`); serial, it is ~15 µs.
@@ -332,6 +335,7 @@ fn solve_with(problem: &Problem, sweeps: bool) -> Result<Solution, String> {
     // continuous unknown (several must also stand still through a pass). A repeated profile
     // search at unchanged intervals finds its grid in the cache: only Brent's steps cost.
     let mut settled = conts.is_empty();
+    let mut capped = true;
     for _ in 0..MAX_CYCLES {
         let before = at.clone();
         for d in 0..dims.len() {
@@ -350,6 +354,7 @@ fn solve_with(problem: &Problem, sweeps: bool) -> Result<Solution, String> {
             });
         }
         if at == before && settled {
+            capped = false;
             break;
         }
         let vals_before = vals.clone();
@@ -384,7 +389,19 @@ fn solve_with(problem: &Problem, sweeps: bool) -> Result<Solution, String> {
         d.qr_system()
     });
     let conts: Vec<(usize, f64)> = conts.iter().copied().zip(vals).collect();
-    finish(problem, &cols, &split, (&dims, &at), &conts, note, system)
+    finish(problem, &cols, &split, (&dims, &at), &conts, note, system).map(|s| at_cap(s, capped))
+}
+
+/// The solution, marked unconverged when the coordinate descent was still moving at its
+/// [`MAX_CYCLES`] cap: its answer is then not a point where no coordinate can improve.
+fn at_cap(mut s: Solution, capped: bool) -> Solution {
+    if capped {
+        s.report.unconverged = Some(format!(
+            "hybrid: the coordinate descent over the nonlinear unknowns was still moving after \
+             its {MAX_CYCLES}-cycle cap (the answer may not be the best interval)"
+        ));
+    }
+    s
 }
 
 /// An interval unknown: its index, its sorted observed values, whether they were thinned.

@@ -640,10 +640,28 @@ impl Strategy for LevenbergMarquardt {
         Ok(())
     }
 
-    fn report(&self) -> serde_json::Value {
-        match &self.lm.state {
-            Some(s) => serde_json::json!({ "restarts": s.restarts, "lambda": s.lambda }),
-            None => serde_json::Value::Null,
+    fn report(&self) -> crate::report::Report {
+        let Some(s) = &self.lm.state else {
+            return crate::report::Report::default();
+        };
+        // Its criterion is a small cost (a fit to rounding); a finish above it means every
+        // start ended in a local minimum, or the model does not fit the data (noise).
+        let unconverged = (s.phase == Phase::Finished && s.best_cost > s.small_cost).then(|| {
+            format!(
+                "levenberg-marquardt: {} restarts ended at cost {:.3e}, above the {:.3e} of a \
+                 fit to rounding: a local minimum, or data the model does not fit (noise)",
+                s.restarts, s.best_cost, s.small_cost
+            )
+        });
+        crate::report::Report {
+            solver: Some(crate::report::SolverReport::LevenbergMarquardt(
+                crate::report::LmReport {
+                    restarts: s.restarts,
+                    lambda: s.lambda,
+                    unconverged,
+                },
+            )),
+            uncertainty: None,
         }
     }
 }

@@ -486,7 +486,15 @@ impl Strategy for Thesis {
 
     fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String> {
         self.setup(problem);
-        self.state = serde_json::from_value(state.clone()).map_err(|e| e.to_string())?;
+        let (dim, particles) = (problem.dim(), problem.num_particles);
+        // A state of another problem would index out of its genes or particles later.
+        self.state = super::common::load_checked("thesis", state, |st: &State| {
+            !st.population.is_empty()
+                && st.population.iter().all(|i| {
+                    i.genes.len() == dim && i.sigma.len() == dim && i.local.len() == particles
+                })
+        })?
+        .ok_or("thesis state is empty")?;
         Ok(())
     }
 

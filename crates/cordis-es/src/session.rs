@@ -1,0 +1,622 @@
+//! One identification session, for the CLI, Python and the benches alike.
+//!
+//! An [`IdentifyRequest`] says everything a run needs: the scene, the observed takes, the
+//! strategy and its options, the stop rules, noise, locks, a total mass, a stable horizon,
+//! checkpoint/resume and threads. [`Session::new`] validates every option once (finite, in
+//! range, its unit in the message), prepares the data and the [`Problem`], picks the strategy
+//! and refuses what cannot run *before any work*: an exact solver on a cost it cannot solve,
+//! unknown masses whose scale nothing fixes. [`Session::run`] runs it and returns an
+//! [`Outcome`]: the run's numbers, the strategy's typed [`Report`], the identified scene and
+//! the warnings a user must read.
+//!
+//! The front ends only translate their arguments into a request, so an option means the
+//! same thing everywhere and a check cannot be forgotten by one of them; messages name the
+//! option as the front end spells it ([`Style`]: `--total-mass` or `total_mass`).
+
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::time::Duration;
+
+use cordis_core::thesis::GeneParams;
+use cordis_core::{Scene, Trajectory};
+
+use crate::cost::CostKind;
+use crate::evaluator::Evaluator;
+use crate::executor::{self, Fingerprint, Observer, RunConfig, RunResult, StopRules};
+use crate::identify::{self, make_islands, make_strategy, StrategyName, StrategyOptions};
+use crate::problem::Problem;
+use crate::report::Report;
+use crate::stable::StableHorizon;
+use crate::strategies::exact;
+use crate::strategies::islands::IslandConfig;
+use crate::strategy::Strategy;
+use crate::CostError;
+
+/// Generations between two checkpoints.
+pub const CHECKPOINT_EVERY: u64 = 50;
+/// Generations run when no stop rule is given at all.
+pub const DEFAULT_GENERATIONS: u64 = 1000;
+/// Population when neither the request nor a `Param.gene` file gives one.
+pub const DEFAULT_POPULATION: usize = 100;
+/// Longest accepted time limit, s (a year): `Duration` overflows far beyond, and a longer
+/// limit is no limit.
+pub const MAX_TIME_LIMIT: f64 = 365.0 * 24.0 * 3600.0;
+
+/// How the front end spells its options, for messages that name them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Style {
+    /// `--total-mass`.
+    #[default]
+    Cli,
+    /// `total_mass`.
+    Python,
+}
+
+impl Style {
+    /// The option `name` (snake_case) as this front end spells it.
+    pub fn opt(self, name: &str) -> String {
+        match self {
+            Style::Cli => format!("--{}", name.replace('_', "-")),
+            Style::Python => name.to_string(),
+        }
+    }
+}
+
+/// The generation budget.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Generations {
+    /// A `Param.gene` file's `generation`, else [`DEFAULT_GENERATIONS`] when no other stop rule
+    /// is given, else none.
+    #[default]
+    Default,
+    /// At most this many generations after generation 0.
+    Limit(u64),
+    /// No generation limit.
+    Unlimited,
+}
+
+/// Everything an identification run needs.
+#[derive(Clone, Debug)]
+pub struct IdentifyRequest {
+    /// The scene, unknowns written `{"min", "max"}`.
+    pub scene: Scene,
+    /// Where the scene came from (a file name, `scene`), to place messages.
+    pub scene_place: String,
+    /// The observed takes, every particle in scene order (one take today).
+    pub takes: Vec<Trajectory>,
+    /// `--strategy`.
+    pub strategy: StrategyName,
+    /// Population (λ, chains, …); `None`: the `Param.gene` file's, else [`DEFAULT_POPULATION`].
+    pub population: Option<usize>,
+    /// A thesis `Param.gene` file (population, pcross, pmut, reducer, generation, noise).
+    pub param_gene: Option<PathBuf>,
+    /// Thesis strategy: first generation of Powell's descent, and generations between two.
+    pub descent_start: u64,
+    pub descent_every: u64,
+    /// An island model of the strategy, when given.
+    pub islands: Option<IslandConfig>,
+    /// Cost kind.
+    pub cost: CostKind,
+    pub generations: Generations,
+    pub max_evals: Option<u64>,
+    /// Seconds.
+    pub time_limit: Option<f64>,
+    /// Stop once the best cost is at or below this (the cost's unit, m² for most kinds).
+    pub target_cost: Option<f64>,
+    /// Seed of every random draw.
+    pub seed: u64,
+    /// Standard deviation of the Gaussian noise added to the observed positions, m (0: none;
+    /// then the `Param.gene` file's, if any).
+    pub noise: f64,
+    /// Unknowns to keep at their starting value: a thesis `NAME.lock` file, or names.
+    pub lock: Option<Lock>,
+    /// Known total mass of the free particles, kg.
+    pub total_mass: Option<f64>,
+    /// Frames of the free run a candidate must survive, and the spread factor.
+    pub stable_horizon: Option<usize>,
+    pub stable_spread: f64,
+    /// The true scene, to report the parameter error.
+    pub truth: Option<Scene>,
+    pub checkpoint: Option<PathBuf>,
+    pub resume: Option<PathBuf>,
+    /// Worker threads (`None`: all cores); more than the machine has are capped, with a warning.
+    pub threads: Option<usize>,
+    pub style: Style,
+}
+
+/// What `lock` names.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Lock {
+    /// A thesis `.lock` file: its `x` flags mark l0 (or the rest cosine), K and Z of a type.
+    File(PathBuf),
+    /// Unknown names (`types.rib.stiffness`, `particles[3].mass`); each must exist.
+    Names(Vec<String>),
+}
+
+impl IdentifyRequest {
+    /// A request with the defaults of `cordis identify` for `scene` and one take.
+    pub fn new(scene: Scene, take: Trajectory) -> Self {
+        let defaults = StrategyOptions::default();
+        IdentifyRequest {
+            scene,
+            scene_place: "scene".into(),
+            takes: vec![take],
+            strategy: StrategyName::Auto,
+            population: None,
+            param_gene: None,
+            descent_start: defaults.descent_start,
+            descent_every: defaults.descent_every,
+            islands: None,
+            cost: CostKind::Short,
+            generations: Generations::Default,
+            max_evals: None,
+            time_limit: None,
+            target_cost: None,
+            seed: 0,
+            noise: 0.0,
+            lock: None,
+            total_mass: None,
+            stable_horizon: None,
+            stable_spread: crate::stable::DEFAULT_SPREAD,
+            truth: None,
+            checkpoint: None,
+            resume: None,
+            threads: None,
+            style: Style::Cli,
+        }
+    }
+
+    fn opt(&self, name: &str) -> String {
+        self.style.opt(name)
+    }
+}
+
+/// A prepared run: the problem built, the strategy chosen and checked.
+pub struct Session {
+    problem: Problem,
+    strategy: Box<dyn Strategy>,
+    ran: &'static str,
+    scene: Scene,
+    data: Trajectory,
+    config: RunConfig,
+    threads: usize,
+    warnings: Vec<String>,
+}
+
+/// What a run found.
+pub struct Outcome {
+    /// The run's numbers: best genome, cost, evaluations, history, why it stopped.
+    pub result: RunResult,
+    /// The strategy's own report.
+    pub report: Report,
+    /// The scene with the identified values written in (and an estimated initial state, when
+    /// the strategy estimated one).
+    pub scene: Scene,
+    /// The problem it ran on (unknowns, truth).
+    pub problem: Problem,
+    /// What the user must read before trusting the answer: the report's warnings and the
+    /// session's own (threads capped, every candidate rejected as unstable).
+    pub warnings: Vec<String>,
+}
+
+impl Session {
+    /// Validates `req`, prepares its data and problem, picks and checks the strategy.
+    pub fn new(req: IdentifyRequest) -> Result<Session, CostError> {
+        validate(&req)?;
+        let mut warnings = Vec::new();
+        let threads = cap_threads(&req, &mut warnings);
+        let gene = read_gene(&req)?;
+        let noise = match req.noise {
+            n if n > 0.0 => n,
+            _ => gene.as_ref().and_then(|g| g.noise).unwrap_or(0.0),
+        };
+        check_noise(&req, noise)?;
+        let [take] = req.takes.as_slice() else {
+            return Err(CostError::invalid(
+                "takes",
+                format!("one take is supported, got {}", req.takes.len()),
+            ));
+        };
+        let data = match noise > 0.0 {
+            true => identify::try_add_noise(take, noise, req.seed).ok_or_else(|| {
+                CostError::invalid(
+                    req.opt("noise"),
+                    format!("{noise:?} m makes the observed positions overflow"),
+                )
+            })?,
+            false => take.clone(),
+        };
+        let problem = build_problem(&req, &data)?;
+        let options = StrategyOptions {
+            population: req
+                .population
+                .or(gene.as_ref().and_then(|g| g.population).map(|p| p as usize))
+                .unwrap_or(DEFAULT_POPULATION),
+            descent_start: req.descent_start,
+            descent_every: req.descent_every,
+            gene: gene.clone(),
+        };
+        check_memory(&req, &problem, &options)?;
+        let (strategy, ran) = match req.islands {
+            Some(c) => make_islands(req.strategy, &problem, &options, c)
+                .map_err(|e| CostError::invalid(req.opt("islands"), e))?,
+            None => make_strategy(req.strategy, &problem, &options),
+        };
+        check(&req, ran, &problem)?;
+        let fingerprint = fingerprint(&req, &data, noise, &options);
+        let config = RunConfig {
+            seed: req.seed,
+            stop: stop_rules(&req, gene.as_ref()),
+            checkpoint: req.checkpoint.clone(),
+            checkpoint_every: CHECKPOINT_EVERY,
+            resume: req.resume.clone(),
+            fingerprint: Some(fingerprint),
+        };
+        Ok(Session {
+            problem,
+            strategy,
+            ran,
+            scene: req.scene,
+            data,
+            config,
+            threads,
+            warnings,
+        })
+    }
+
+    /// The strategy that will run (`auto` resolved; each island's for an island model).
+    pub fn strategy(&self) -> &'static str {
+        self.ran
+    }
+
+    /// The take as the strategies see it (noise added): what a remote evaluator must compile.
+    pub fn data(&self) -> &Trajectory {
+        &self.data
+    }
+
+    /// The problem (unknowns, truth).
+    pub fn problem(&self) -> &Problem {
+        &self.problem
+    }
+
+    /// The stop rules in force (the default generation budget resolved).
+    pub fn stop_rules(&self) -> &StopRules {
+        &self.config.stop
+    }
+
+    /// Warnings known before the run (threads capped).
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
+    }
+
+    /// Evaluates populations with `evaluator` (a remote executor) instead of this process.
+    pub fn with_evaluator(mut self, evaluator: Arc<dyn Evaluator>) -> Self {
+        self.problem = self.problem.with_evaluator(evaluator);
+        self
+    }
+
+    /// Runs to a stop rule, an observer's stop or `interrupt`, on a pool of the session's
+    /// threads.
+    pub fn run(
+        mut self,
+        observers: &mut [&mut dyn Observer],
+        interrupt: Option<&AtomicBool>,
+    ) -> Result<Outcome, CostError> {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(self.threads)
+            .build()
+            .map_err(|e| CostError::run("threads", e.to_string()))?;
+        let (problem, strategy, config) = (&mut self.problem, self.strategy.as_mut(), &self.config);
+        let result =
+            pool.install(|| executor::run_typed(problem, strategy, config, observers, interrupt))?;
+        let report = self.strategy.report();
+        let mut scene = self.problem.space.scene_with(&self.scene, &result.genome);
+        if let Some(state) = self.strategy.initial_state() {
+            state.apply(&mut scene);
+        }
+        let mut warnings = self.warnings;
+        warnings.extend(report.warnings());
+        if let Some(h) = self.problem.stable_horizon() {
+            if !result.cost.is_finite() {
+                warnings.push(format!(
+                    "stable horizon {}: every candidate evaluated was rejected as unstable \
+                     (widen the budget, or narrow the boxes)",
+                    h.frames
+                ));
+            }
+        }
+        Ok(Outcome {
+            result,
+            report,
+            scene,
+            problem: self.problem,
+            warnings,
+        })
+    }
+}
+
+/// Every numeric option in range, once, for every front end.
+fn validate(req: &IdentifyRequest) -> Result<(), CostError> {
+    let bad = |name: &str, m: String| Err(CostError::invalid(req.opt(name), m));
+    if !req.scene.has_unknowns() {
+        return Err(CostError::invalid(
+            &req.scene_place,
+            "no parameter to identify: write unknowns as {\"min\": …, \"max\": …}",
+        ));
+    }
+    if let Some(p) = req.population.filter(|&p| p < 2) {
+        return bad("population", format!("must be 2 or more, got {p}"));
+    }
+    if let Some(t) = req.time_limit {
+        if !(t.is_finite() && (0.0..=MAX_TIME_LIMIT).contains(&t)) {
+            return bad(
+                "time_limit",
+                format!("must be seconds in [0, {MAX_TIME_LIMIT:.0}] (a year), got {t:?}"),
+            );
+        }
+    }
+    if req.target_cost.is_some_and(f64::is_nan) {
+        return bad("target_cost", "must be a number, got NaN".into());
+    }
+    if req.threads == Some(0) {
+        return bad("threads", "must be 1 or more (default: all cores)".into());
+    }
+    if let Some(m) = req.total_mass {
+        if !(m.is_finite() && m > 0.0) {
+            return bad(
+                "total_mass",
+                format!("must be a positive number of kg, got {m:?}"),
+            );
+        }
+    }
+    check_noise(req, req.noise)
+}
+
+fn check_noise(req: &IdentifyRequest, noise: f64) -> Result<(), CostError> {
+    if !(noise.is_finite() && noise >= 0.0) {
+        return Err(CostError::invalid(
+            req.opt("noise"),
+            format!("must be a standard deviation ≥ 0 m, got {noise:?}"),
+        ));
+    }
+    Ok(())
+}
+
+/// `threads`, at most the machine's parallelism: more only adds switching (and a hundred
+/// thousand threads take the machine down); the result is the same on any count.
+fn cap_threads(req: &IdentifyRequest, warnings: &mut Vec<String>) -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    match req.threads {
+        Some(t) if t > cores => {
+            warnings.push(format!(
+                "{} {t}: capped to the machine's {cores} (the result does not depend on it)",
+                req.opt("threads")
+            ));
+            cores
+        }
+        Some(t) => t,
+        None => 0,
+    }
+}
+
+fn read_gene(req: &IdentifyRequest) -> Result<Option<GeneParams>, CostError> {
+    let Some(p) = &req.param_gene else {
+        return Ok(None);
+    };
+    let text = std::fs::read_to_string(p).map_err(|e| cordis_core::CordisError::io(p, e))?;
+    Ok(Some(cordis_core::thesis::parse_gene(
+        &p.display().to_string(),
+        &text,
+    )?))
+}
+
+/// The problem of `data`: cost, locks, truth, stable horizon, total mass.
+fn build_problem(req: &IdentifyRequest, data: &Trajectory) -> Result<Problem, CostError> {
+    let mut problem = Problem::new(&req.scene, data, req.cost)?;
+    if let Some(lock) = &req.lock {
+        let names = lock_names(req, &problem, lock)?;
+        problem.space.lock(&names);
+    }
+    if let Some(t) = &req.truth {
+        if t.has_unknowns() || t.param_layout() != req.scene.param_layout() {
+            return Err(CostError::invalid(
+                req.opt("truth"),
+                "must be the scene with every parameter known (same types and particles)",
+            ));
+        }
+        problem = problem.with_truth(t)?;
+    }
+    if let Some(h) = req.stable_horizon {
+        problem = problem.with_stable_horizon(StableHorizon::new(h, req.stable_spread)?);
+    }
+    if let Some(m) = req.total_mass {
+        problem = problem.with_total_mass(m)?;
+    }
+    Ok(problem)
+}
+
+/// The unknowns a lock names. A `.lock` file may lock what the scene already knows; a name
+/// given by hand must be an unknown.
+fn lock_names(
+    req: &IdentifyRequest,
+    problem: &Problem,
+    lock: &Lock,
+) -> Result<Vec<String>, CostError> {
+    match lock {
+        Lock::File(path) => {
+            let place = path.display().to_string();
+            let text =
+                std::fs::read_to_string(path).map_err(|e| cordis_core::CordisError::io(path, e))?;
+            let mut names = Vec::new();
+            for t in cordis_core::thesis::parse_lock(&place, &text)? {
+                let params: &[&str] = match t.family.kind() {
+                    cordis_core::LinkKind::Angle => &["rest_cos", "stiffness", "damping"],
+                    _ => &["rest_length", "stiffness", "damping"],
+                };
+                for (flag, p) in t.locked.iter().zip(params) {
+                    if *flag {
+                        names.push(format!("types.{}.{p}", t.type_name()));
+                    }
+                }
+            }
+            Ok(names)
+        }
+        Lock::Names(names) => {
+            let unknowns = &problem.space.unknowns;
+            if let Some(bad) = names
+                .iter()
+                .find(|n| !unknowns.iter().any(|u| &u.name == *n))
+            {
+                return Err(CostError::invalid(
+                    req.opt("lock"),
+                    format!("`{bad}` is not an unknown of {}", req.scene_place),
+                ));
+            }
+            Ok(names.clone())
+        }
+    }
+}
+
+/// The stop rules, the default generation budget resolved.
+fn stop_rules(req: &IdentifyRequest, gene: Option<&GeneParams>) -> StopRules {
+    let other = req.time_limit.is_some() || req.max_evals.is_some() || req.target_cost.is_some();
+    let generations = match req.generations {
+        Generations::Limit(g) => Some(g),
+        Generations::Unlimited => None,
+        Generations::Default => gene
+            .and_then(|g| g.generation)
+            .or((!other).then_some(DEFAULT_GENERATIONS)),
+    };
+    StopRules {
+        generations,
+        max_evals: req.max_evals,
+        time_limit: req.time_limit.map(Duration::from_secs_f64),
+        target_cost: req.target_cost,
+    }
+}
+
+/// Refuses, before any work, what the chosen strategy cannot run, and unknown masses whose
+/// scale nothing fixes (masses and forces then trade off: every answer is a box centre).
+fn check(req: &IdentifyRequest, ran: &str, problem: &Problem) -> Result<(), CostError> {
+    let place = format!("{} ({ran})", req.scene_place);
+    if req.total_mass.is_none() {
+        let split = exact::split(problem);
+        if split.free_masses {
+            if let Ok(cols) = exact::generic_cols(&problem.scene) {
+                if exact::check_scale(problem, &split, &cols).is_err() {
+                    return Err(CostError::refused(
+                        &place,
+                        format!(
+                            "masses and forces are unknown together and only their ratios show \
+                             in the motion: pass {} (kg), or make a mass or a force known",
+                            req.opt("total_mass")
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    identify::check_strategy(ran, problem).map_err(|e| CostError::refused(place, e))
+}
+
+/// Refuses a population whose individuals would not fit in memory (rather than aborting on
+/// the allocation), with the estimate.
+fn check_memory(
+    req: &IdentifyRequest,
+    problem: &Problem,
+    options: &StrategyOptions,
+) -> Result<(), CostError> {
+    // Per individual: genes, step sizes and a few copies of them, local costs per particle;
+    // parents and offspring both live during a generation.
+    let per = 8.0 * (4.0 * problem.dim() as f64 + problem.num_particles as f64 + 8.0) * 2.0;
+    let copies = req.islands.map_or(1, |c| c.islands.max(1)) as f64;
+    let bytes = per * options.population as f64 * copies;
+    let limit = available_memory();
+    if bytes > limit {
+        return Err(CostError::invalid(
+            req.opt("population"),
+            format!(
+                "{} individuals need about {:.1} GiB, more than the {:.1} GiB available",
+                options.population,
+                bytes / GIB,
+                limit / GIB
+            ),
+        ));
+    }
+    Ok(())
+}
+
+const GIB: f64 = 1024.0 * 1024.0 * 1024.0;
+
+/// Memory the run may use, bytes: `MemAvailable` on Linux, else 16 GiB.
+fn available_memory() -> f64 {
+    std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|t| {
+            t.lines()
+                .find_map(|l| l.strip_prefix("MemAvailable:"))
+                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
+        })
+        .map_or(16.0 * GIB, |kib| kib * 1024.0)
+}
+
+/// What a checkpoint must match to be resumed by this request, by component.
+fn fingerprint(
+    req: &IdentifyRequest,
+    data: &Trajectory,
+    noise: f64,
+    options: &StrategyOptions,
+) -> Fingerprint {
+    let mut f = Fingerprint::new();
+    f.insert(
+        "scene".into(),
+        digest(req.scene.to_json_string().as_bytes()),
+    );
+    let bits: Vec<u8> = data
+        .as_flat()
+        .iter()
+        .flat_map(|x| x.to_bits().to_le_bytes())
+        .collect();
+    f.insert("trajectory".into(), digest(&bits));
+    f.insert("cost".into(), req.cost.to_string());
+    f.insert("noise".into(), format!("{noise:e}"));
+    f.insert("population".into(), options.population.to_string());
+    f.insert(
+        "strategy options".into(),
+        format!(
+            "{:?} {} {} {:?}",
+            options.gene, options.descent_start, options.descent_every, req.islands
+        ),
+    );
+    f.insert("lock".into(), format!("{:?}", req.lock));
+    f.insert("total mass".into(), format!("{:?}", req.total_mass));
+    f.insert(
+        "stable horizon".into(),
+        format!("{:?} {:e}", req.stable_horizon, req.stable_spread),
+    );
+    f
+}
+
+/// FNV-1a, 64 bits, in hex: stable across builds and platforms (std's hasher is not promised
+/// to be), which a checkpoint read by another build needs.
+fn digest(bytes: &[u8]) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    format!("{h:016x}")
+}
+
+impl Lock {
+    /// `--lock`'s syntax: a path ending in `.lock`, else comma-separated names.
+    pub fn parse(text: &str) -> Lock {
+        if text.ends_with(".lock") {
+            Lock::File(text.into())
+        } else {
+            let names = text.split(',').map(|s| s.trim().to_string());
+            Lock::Names(names.filter(|s| !s.is_empty()).collect())
+        }
+    }
+}
