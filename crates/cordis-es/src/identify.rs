@@ -6,6 +6,7 @@ use std::str::FromStr;
 use cordis_core::thesis::GeneParams;
 use cordis_core::Trajectory;
 
+use crate::output_error;
 use crate::problem::Problem;
 use crate::rng;
 use crate::space::Role;
@@ -14,10 +15,11 @@ use crate::strategies::cmaes::{Cmaes, CmaesConfig};
 use crate::strategies::exact;
 use crate::strategies::islands::{IslandConfig, Islands};
 use crate::strategies::levenberg_marquardt::{self, LevenbergMarquardt, LmConfig};
+use crate::strategies::output_error::OutputError;
 use crate::strategies::parisian::{Parisian, ParisianConfig};
 use crate::strategies::self_adaptive::{SelfAdaptive, SelfAdaptiveConfig};
 use crate::strategies::thesis::{Thesis, ThesisConfig};
-use crate::strategies::{hybrid, least_squares};
+use crate::strategies::{self, hybrid, least_squares};
 use crate::strategy::Strategy;
 
 /// `--strategy` values.
@@ -36,6 +38,10 @@ pub enum StrategyName {
     Annealing,
     Parisian,
     LevenbergMarquardt,
+    /// The maximum-likelihood fit of simulated to observed positions over the parameters and
+    /// the initial state ([`crate::output_error`]); `auto` picks it for noisy or incomplete
+    /// data when the scene's kinds have exact sensitivities.
+    OutputError,
 }
 
 impl FromStr for StrategyName {
@@ -52,9 +58,10 @@ impl FromStr for StrategyName {
             "annealing" => Ok(StrategyName::Annealing),
             "parisian" => Ok(StrategyName::Parisian),
             "levenberg-marquardt" => Ok(StrategyName::LevenbergMarquardt),
+            "output-error" => Ok(StrategyName::OutputError),
             _ => Err(format!(
                 "unknown strategy `{s}` (expected one of: auto, thesis, least-squares, hybrid, \
-                 cmaes, self-adaptive, annealing, parisian, levenberg-marquardt)"
+                 cmaes, self-adaptive, annealing, parisian, levenberg-marquardt, output-error)"
             )),
         }
     }
@@ -90,6 +97,7 @@ pub fn make_strategy(
     options: &StrategyOptions,
 ) -> (Box<dyn Strategy>, &'static str) {
     let name = match name {
+        StrategyName::Auto if prefers_output_error(problem) => StrategyName::OutputError,
         StrategyName::Auto => match exact::supported(problem) {
             Ok(()) if exact::split(problem).nonlinear.is_empty() => StrategyName::LeastSquares,
             Ok(()) => StrategyName::Hybrid,
@@ -149,7 +157,43 @@ pub fn make_strategy(
             Box::new(LevenbergMarquardt::new(LmConfig::default())),
             "levenberg-marquardt",
         ),
+        StrategyName::OutputError => (
+            Box::new(OutputError::new(output_error::Config::default())),
+            "output-error",
+        ),
     }
+}
+
+/// Noise level (relative to the motion's spread) above which data count as noisy: the short
+/// cost's errors-in-variables bias then exceeds what the exact solvers are for. Rounding of a
+/// file written to 9 significant digits stays below it.
+pub const NOISY: f64 = 1e-7;
+
+/// Why `auto` picks `output-error`, or `None` when it does not: the data have missing
+/// observations, or their third differences show noise above [`NOISY`] of the observed
+/// spread ([`crate::output_error::start::noise_level`]), and the scene's kinds have exact
+/// sensitivities. The short cost differentiates noise twice; the output-error fit does not.
+pub fn output_error_reason(problem: &Problem) -> Option<String> {
+    if strategies::output_error::supported(problem).is_err() || problem.space.dim() == 0 {
+        return None;
+    }
+    if problem.has_missing() {
+        return Some("observations are missing (gaps or hidden particles)".into());
+    }
+    let takes = problem.takes();
+    let level = output_error::start::noise_level(&takes[0]);
+    let spread = problem.objective.observed_spread().max(f64::MIN_POSITIVE);
+    (level > NOISY * spread).then(|| {
+        format!(
+            "the positions look noisy (σ ≈ {level:.2e} m from third differences, {:.1e} of \
+             their spread)",
+            level / spread
+        )
+    })
+}
+
+fn prefers_output_error(problem: &Problem) -> bool {
+    output_error_reason(problem).is_some()
 }
 
 /// Whether `levenberg-marquardt` suits a problem the exact solvers refuse: the short cost, and
@@ -197,6 +241,15 @@ pub fn make_islands(
 /// `levenberg-marquardt` that it needs the short cost,
 /// before a run starts.
 pub fn check_strategy(ran: &str, problem: &Problem) -> Result<(), String> {
+    if ran == "output-error" {
+        return strategies::output_error::supported(problem);
+    }
+    if problem.has_missing() {
+        return Err(format!(
+            "the trajectory has missing observations: `{ran}` needs every coordinate \
+             (use --strategy output-error or auto)"
+        ));
+    }
     if ran == "levenberg-marquardt" {
         return levenberg_marquardt::supported(problem);
     }

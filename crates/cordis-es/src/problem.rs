@@ -11,6 +11,7 @@ use cordis_core::{LinkKind, Scene, Trajectory};
 use crate::cost::{CostKind, CostScratch, Objective};
 use crate::error::CostError;
 use crate::evaluator::{Evaluator, Local};
+use crate::output_error::Take;
 use crate::space::{ParameterSpace, Role};
 use crate::stable::{Guard, Rejection, StableHorizon};
 
@@ -36,6 +37,9 @@ pub struct Problem {
     evaluator: Arc<dyn Evaluator>,
     /// The first evaluator failure, for the run loop to report.
     eval_error: Mutex<Option<String>>,
+    /// The observations as recorded (gaps, hidden particles, several takes) for estimators
+    /// that read them ([`crate::output_error`]); `None`: the objective's trajectory, complete.
+    takes: Option<Vec<Take>>,
 }
 
 /// Scratch of one evaluating thread.
@@ -76,6 +80,31 @@ impl Problem {
             eval_nanos: AtomicU64::new(0),
             evaluator: Arc::new(Local),
             eval_error: Mutex::new(None),
+            takes: None,
+        })
+    }
+
+    /// Attaches the observations as recorded (see [`Problem::takes`]); the objective keeps the
+    /// trajectory it was built on (gap-filled, for the costs that need every coordinate).
+    pub fn with_takes(mut self, takes: Vec<Take>) -> Self {
+        self.takes = Some(takes);
+        self
+    }
+
+    /// The observations as recorded: the takes given to [`Problem::with_takes`], or the
+    /// objective's trajectory as one complete take.
+    pub fn takes(&self) -> Vec<Take> {
+        match &self.takes {
+            Some(t) => t.clone(),
+            None => vec![self.objective.observed_take()],
+        }
+    }
+
+    /// Whether some observation is missing (a gap, a hidden particle) in the recorded takes.
+    pub fn has_missing(&self) -> bool {
+        self.takes.as_ref().is_some_and(|ts| {
+            ts.iter()
+                .any(|t| t.observed() < t.frames() * t.particles() * 3)
         })
     }
 

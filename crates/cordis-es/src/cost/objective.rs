@@ -157,6 +157,19 @@ impl Objective {
         }
     }
 
+    /// The observed trajectory as one complete take (every coordinate, weight 1).
+    pub fn observed_take(&self) -> crate::output_error::Take {
+        let flat: Vec<f64> = self
+            .obs
+            .xs
+            .iter()
+            .flat_map(|x| [x[0], x[1], x[2]])
+            .collect();
+        let traj = cordis_core::Trajectory::from_flat(self.obs.frames, self.obs.n, flat)
+            .unwrap_or_else(|_| cordis_core::Trajectory::zeros(self.obs.frames, self.obs.n));
+        crate::output_error::Take::complete(&traj)
+    }
+
     pub fn plan(&self) -> &Plan {
         &self.plan
     }

@@ -9,6 +9,7 @@ pub mod hybrid;
 pub mod islands;
 pub mod least_squares;
 pub mod levenberg_marquardt;
+pub mod output_error;
 pub mod parisian;
 mod profile;
 pub mod provot_rows;
