@@ -66,7 +66,7 @@ def test_cli_identify_equals_python_identify(tmp_path):
     res = cordis.identify(scene, traj, generations=60, seed=4, noise=1e-5, truth=truth)
     assert summary["cost"] == res.cost and summary["evals"] == res.evals
     assert summary["param_error_pct"] == res.param_error_pct
-    assert summary["stopped_by"] == res.stopped_by == "converged"  # auto: least-squares
+    assert summary["stopped_by"] == res.stopped_by == "converged"  # auto: output-error (noisy)
     assert cordis.Scene.from_json(tmp_path / "out.json") == res.scene
 
 

@@ -164,15 +164,19 @@ pub fn make_strategy(
     }
 }
 
-/// Noise level (relative to the motion's spread) above which data count as noisy: the short
-/// cost's errors-in-variables bias then exceeds what the exact solvers are for. Rounding of a
-/// file written to 9 significant digits stays below it.
-pub const NOISY: f64 = 1e-7;
+/// Relative short-cost residual above which data count as noisy: `√(C_min / A)` with `C_min`
+/// the short cost's exact minimum and `A` what a model with no force would miss
+/// ([`crate::cost::Objective::acceleration_cost`]). A network's own motion leaves 0 to
+/// rounding (a CSV written by `cordis simulate` keeps every digit: ~1e-12); any measured
+/// noise leaves far more, and there the short cost's errors-in-variables bias is what the
+/// output-error fit removes.
+pub const NOISY: f64 = 1e-6;
 
-/// Why `auto` picks `output-error`, or `None` when it does not: the data have missing
-/// observations, or their third differences show noise above [`NOISY`] of the observed
-/// spread ([`crate::output_error::start::noise_level`]), and the scene's kinds have exact
-/// sensitivities. The short cost differentiates noise twice; the output-error fit does not.
+/// Why `auto` picks `output-error`, or `None` when it does not: observations are missing, or
+/// the scene is linear in its unknowns and the short cost's exact minimum leaves a residual
+/// above [`NOISY`] of the motion (the data are not what a network of this structure makes:
+/// noise), and every kind has exact sensitivities. The short cost differentiates noise twice;
+/// the output-error fit does not.
 pub fn output_error_reason(problem: &Problem) -> Option<String> {
     if strategies::output_error::supported(problem).is_err() || problem.space.dim() == 0 {
         return None;
@@ -180,14 +184,16 @@ pub fn output_error_reason(problem: &Problem) -> Option<String> {
     if problem.has_missing() {
         return Some("observations are missing (gaps or hidden particles)".into());
     }
-    let takes = problem.takes();
-    let level = output_error::start::noise_level(&takes[0]);
-    let spread = problem.objective.observed_spread().max(f64::MIN_POSITIVE);
-    (level > NOISY * spread).then(|| {
+    if !matches!(problem.objective.kind(), crate::cost::CostKind::Short) {
+        return None;
+    }
+    let solution = least_squares::solve(problem).ok()?;
+    let motion = problem.objective.acceleration_cost();
+    let residual = (solution.cost / motion.max(f64::MIN_POSITIVE)).sqrt();
+    (residual > NOISY).then(|| {
         format!(
-            "the positions look noisy (σ ≈ {level:.2e} m from third differences, {:.1e} of \
-             their spread)",
-            level / spread
+            "the data look noisy: the short cost's exact minimum leaves {residual:.1e} of the \
+             motion's acceleration (noise, not a network's motion)"
         )
     })
 }

@@ -2,6 +2,7 @@
 //! readable table on stderr. One file per mode under `bench/`.
 
 mod cost;
+mod noise;
 mod pareto;
 mod stability;
 
@@ -23,6 +24,9 @@ pub enum Mode {
     /// Every identification strategy on every shipped example at several budgets: run time,
     /// evaluations, cost and parameter error, and the speed-up over the thesis' strategy.
     Pareto(pareto::Args),
+    /// The output-error estimator against the Cramér–Rao bound on generated networks through
+    /// noise, gaps and hidden particles, beside the short cost's estimate.
+    Noise(noise::Args),
 }
 
 /// `cost` and `stability` print JSON lines on stdout whatever `--json` says, and their table
@@ -34,5 +38,6 @@ pub fn run(a: Args, output: super::Output) -> Result<()> {
         Mode::Cost(a) => cost::run(a),
         Mode::Stability(a) => stability::run(a),
         Mode::Pareto(a) => pareto::run(a, output),
+        Mode::Noise(a) => noise::run(a),
     }
 }

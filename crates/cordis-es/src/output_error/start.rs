@@ -65,9 +65,28 @@ pub fn start_genome(
         };
         (genome, why)
     };
-    if (0..take.particles()).any(|i| !take.tracks(i) && !scene.particles[i].fixed) {
-        return heuristic("heuristic start (hidden particles: no short cost)".into());
+    // A hidden particle's positions are unknown, so the short cost cannot use the rows of its
+    // neighbours either: the start solves on the scene with the hidden particles and their
+    // neighbours held (a fixed particle has no row), so every row left reads observed
+    // positions only. Types no remaining row sees keep the heuristic start.
+    let hidden: Vec<usize> = (0..take.particles())
+        .filter(|&i| !take.tracks(i) && !scene.particles[i].fixed)
+        .collect();
+    let mut scene_rows = scene.clone();
+    for &h in &hidden {
+        scene_rows.particles[h].fixed = true;
+        for l in &scene.links {
+            if l.particles.contains(&h) {
+                for &j in &l.particles {
+                    scene_rows.particles[j].fixed = true;
+                }
+            }
+        }
     }
+    if !hidden.is_empty() && scene_rows.particles.iter().all(|p| p.fixed) {
+        return heuristic("heuristic start (hidden particles leave no short-cost row)".into());
+    }
+    let scene = &scene_rows;
     let fixed: Vec<bool> = scene.particles.iter().map(|p| p.fixed).collect();
     let smoothed: Trajectory = match smooth(&filled, &fixed, noise) {
         Some((s, _)) if noise > 0.0 => s,
