@@ -42,6 +42,7 @@ out as Ray tasks. Ray is imported only when used.
 
 from ._cordis import (
     EXAMPLES,
+    ArgumentError,
     CheckpointError,
     CordisError,
     CordisIOError,
@@ -78,6 +79,7 @@ from .plot import animate
 
 __all__ = [
     "EXAMPLES",
+    "ArgumentError",
     "CheckpointError",
     "CordisError",
     "CordisIOError",

@@ -34,6 +34,7 @@ __all__ = [
     "ParamLengthError",
     "SceneKeyError",
     "SceneIndexError",
+    "ArgumentError",
     "Scene",
     "Unknown",
     "Particle",
@@ -104,6 +105,12 @@ class ParamLengthError(CordisError, ValueError):
     place: str
     expected: int
     got: int
+
+class ArgumentError(CordisError, ValueError):
+    """An argument out of its domain (``width=float("nan")``); ``place`` names it."""
+
+    place: str
+    message: str
 
 class CheckpointError(CordisError):
     """A checkpoint could not be read or written, or does not fit the run it should resume."""

@@ -58,6 +58,7 @@ static COST_KIND_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
 static PARAM_LENGTH_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
 static SCENE_KEY_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
 static SCENE_INDEX_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+static ARGUMENT_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
 
 fn dual_type<'py, B: pyo3::PyTypeInfo>(
     py: Python<'py>,
@@ -116,6 +117,16 @@ pub fn param_length_error_type(py: Python<'_>) -> PyResult<&Bound<'_, PyType>> {
         &PARAM_LENGTH_ERROR,
         "ParamLengthError",
         "A parameter vector or population of the wrong length; has `expected` and `got`.",
+    )
+}
+
+/// `ArgumentError(CordisError, ValueError)`: a keyword argument out of its domain.
+pub fn argument_error_type(py: Python<'_>) -> PyResult<&Bound<'_, PyType>> {
+    dual_type::<PyValueError>(
+        py,
+        &ARGUMENT_ERROR,
+        "ArgumentError",
+        "An argument out of its domain (`width=nan`); `place` names it, `message` the range.",
     )
 }
 
@@ -186,6 +197,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ParamLengthError", param_length_error_type(py)?)?;
     m.add("SceneKeyError", scene_key_error_type(py)?)?;
     m.add("SceneIndexError", scene_index_error_type(py)?)?;
+    m.add("ArgumentError", argument_error_type(py)?)?;
     Ok(())
 }
 
@@ -234,6 +246,9 @@ fn build(py: Python<'_>, err: &CoreError) -> PyResult<PyErr> {
             e.setattr("place", &filename)?;
             e.setattr("message", source.to_string())?;
             e
+        }
+        CoreError::Argument { place, message } => {
+            placed_of(argument_error_type(py)?, place, message)?
         }
         // `CordisError` is non-exhaustive: a variant added later still maps to the base class.
         other => py.get_type::<CordisError>().call1((other.to_string(),))?,

@@ -28,11 +28,7 @@ pub fn example(name: &str, unknowns: bool, width: f64, seed: u64) -> PyResult<Sc
     if !unknowns {
         return Ok(Scene::from_core(scene));
     }
-    if !(width.is_finite() && width > 1.0) {
-        return Err(PyValueError::new_err(format!(
-            "width: the boxes' ratio max/min must be a finite number above 1, got {width}"
-        )));
-    }
+    cordis_core::arg::box_width("width", width).map_err(crate::errors::to_py)?;
     Ok(Scene::from_core(cordis_es::identify::with_unknown_boxes(
         &scene, width, seed,
     )))

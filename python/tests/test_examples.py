@@ -51,10 +51,18 @@ def test_unknown_name_lists_the_names():
         cordis.example("tadpol")
 
 
-@pytest.mark.parametrize("width", [1.0, 0.5, float("nan"), float("inf")])
+@pytest.mark.parametrize("width", [1.0, 0.5, float("nan"), float("inf"), 1e308])
 def test_bad_width_is_a_value_error(width):
     with pytest.raises(ValueError, match="width"):
         cordis.example("rigid", unknowns=True, width=width)
+
+
+def test_bad_width_is_the_clis_argument_error():
+    # One validation for the CLI's --width and this keyword: the same range, the unit named.
+    with pytest.raises(cordis.ArgumentError) as e:
+        cordis.example("rigid", unknowns=True, width=float("inf"))
+    assert e.value.place == "width"
+    assert "above 1 and at most 1e100 (the boxes' ratio max/min), got inf" in str(e.value)
 
 
 def test_tadpole_couplings_round_trip_and_it_swims():

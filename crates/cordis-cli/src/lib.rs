@@ -80,11 +80,29 @@ where
 {
     let cli = match Cli::try_parse_from(args) {
         Ok(cli) => cli,
-        Err(e) => {
-            // --help and --version are not errors.
+        Err(e)
+            if !e.use_stderr()
+                || e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand =>
+        {
             let code = if e.use_stderr() { 2 } else { 0 };
+            // --help and --version are not errors.
             let _ = e.print();
             return code;
+        }
+        Err(e) => {
+            // One line, like every other error (clap adds the usage and tips on more lines),
+            // with the option's value escaped.
+            let text = e.render().to_string();
+            let first = text
+                .lines()
+                .find(|l| !l.trim().is_empty())
+                .unwrap_or("error");
+            let first = first.strip_prefix("error: ").unwrap_or(first);
+            eprintln!(
+                "error: {} (see `cordis --help`)",
+                cordis_core::error::printable(first)
+            );
+            return 2;
         }
     };
     let output = commands::Output {

@@ -73,3 +73,300 @@ fn error_messages_escape_input_bytes_and_cut_long_values() {
     assert!(err.len() < 300, "{} bytes: {err}", err.len());
     assert!(!d.join("o.html").exists());
 }
+
+mod numeric_options {
+    //! Every numeric option of `simulate`, `example`, `check`, `import` and `discover` driven
+    //! with arbitrary values — ±0, ±inf, NaN, subnormals, 1e308, integers at their limits and
+    //! past them, text that is no number — through the built binary: no panic, exit 0 or 2,
+    //! and a failure is one `error:` line. (`render` has no numeric option; identify's are the
+    //! session's, issue 15.) Bounded in time: 48 cases per command, each a process of a few ms
+    //! on the 15-particle rigid scene; frame counts are small or beyond memory, never in
+    //! between (a run of 10⁸ frames would pass the memory check and take the machine).
+
+    use super::*;
+    use proptest::prelude::*;
+
+    /// A float as a user may type it: Rust's shortest form, scientific, or a special spelling.
+    fn float() -> impl Strategy<Value = String> {
+        let special = prop_oneof![
+            Just(f64::NAN),
+            Just(f64::INFINITY),
+            Just(f64::NEG_INFINITY),
+            Just(0.0),
+            Just(-0.0),
+            Just(f64::MIN_POSITIVE),
+            Just(5e-324),
+            Just(1e308),
+            Just(-1e308),
+            Just(f64::MAX),
+            Just(1.0),
+            Just(0.5),
+            Just(0.01),
+        ];
+        let value = prop_oneof![special, any::<f64>(), -1e3..1e3f64];
+        prop_oneof![
+            value.clone().prop_map(|v| format!("{v}")),
+            value.prop_map(|v| format!("{v:e}")),
+            prop_oneof![
+                Just("nan"),
+                Just("-NaN"),
+                Just("infinity"),
+                Just("1e999"),
+                Just("0x10"),
+                Just(""),
+                Just("1,5"),
+                Just("\u{1b}[2J"),
+            ]
+            .prop_map(String::from),
+        ]
+    }
+
+    /// An integer option's text: small, at the limits of u64/i64, past them, or no integer.
+    fn integer() -> impl Strategy<Value = String> {
+        prop_oneof![
+            (0u64..300).prop_map(|v| v.to_string()),
+            (1u64 << 40..=u64::MAX).prop_map(|v| v.to_string()),
+            prop_oneof![
+                Just("0"),
+                Just("18446744073709551615"),
+                Just("18446744073709551616"),
+                Just("9223372036854775807"),
+                Just("-1"),
+                Just("-9223372036854775808"),
+                Just("1e3"),
+                Just("2.5"),
+                Just("NaN"),
+                Just(""),
+            ]
+            .prop_map(String::from),
+        ]
+    }
+
+    /// The run ended as bad input allows: exit 0, or exit 2 with one `error:` line.
+    fn well_behaved(out: &Output, args: &[String]) -> Result<(), TestCaseError> {
+        let err = stderr(out);
+        prop_assert!(!err.contains("panicked"), "{args:?}: {err}");
+        match out.status.code() {
+            Some(0) => prop_assert!(
+                err.lines().all(|l| l.starts_with("warning: ")),
+                "{args:?}: {err}"
+            ),
+            Some(2) => {
+                prop_assert_eq!(err.lines().count(), 1, "{:?}: {}", args, err);
+                prop_assert!(err.starts_with("error: "), "{args:?}: {err}");
+            }
+            code => prop_assert!(false, "{args:?}: exit {code:?}: {err}"),
+        }
+        Ok(())
+    }
+
+    fn run(dir: &Path, args: Vec<String>) -> Result<(), TestCaseError> {
+        let mut all = args.clone();
+        all.push("-q".into());
+        let refs: Vec<&str> = all.iter().map(String::as_str).collect();
+        well_behaved(&cordis(dir, &refs), &args)
+    }
+
+    fn config() -> ProptestConfig {
+        ProptestConfig {
+            cases: 48,
+            failure_persistence: None,
+            ..ProptestConfig::default()
+        }
+    }
+
+    proptest! {
+        #![proptest_config(config())]
+
+        #[test]
+        fn simulate_frames(frames in integer(), out in prop_oneof![Just(None), Just(Some("o.csv")), Just(Some("o.npy"))]) {
+            let dir = rigid_dir();
+            let mut args = vec!["simulate".into(), "r.json".into(), format!("--frames={frames}")];
+            if let Some(o) = out {
+                args.push(format!("--out={o}"));
+            }
+            run(dir.path(), args)?;
+        }
+
+        #[test]
+        fn example_width_and_seed(width in float(), seed in integer(), unknowns in any::<bool>()) {
+            let dir = tempfile::tempdir().unwrap();
+            let mut args = vec!["example".into(), "rigid".into(), format!("--width={width}"), format!("--seed={seed}"), "--out=e.json".into()];
+            if unknowns {
+                args.push("--unknowns".into());
+            }
+            run(dir.path(), args.clone())?;
+            // What it wrote reads back (`--width inf` used to write "max": null).
+            if dir.path().join("e.json").exists() {
+                let back = cordis(dir.path(), &["check", "e.json", "-q"]);
+                prop_assert_eq!(back.status.code(), Some(0), "{:?}: {}", args, stderr(&back));
+            }
+        }
+
+        #[test]
+        fn check_top(top in integer()) {
+            let dir = rigid_dir();
+            run(dir.path(), vec!["check".into(), "r.json".into(), format!("--top={top}")])?;
+        }
+
+        #[test]
+        fn import_dt(dt in float()) {
+            let dir = tempfile::tempdir().unwrap();
+            let thesis = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/fixtures/thesis/exemple");
+            run(dir.path(), vec!["import".into(), thesis.display().to_string(), format!("--dt={dt}"), "--out=t.json".into()])?;
+        }
+
+        #[test]
+        fn discover_options(
+            dt in float(), mass in float(), range in float(), noise in float(),
+            scale in float(), tolerance in float(), which in 0usize..6,
+        ) {
+            // One option arbitrary at a time, the others sensible: each reaches its own check.
+            let dir = rigid_dir();
+            let mut values = [
+                "0.01".to_string(), "1".into(), "0.5".into(), "0".into(), "1".into(), "0.001".into(),
+            ];
+            values[which] = [dt, mass, range, noise, scale, tolerance][which].clone();
+            let names = ["--dt", "--total-mass", "--max-range", "--noise-level", "--threshold-scale", "--type-tolerance"];
+            let mut args = vec!["discover".to_string(), "-t".into(), "r.csv".into()];
+            args.extend(names.iter().zip(&values).map(|(n, v)| format!("{n}={v}")));
+            run(dir.path(), args)?;
+        }
+    }
+}
+
+#[test]
+fn example_width_must_be_finite_and_above_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // inf wrote "max": null (unreadable back); NaN, 1 and 0.5 collapsed every box to the truth.
+    for w in ["inf", "NaN", "1", "0.5", "-0", "1e308"] {
+        let width = format!("--width={w}");
+        fails(
+            d,
+            &["example", "rigid", "--unknowns", &width, "--out", "e.json"],
+            2,
+            &["--width", "the boxes' ratio max/min", "above 1"],
+        );
+    }
+    assert!(!d.join("e.json").exists());
+    let out = cordis(
+        d,
+        &[
+            "example",
+            "rigid",
+            "--unknowns",
+            "--width=1e100",
+            "-o",
+            "e.json",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let back = cordis(d, &["check", "e.json"]);
+    assert!(back.status.success(), "{}", stderr(&back));
+}
+
+#[test]
+fn simulate_frames_beyond_memory_are_refused_with_the_estimate() {
+    let dir = rigid_dir();
+    let d = dir.path();
+    // 1e11 frames of 15 particles: 3.6e13 bytes, refused before any allocation (it used to
+    // pass try_reserve on an overcommitting kernel, then exhaust the memory).
+    fails(
+        d,
+        &["simulate", "r.json", "--frames", "100000000000"],
+        2,
+        &[
+            "--frames",
+            "1e11 frames × 15 particles × 24 bytes needs 3.600e13 bytes",
+            "memory",
+        ],
+    );
+    fails(
+        d,
+        &[
+            "simulate",
+            "r.json",
+            "--frames",
+            "18446744073709551615",
+            "-o",
+            "x.csv",
+        ],
+        2,
+        &["--frames", "× 104 bytes"],
+    );
+}
+
+#[test]
+fn a_nan_dt_is_refused() {
+    let dir = rigid_dir();
+    let d = dir.path();
+    std::fs::copy(d.join("r.json"), d.join("u.json")).unwrap();
+    let out = cordis(d, &["example", "rigid", "--unknowns", "-o", "u.json"]);
+    assert!(out.status.success());
+    // NaN compared unequal to nothing: it passed as the scene's own dt.
+    for dt in ["NaN", "inf", "0", "-0.01"] {
+        let dt = format!("--dt={dt}");
+        fails(
+            d,
+            &["identify", "u.json", "-t", "r.csv", &dt],
+            2,
+            &["--dt", "(s)"],
+        );
+        fails(
+            d,
+            &["discover", "-t", "r.csv", &dt, "--total-mass", "1"],
+            2,
+            &["dt"],
+        );
+        let thesis =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/fixtures/thesis/exemple");
+        fails(d, &["import", thesis.to_str().unwrap(), &dt], 2, &["dt"]);
+    }
+}
+
+#[test]
+fn discover_threshold_scale_and_type_tolerance_must_be_finite() {
+    let dir = rigid_dir();
+    let d = dir.path();
+    for opt in [
+        "--threshold-scale=NaN",
+        "--threshold-scale=0",
+        "--type-tolerance=inf",
+        "--type-tolerance=-1",
+    ] {
+        let name = opt
+            .split('=')
+            .next()
+            .unwrap()
+            .trim_start_matches("--")
+            .replace('-', "_");
+        fails(
+            d,
+            &[
+                "discover",
+                "-t",
+                "r.csv",
+                "--dt",
+                "0.01",
+                "--total-mass",
+                "1",
+                opt,
+            ],
+            2,
+            &[&name, "must be a finite number"],
+        );
+    }
+}
+
+#[test]
+fn usage_errors_are_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    fails(
+        dir.path(),
+        &["simulate", "r.json", "--frames", "1e3"],
+        2,
+        &["--frames", "invalid digit", "cordis --help"],
+    );
+    fails(dir.path(), &["no-such-command"], 2, &["no-such-command"]);
+}

@@ -17,6 +17,7 @@
 //! ```
 #![forbid(unsafe_code)]
 
+pub mod arg;
 pub mod error;
 pub mod examples;
 pub mod forces;

@@ -22,7 +22,7 @@ pub struct Args {
     /// other value stays known (e.g. identify a horse's four leg muscles only).
     #[arg(long, value_delimiter = ',')]
     unknown_types: Option<Vec<String>>,
-    /// Width (max/min) of the unknown boxes.
+    /// Width (max/min) of the unknown boxes: above 1, at most 1e100.
     #[arg(long, default_value_t = 25.0)]
     width: f64,
     /// Seed placing the truth inside each box.
@@ -48,6 +48,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         scene
     };
     let scene = if a.unknowns {
+        cordis_core::arg::box_width("--width", a.width)?;
         let mut out = cordis_es::identify::with_unknown_boxes(&scene, a.width, a.seed);
         if let Some(names) = &a.unknown_types {
             if let Some(bad) = names.iter().find(|n| scene.type_index(n).is_none()) {

@@ -80,6 +80,8 @@ impl std::error::Error for Interrupted {}
 /// costs predict with the scene's dt.
 pub fn check_dt(scene: &Scene, traj_dt: Option<f64>, traj_path: &Path) -> Result<()> {
     if let Some(dt) = traj_dt {
+        // NaN differs from nothing by the test below: refuse it (and 0, inf) first.
+        cordis_core::arg::number("--dt", dt, cordis_core::arg::Low::Above(0.0), f64::MAX, "s")?;
         if (dt - scene.dt).abs() > 1e-12 * scene.dt {
             anyhow::bail!(
                 "{}: trajectory dt {dt} differs from the scene's dt {}",

@@ -1,7 +1,8 @@
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{bail, Result};
+use anyhow::Result;
+use cordis_core::io::TrajectoryFormat;
 use cordis_core::{stability::stability, Scene, Simulator};
 
 use super::Output;
@@ -21,7 +22,7 @@ pub struct Args {
 pub fn run(a: Args, output: Output) -> Result<()> {
     super::guard_outputs(&[("scene", Some(&a.scene))], &[("--out", a.out.as_deref())])?;
     let scene = Scene::from_json_path(&a.scene)?;
-    check_frames(a.frames, scene.num_particles())?;
+    check_frames(a.frames, scene.num_particles(), a.out.as_deref())?;
     let r = stability(&scene)?;
     if !r.stable {
         // A warning, not an error: the bound is sufficient, not necessary.
@@ -65,22 +66,28 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     }))
 }
 
-/// Refuses a frame count whose trajectory cannot be held in memory, before anything is
-/// allocated (an allocation failure would abort the process).
-fn check_frames(frames: usize, particles: usize) -> Result<()> {
-    let values = frames
-        .checked_mul(particles)
-        .and_then(|v| v.checked_mul(3))
-        .filter(|v| v.checked_mul(8).is_some_and(|b| b <= isize::MAX as usize));
-    let Some(values) = values else {
-        bail!("--frames {frames}: {frames} frames × {particles} particles do not fit in memory");
+/// Refuses, before anything is allocated, a frame count whose trajectory (3 × 8 bytes per
+/// particle and frame) and encoded output do not fit in the machine's memory: an allocation
+/// failure aborts the process, and on Linux an allocation that succeeds on paper can still
+/// exhaust the memory when the frames are written.
+fn check_frames(frames: usize, particles: usize, out: Option<&Path>) -> Result<()> {
+    // Bytes per particle and frame of the encoded file, an upper estimate (CSV: the frame and
+    // particle numbers and three shortest-round-trip numbers; `.tra`: three numbers).
+    let encoded = match out.and_then(|p| TrajectoryFormat::from_path(p).ok()) {
+        Some(TrajectoryFormat::Csv) => 80.0,
+        Some(TrajectoryFormat::Tra) => 72.0,
+        Some(TrajectoryFormat::Npy) => 24.0,
+        None => 0.0,
     };
-    let mut probe: Vec<f64> = Vec::new();
-    if probe.try_reserve_exact(values).is_err() {
-        bail!(
-            "--frames {frames}: the trajectory needs {:.3e} bytes, more than can be allocated",
-            values as f64 * 8.0
-        );
-    }
+    let per = 24.0 + encoded;
+    let bytes = frames as f64 * particles as f64 * per;
+    cordis_core::arg::fits_in_memory(
+        "--frames",
+        bytes,
+        &format!(
+            "{} frames × {particles} particles × {per} bytes",
+            cordis_core::arg::short(frames as f64)
+        ),
+    )?;
     Ok(())
 }

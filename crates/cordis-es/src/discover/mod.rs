@@ -171,6 +171,22 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
     if !(opt.noise_level >= 0.0 && opt.noise_level.is_finite()) {
         return Err(bad("noise_level", "must be a non-negative number of m"));
     }
+    // NaN or inf here used to pass silently (NaN keeps every link or none).
+    use cordis_core::arg::{number, Low};
+    number(
+        "threshold_scale",
+        opt.threshold_scale,
+        Low::Above(0.0),
+        f64::MAX,
+        "a multiple of the selection threshold",
+    )?;
+    number(
+        "type_tolerance",
+        opt.type_tolerance,
+        Low::AtLeast(0.0),
+        f64::MAX,
+        "relative",
+    )?;
     let scale = traj.scale().max(f64::MIN_POSITIVE);
     let mut notes = Vec::new();
 
