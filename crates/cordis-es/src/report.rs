@@ -12,6 +12,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::strategies::exact::ExactReport;
+pub use crate::strategies::output_error::OutputErrorReport;
 use crate::strategy::lossless;
 
 /// What `levenberg-marquardt` reports.
@@ -50,6 +51,8 @@ pub enum SolverReport {
     Exact(ExactReport),
     /// `levenberg-marquardt`: restarts and damping.
     LevenbergMarquardt(LmReport),
+    /// `output-error`: σ̂, windows, correlations, undetermined directions.
+    OutputError(OutputErrorReport),
 }
 
 /// Everything a strategy reports beside the best point and its cost.
@@ -85,13 +88,19 @@ impl Report {
         match &self.solver {
             Some(SolverReport::Exact(r)) => r.unconverged.as_deref(),
             Some(SolverReport::LevenbergMarquardt(r)) => r.unconverged.as_deref(),
+            Some(SolverReport::OutputError(r)) => r.unconverged.as_deref(),
             None => None,
         }
     }
 
-    /// Unknowns the data do not determine (held at their starting value).
+    /// Unknowns the data do not determine (an exact solver holds them at their starting
+    /// value; output-error names those on an undetermined direction).
     pub fn undetermined(&self) -> &[String] {
-        self.as_exact().map_or(&[], |r| &r.undetermined)
+        match &self.solver {
+            Some(SolverReport::Exact(r)) => &r.undetermined,
+            Some(SolverReport::OutputError(r)) => &r.undetermined,
+            _ => &[],
+        }
     }
 
     /// One line per thing a user should know before trusting the answer.
@@ -99,6 +108,7 @@ impl Report {
         match &self.solver {
             Some(SolverReport::Exact(r)) => r.warnings(),
             Some(SolverReport::LevenbergMarquardt(r)) => r.unconverged.iter().cloned().collect(),
+            Some(SolverReport::OutputError(r)) => r.warnings(),
             None => Vec::new(),
         }
     }

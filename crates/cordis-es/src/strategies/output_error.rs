@@ -11,19 +11,23 @@ use serde::{Deserialize, Serialize};
 
 use crate::output_error::{self, Config, Estimate};
 use crate::problem::Problem;
+use crate::report::{InitialState, ParamUncertainty, Report, SolverReport};
 use crate::strategy::{GenerationStats, Strategy};
 
 /// The estimator as a [`Strategy`].
 pub struct OutputError {
     config: Config,
     state: State,
+    /// Which particles are free (their initial state is estimated), set by `init`.
+    free: Vec<bool>,
 }
 
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 struct State {
     genome: Vec<f64>,
     cost: f64,
-    report: serde_json::Value,
+    report: OutputErrorReport,
+    uncertainty: Vec<ParamUncertainty>,
     /// Why no estimate could be made.
     error: Option<String>,
     /// Per take: `[x0, v0]` per free particle.
@@ -36,6 +40,7 @@ impl OutputError {
         OutputError {
             config,
             state: State::default(),
+            free: Vec::new(),
         }
     }
 
@@ -62,47 +67,111 @@ pub fn supported(problem: &Problem) -> Result<(), String> {
         .map_err(|e| e.to_string())
 }
 
-/// The fit's summary for the run report (JSON).
-pub fn report_json(problem: &Problem, e: &Estimate) -> serde_json::Value {
-    let params: Vec<serde_json::Value> = problem
+/// What `output-error` reports beside the estimate (see [`crate::output_error::Estimate`]).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct OutputErrorReport {
+    pub estimator: String,
+    /// Where the fit started.
+    pub start: String,
+    /// The growing windows, frames.
+    pub windows: Vec<usize>,
+    /// How the last window ended: converged, budget or stalled.
+    pub end: String,
+    pub iterations: usize,
+    /// Rollouts (with or without sensitivities).
+    pub rollouts: usize,
+    /// Weighted sum of squared position residuals at the estimate, m².
+    pub position_cost: f64,
+    /// σ̂, m (unit-weight noise from the residuals).
+    pub sigma: f64,
+    /// Noise level of each take from its third differences before the fit, m.
+    pub noise_level: Vec<f64>,
+    /// Observed coordinates and fit variables (unknowns + 6 per free particle and take).
+    pub observed: usize,
+    pub variables: usize,
+    /// Correlations of the unknowns (row-major, unknown order).
+    pub correlation: Vec<Vec<f64>>,
+    /// Directions the data do not determine, each by the variables it moves.
+    pub undetermined_directions: Vec<Vec<String>>,
+    /// Unknowns on an undetermined direction.
+    pub undetermined: Vec<String>,
+    /// Why the fit stopped short of its criterion, when it did.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unconverged: Option<String>,
+}
+
+impl OutputErrorReport {
+    fn new(problem: &Problem, e: &Estimate) -> Self {
+        let dim = e.correlation.nrows();
+        let names: Vec<&str> = problem
+            .space
+            .unknowns
+            .iter()
+            .map(|u| u.name.as_str())
+            .collect();
+        let mut undetermined: Vec<String> = e
+            .undetermined
+            .iter()
+            .flatten()
+            .filter(|n| names.contains(&n.as_str()))
+            .cloned()
+            .collect();
+        undetermined.dedup();
+        OutputErrorReport {
+            estimator: "output-error".into(),
+            start: e.start.clone(),
+            windows: e.windows.clone(),
+            end: e.end.into(),
+            iterations: e.iterations,
+            rollouts: e.evaluations,
+            position_cost: e.cost,
+            sigma: e.sigma,
+            noise_level: e.noise_level.clone(),
+            observed: e.observed,
+            variables: e.variables,
+            correlation: (0..dim)
+                .map(|a| (0..dim).map(|b| e.correlation[(a, b)]).collect())
+                .collect(),
+            undetermined_directions: e.undetermined.clone(),
+            undetermined,
+            unconverged: (!e.converged).then(|| {
+                format!(
+                    "output-error: the last window ({} frames) ended by {} before its \
+                     tolerances held",
+                    e.windows.last().copied().unwrap_or(0),
+                    e.end
+                )
+            }),
+        }
+    }
+
+    /// What a user must read before trusting the estimate.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut w: Vec<String> = self.unconverged.iter().cloned().collect();
+        for d in &self.undetermined_directions {
+            w.push(format!(
+                "not determined by the data together: {}",
+                d.join(", ")
+            ));
+        }
+        w
+    }
+}
+
+/// Standard errors and 95 % intervals of the unknowns.
+fn uncertainty(problem: &Problem, e: &Estimate) -> Vec<ParamUncertainty> {
+    problem
         .space
         .unknowns
         .iter()
         .enumerate()
-        .map(|(k, u)| {
-            let se = e.stderr[k];
-            serde_json::json!({
-                "name": u.name,
-                "value": e.params[u.slot],
-                "stderr": if se.is_finite() { serde_json::json!(se) } else { serde_json::json!("inf") },
-                "interval95": if se.is_finite() {
-                    serde_json::json!([e.intervals[k].0, e.intervals[k].1])
-                } else {
-                    serde_json::Value::Null
-                },
-            })
+        .map(|(k, u)| ParamUncertainty {
+            name: u.name.clone(),
+            std_error: e.stderr[k],
+            interval: e.intervals[k],
+            level: 0.95,
         })
-        .collect();
-    let dim = e.correlation.nrows();
-    let correlation: Vec<Vec<f64>> = (0..dim)
-        .map(|a| (0..dim).map(|b| e.correlation[(a, b)]).collect())
-        .collect();
-    serde_json::json!({
-        "estimator": "output-error",
-        "start": e.start,
-        "windows": e.windows,
-        "end": e.end,
-        "iterations": e.iterations,
-        "rollouts": e.evaluations,
-        "position_cost": e.cost,
-        "sigma": e.sigma,
-        "noise_level": e.noise_level,
-        "observed": e.observed,
-        "variables": e.variables,
-        "parameters": params,
-        "correlation": correlation,
-        "undetermined_directions": e.undetermined,
-    })
+        .collect()
 }
 
 impl Strategy for OutputError {
@@ -112,6 +181,7 @@ impl Strategy for OutputError {
 
     fn init(&mut self, problem: &Problem, _seed: u64) {
         let takes = problem.takes();
+        self.free = problem.scene.particles.iter().map(|p| !p.fixed).collect();
         let fit = output_error::estimate(&problem.scene, &problem.space, &takes, &self.config);
         self.state = match fit {
             Ok(e) => {
@@ -120,7 +190,8 @@ impl Strategy for OutputError {
                 let cost = problem.evaluate(&e.genome, &mut s, &mut local);
                 problem.set_evals(problem.evals() + e.evaluations as u64);
                 State {
-                    report: report_json(problem, &e),
+                    report: OutputErrorReport::new(problem, &e),
+                    uncertainty: uncertainty(problem, &e),
                     genome: e.genome,
                     cost,
                     error: None,
@@ -131,7 +202,8 @@ impl Strategy for OutputError {
             Err(err) => State {
                 genome: problem.space.genome_of(&problem.space.base),
                 cost: f64::INFINITY,
-                report: serde_json::json!({ "estimator": "output-error", "error": err.to_string() }),
+                report: OutputErrorReport::default(),
+                uncertainty: Vec::new(),
                 error: Some(err.to_string()),
                 states: Vec::new(),
                 converged: false,
@@ -170,11 +242,46 @@ impl Strategy for OutputError {
                 problem.dim()
             ));
         }
+        self.free = problem.scene.particles.iter().map(|p| !p.fixed).collect();
+        let width = 6 * self.free.iter().filter(|f| **f).count();
+        if s.states.iter().any(|t| t.len() != width) {
+            return Err(format!(
+                "output-error state holds initial states of another length than the {width} \
+                 values of this scene's free particles"
+            ));
+        }
         self.state = s;
         Ok(())
     }
 
-    fn report(&self) -> serde_json::Value {
-        self.state.report.clone()
+    fn failure(&self) -> Option<String> {
+        self.state.error.clone()
+    }
+
+    fn initial_state(&self) -> Option<InitialState> {
+        let first = self.state.states.first()?;
+        let mut f = 0;
+        let particles = self
+            .free
+            .iter()
+            .map(|&free| {
+                free.then(|| {
+                    let s = &first[6 * f..6 * f + 6];
+                    f += 1;
+                    ([s[0], s[1], s[2]], [s[3], s[4], s[5]])
+                })
+            })
+            .collect();
+        Some(InitialState { particles })
+    }
+
+    fn report(&self) -> Report {
+        if self.state.error.is_some() {
+            return Report::default();
+        }
+        Report {
+            solver: Some(SolverReport::OutputError(self.state.report.clone())),
+            uncertainty: Some(self.state.uncertainty.clone()),
+        }
     }
 }
