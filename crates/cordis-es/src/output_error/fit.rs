@@ -172,6 +172,43 @@ impl Fitter<'_> {
         count as f64 * r * r
     }
 
+    /// Root mean square of the weighted residuals over `window` frames, m.
+    pub fn rms(&self, q: &[f64], window: usize, buf: &mut Sens) -> f64 {
+        let count: usize = self
+            .takes
+            .iter()
+            .map(|t| {
+                let frames = window.min(t.frames());
+                (0..frames)
+                    .map(|f| {
+                        (0..t.particles())
+                            .map(|i| (0..3).filter(|&c| t.at(f, i, c).1 > 0.0).count())
+                            .sum::<usize>()
+                    })
+                    .sum::<usize>()
+            })
+            .sum();
+        (self.cost(q, window, buf) / count.max(1) as f64).sqrt()
+    }
+
+    /// Largest weighted observed coordinate, m: the scale of rounding.
+    pub fn observed_size(&self) -> f64 {
+        let mut size = 0.0f64;
+        for take in self.takes {
+            for t in 0..take.frames() {
+                for i in 0..take.particles() {
+                    for c in 0..3 {
+                        let (y, w) = take.at(t, i, c);
+                        if w > 0.0 {
+                            size = size.max((w * y).abs());
+                        }
+                    }
+                }
+            }
+        }
+        size
+    }
+
     /// Projects `q` into the boxes (θ only; states are free).
     pub fn project(&self, q: &mut [f64]) {
         for (u, z) in self.unknowns.iter().zip(q.iter_mut()) {
@@ -322,16 +359,4 @@ fn damped_step(ne: &Normal, scale: &[f64], held: &[bool], lambda: f64) -> Option
         out[i] = x[r];
     }
     x.iter().all(|v| v.is_finite()).then_some(out)
-}
-
-/// The growing windows: `first`, `2 first`, … up to the longest take.
-pub(crate) fn windows(first: usize, longest: usize) -> Vec<usize> {
-    let mut out = Vec::new();
-    let mut w = first.max(3);
-    while w < longest {
-        out.push(w);
-        w *= 2;
-    }
-    out.push(longest);
-    out
 }

@@ -171,7 +171,6 @@ pub fn estimate(
     }
     fitter.project(&mut q);
     let longest = takes.iter().map(Take::frames).max().unwrap_or(0);
-    let windows = fit::windows(config.first_window, longest);
     let set = LmSettings {
         max_iterations: config.max_iterations,
         ftol: config.ftol,
@@ -180,19 +179,8 @@ pub fn estimate(
     };
     let mut counts = Counts::default();
     let mut buf = Sens::default();
-    let mut end = StageEnd::Converged;
-    for &w in &windows {
-        end = fit::lm_stage(&fitter, &mut q, w, set, &mut counts, &mut buf);
-        if end == StageEnd::Diverged {
-            return Err(CostError::mismatch(
-                "output-error",
-                format!(
-                    "the model diverged from its start within {w} frames: \
-                     narrow the boxes or check dt"
-                ),
-            ));
-        }
-    }
+    let noise = noise_level.iter().cloned().fold(0.0, f64::max);
+    let (end, windows) = grow_windows(&fitter, &mut q, config, set, noise, &mut counts, &mut buf)?;
     counts.evaluations += 1;
     let ne = fitter
         .normal(&q, longest, &mut buf)
@@ -208,6 +196,77 @@ pub fn estimate(
         windows,
         start_note,
     ))
+}
+
+/// Fits on windows growing from `config.first_window` to the longest take (module docs). A
+/// window whose fit leaves residuals well above the noise read from the data (rms > 1.5 × the
+/// third-difference level, or beyond rounding on noiseless data) is a wrong basin reached by
+/// growing too fast: the fit goes back to the last good window's optimum and grows by a
+/// smaller factor (2, then 1.5, 1.25, 1.125), up to the budget of windows; a first window
+/// that misses is halved (down to 6 frames) from the start; a window that cannot be grown
+/// into cleanly is kept as it ended.
+fn grow_windows(
+    fitter: &Fitter<'_>,
+    q: &mut Vec<f64>,
+    config: &Config,
+    set: LmSettings,
+    noise: f64,
+    counts: &mut Counts,
+    buf: &mut Sens,
+) -> Result<(StageEnd, Vec<usize>), CostError> {
+    const MAX_WINDOWS: usize = 24;
+    let longest = fitter.takes.iter().map(Take::frames).max().unwrap_or(0);
+    let size = fitter.observed_size();
+    let tolerance = (1.5 * noise).max(1e-9 * size);
+    let mut windows = Vec::new();
+    let mut good: Option<(Vec<f64>, usize)> = None;
+    let mut growth = 2.0;
+    let mut w = config.first_window.min(longest);
+    let start = q.clone();
+    let mut end;
+    loop {
+        if windows.len() + 1 >= MAX_WINDOWS {
+            w = longest;
+        }
+        windows.push(w);
+        end = fit::lm_stage(fitter, q, w, set, counts, buf);
+        if end == StageEnd::Diverged {
+            return Err(CostError::mismatch(
+                "output-error",
+                format!(
+                    "the model diverged from its start within {w} frames: \
+                     narrow the boxes or check dt"
+                ),
+            ));
+        }
+        let rms = fitter.rms(q, w, buf);
+        let clean = rms <= tolerance;
+        match (&good, clean) {
+            // The first window already missed: a shorter one is closer to quadratic.
+            (None, false) if w > 6 => {
+                q.clone_from(&start);
+                w /= 2;
+                continue;
+            }
+            (Some((back, from)), false) if growth > 1.1 => {
+                // Too far in one step: back to the last clean optimum, a smaller step.
+                q.clone_from(back);
+                growth = 1.0 + (growth - 1.0) / 2.0;
+                w = ((*from as f64 * growth).ceil() as usize).clamp(from + 1, longest);
+                continue;
+            }
+            _ => {}
+        }
+        if w >= longest {
+            break;
+        }
+        good = Some((q.clone(), w));
+        if clean {
+            growth = 2.0;
+        }
+        w = ((w as f64 * growth).ceil() as usize).min(longest);
+    }
+    Ok((end, windows))
 }
 
 #[allow(clippy::too_many_arguments)]

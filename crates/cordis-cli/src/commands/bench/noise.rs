@@ -45,6 +45,12 @@ pub struct Args {
     /// Observation patterns, comma-separated: complete | missing | hidden.
     #[arg(long, default_value = "complete,missing,hidden")]
     patterns: String,
+    /// The estimator's first window, frames (its default otherwise).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(3..=100_000))]
+    first_window: Option<u64>,
+    /// One line per draw on stderr.
+    #[arg(long)]
+    verbose: bool,
 }
 
 /// One generated network and the guess a user would write for it.
@@ -138,6 +144,17 @@ fn one_draw(a: &Args, seed: u64, rel: f64, pattern: &str, cell: &mut Cell) {
     cell.seconds.push(secs);
     cell.converged += usize::from(e.converged);
     cell.error.push(space.error_pct(&e.genome, &tv));
+    if a.verbose {
+        eprintln!(
+            "  draw {seed}: error {:.3e} %, {} after {} iterations, σ̂ {:.3e} m (σ {sigma:.3e}), \
+             start: {}",
+            space.error_pct(&e.genome, &tv),
+            e.end,
+            e.iterations,
+            e.sigma,
+            e.start
+        );
+    }
     if sigma > 0.0 {
         let values: Vec<f64> = space.unknowns.iter().map(|u| tv[u.slot]).collect();
         if let Ok(sd) = cramer_rao(&truth, &space, std::slice::from_ref(&take), sigma) {
@@ -240,7 +257,12 @@ fn report(a: &Args, rel: f64, pattern: &str, cell: &Cell) {
         "failed": cell.failed,
     });
     println!("{line}");
-    let f = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.4}"));
+    let f = |v: Option<f64>| {
+        v.map_or("-".to_string(), |x| match x {
+            x if x != 0.0 && x.abs() < 1e-2 => format!("{x:.2e}"),
+            x => format!("{x:.4}"),
+        })
+    };
     let c = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{:.0}", 100.0 * x));
     eprintln!(
         "{:>8.0e} {:>9} {:>11} {:>11} {:>7} {:>11} {:>22} {:>7} {:>6}",
