@@ -184,3 +184,49 @@ fn bench_stability_quick_prints_json_lines_with_right_verdicts() {
         assert_eq!(v["in_box"], true, "{v}");
     }
 }
+
+/// Issue 17: a free particle on the vertex of an angle link (an arm of 0 m). `check` called it
+/// stable (the angle was skipped) and `simulate` threw the particle 35 m in 49 frames without a
+/// word; now `check` names the link and calls the scene unstable, and `simulate` warns.
+#[test]
+fn check_reports_a_degenerate_angle_and_simulate_warns() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("degenerate.json");
+    std::fs::write(
+        &scene,
+        r#"{"format": "cordis-scene/1", "dt": 0.01,
+            "particles": [{"mass": 1, "pos": [0, 0, 0], "fixed": true},
+                          {"mass": 1, "pos": [0, 0, 0], "vel": [0, 0.1, 0]},
+                          {"mass": 1, "pos": [1, 0, 0]}],
+            "types": {"bend": {"kind": "angle", "stiffness": 10, "rest_cos": -1},
+                      "rib": {"kind": "spring", "stiffness": 10, "rest_length": 1}},
+            "links": [{"type": "bend", "particles": [0, 1, 2]},
+                      {"type": "rib", "particles": [1, 2]}]}"#,
+    )
+    .unwrap();
+    let scene = scene.to_str().unwrap();
+    let out = cordis(&["check", scene]);
+    assert!(out.status.success());
+    let v = json_line(&out);
+    assert_eq!(v["stable"], false, "{v}");
+    assert_eq!(v["degenerate_angles"], serde_json::json!([0]), "{v}");
+    let report = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        report.contains("1 degenerate angle link(s)") && report.contains("links[0] [0, 1, 2]"),
+        "{report}"
+    );
+    let csv = dir.path().join("d.csv");
+    let out = cordis(&[
+        "simulate",
+        scene,
+        "-n",
+        "50",
+        "-o",
+        csv.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).starts_with("warning: stability ratio"));
+    let traj = cordis_core::io::read_trajectory(&csv).unwrap();
+    assert!(traj.scale() < 1.5, "the motion reached {} m", traj.scale());
+}

@@ -305,10 +305,20 @@ impl Acc<'_> {
     fn angle(&mut self, ids: [usize; 3], x: &[Vec3], w: f64) {
         let [i, j, k] = ids;
         let (la, lb) = ((x[i] - x[j]).norm(), (x[k] - x[j]).norm());
-        if w == 0.0 || la < crate::forces::MIN_LENGTH || lb < crate::forces::MIN_LENGTH {
-            return; // a degenerate angle has no force (forces/angle.rs)
+        if w == 0.0 {
+            return;
         }
-        let norms = [1.0 / la, 1.0 / la + 1.0 / lb, 1.0 / lb];
+        // An arm in the singular zone (forces/angle.rs) has the faded force, whose gradient
+        // norm is at most 1 / (SINGULAR_ARM × the other arm): an angle that starts with two
+        // particles at one point is not free of force, it has its stiffest one as soon as they
+        // part. Three particles at one point have no length to bound it with: infinite.
+        let s = crate::forces::angle::SINGULAR_ARM;
+        let (la, lb) = (la.max(s * lb), lb.max(s * la));
+        let norms = if la < crate::forces::MIN_LENGTH || lb < crate::forces::MIN_LENGTH {
+            [f64::INFINITY; 3]
+        } else {
+            [1.0 / la, 1.0 / la + 1.0 / lb, 1.0 / lb]
+        };
         for (a, &pa) in ids.iter().enumerate() {
             self.own[pa] += mul(w, norms[a] * norms[a]);
             if !self.free[pa] {
@@ -453,4 +463,27 @@ impl Probe {
         }
         true
     }
+}
+
+/// The angle links (by index in `scene.links`) that start in the singular zone: an arm shorter
+/// than [`crate::forces::angle::SINGULAR_ARM`] times the other at the initial positions (two
+/// of the particles at, or nearly at, one point: the angle is barely defined, its force faded
+/// and its stiffness the largest it can be). `cordis check` lists them.
+pub fn degenerate_angles(scene: &Scene) -> Vec<usize> {
+    let s = crate::forces::angle::SINGULAR_ARM;
+    let at = |p: usize| Vec3::from(scene.particles[p].pos);
+    scene
+        .links
+        .iter()
+        .enumerate()
+        .filter(|(_, l)| {
+            scene.types[l.type_index].kind == crate::LinkKind::Angle && l.particles.len() == 3
+        })
+        .filter(|(_, l)| {
+            let [i, j, k] = [l.particles[0], l.particles[1], l.particles[2]];
+            let (la, lb) = ((at(i) - at(j)).norm(), (at(k) - at(j)).norm());
+            la < s * lb || lb < s * la || la.max(lb) < crate::forces::MIN_LENGTH
+        })
+        .map(|(n, _)| n)
+        .collect()
 }

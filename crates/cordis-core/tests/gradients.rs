@@ -193,6 +193,41 @@ proptest! {
     }
 
     #[test]
+    fn singular_angle_force_is_faded_continuous_and_free_of_net_force_and_torque(
+        arm in point(), other in point(), t in 1e-3..1.0f64,
+        k in 0.1..100.0f64, c0 in -1.0..=1.0f64,
+    ) {
+        // Issue 17: arm i–j shrunk into the singular zone (|a| < 1e-2 |b|), at t of its width;
+        // the vertex at the origin, so that the short arm is resolved to rounding.
+        let lb = other.norm();
+        prop_assume!(lb > 0.1 && arm.norm() > 1e-3);
+        let zone = cordis_core::forces::angle::SINGULAR_ARM * lb;
+        let place = |la: f64| [arm.normalize() * la, Vec3::zeros(), other];
+        let y = place(zone * t);
+        let f = angle_forces(&y, k, c0);
+        // The unfaded force is the energy gradient; the faded one is it times (|a|/zone)².
+        let h = 1e-4 * zone * t;
+        let g = minus_gradient(&y, h, |z| angle_energy(z, k, c0));
+        let fade = t * t;
+        let scale = g.iter().map(|v| v.amax()).fold(0.0, f64::max);
+        // Central differences: truncation ~1e-8 relative, rounding ~ε |E| / h with |E| ≤ 2K.
+        let tol = fade * (1e-5 * scale + 1e-14 * k / h);
+        for (fi, gi) in f.iter().zip(&g) {
+            prop_assert!((fi - gi * fade).amax() <= tol, "{fi} vs {}", gi * fade);
+        }
+        // Bounded by 2K/zone, however short the arm (it used to grow as K/|a|).
+        prop_assert!(f[0].norm() <= 2.0 * k * 2.0 / zone, "{}", f[0].norm());
+        // One factor on the whole gradient: no net force, no net torque about the vertex.
+        let torque = y[0].cross(&f[0]) + y[2].cross(&f[2]);
+        prop_assert!((f[0] + f[1] + f[2]).amax() <= 1e-9 * k / zone);
+        prop_assert!(torque.amax() <= 1e-9 * k * (1.0 + lb / zone));
+        // Continuous where the zone begins: just outside equals just inside.
+        let inside = angle_forces(&place(zone * (1.0 - 1e-9)), k, c0);
+        let outside = angle_forces(&place(zone * (1.0 + 1e-9)), k, c0);
+        prop_assert!((inside[0] - outside[0]).amax() <= 1e-6 * outside[0].amax() + 1e-12 * k);
+    }
+
+    #[test]
     fn tiny_but_nonzero_geometry_stays_finite(
         x in prop::array::uniform3(point()),
         d in prop::array::uniform3(prop::array::uniform3(-1e-9..1e-9f64)),

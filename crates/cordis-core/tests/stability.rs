@@ -622,3 +622,41 @@ fn muscles_count_as_their_springs_and_max_ratio_matches_the_report() {
         assert_eq!(q.to_bits(), plan_stability(&plan, &p).max_ratio.to_bits());
     }
 }
+
+/// Issue 17: an angle whose free particle starts on its vertex (arm 0) and is pushed off it.
+/// The force grew as K/|a|: the particle was thrown 1 m in one step and 35 m in 49 frames,
+/// exit 0, and the bound skipped the angle ("stable"). Now the singular zone fades the force,
+/// the motion stays within a metre, and the bound counts the zone's stiffness: unstable.
+#[test]
+fn degenerate_angle_stays_bounded_and_is_called_unstable() {
+    let mut s = Scene::new(0.01);
+    s.add_particle(Particle::new(1.0, [0.0, 0.0, 0.0]).fixed());
+    s.add_particle(Particle::new(1.0, [0.0, 0.0, 0.0]).with_vel([0.0, 0.1, 0.0]));
+    s.add_particle(Particle::new(1.0, [1.0, 0.0, 0.0]));
+    s.add_type(
+        LinkType::new("bend", LinkKind::Angle)
+            .with("stiffness", 10.0)
+            .with("rest_cos", -1.0),
+    );
+    s.add_type(
+        LinkType::new("rib", LinkKind::Spring)
+            .with("stiffness", 10.0)
+            .with("rest_length", 1.0),
+    );
+    s.add_link("bend", &[0, 1, 2]);
+    s.add_link("rib", &[1, 2]);
+    let traj = s.simulate(50).unwrap();
+    let reach = (0..50)
+        .flat_map(|t| (0..3).map(move |i| (t, i)))
+        .map(|(t, i)| traj.pos(t, i).norm())
+        .fold(0.0, f64::max);
+    assert!(reach < 1.5, "the motion reached {reach} m");
+    let r = stability(&s).unwrap();
+    assert!(!r.stable && r.max_ratio.is_finite(), "{r:?}");
+    assert_eq!(r.worst_particle, Some(1));
+    assert_eq!(cordis_core::stability::degenerate_angles(&s), vec![0]);
+    // Apart, the same angle is ordinary: not degenerate, stable.
+    s.particles[1].pos = [-0.5, 0.0, 0.0];
+    assert!(cordis_core::stability::degenerate_angles(&s).is_empty());
+    assert!(stability(&s).unwrap().stable);
+}

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
-use cordis_core::stability::{max_stable_dt, stability};
+use cordis_core::stability::{degenerate_angles, max_stable_dt, stability};
 use cordis_core::Scene;
 use serde_json::json;
 
@@ -24,6 +24,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     let r = stability(&scene)?;
     let dt_max = max_stable_dt(&scene)?;
     let free = r.per_particle.iter().flatten().count();
+    let degenerate = degenerate_angles(&scene);
     if output.human() {
         let verdict = if r.stable {
             "stable: every particle is inside the bound"
@@ -45,6 +46,20 @@ pub fn run(a: Args, output: Output) -> Result<()> {
             "  with every neighbour held fixed (classical CORDIS 4M > K + 2Z): max q = {}",
             shown(r.local_max_ratio)
         );
+        if !degenerate.is_empty() {
+            let shown: Vec<String> = degenerate
+                .iter()
+                .take(10)
+                .map(|&l| format!("links[{l}] {:?}", scene.links[l].particles))
+                .collect();
+            eprintln!(
+                "  {} degenerate angle link(s), an arm under 1% of the other (particles at one \
+                 point: the angle is barely defined, its force the stiffest): {}{}",
+                degenerate.len(),
+                shown.join(", "),
+                if degenerate.len() > 10 { ", …" } else { "" }
+            );
+        }
         match dt_max {
             Some(d) => eprintln!("  the bound holds for dt < {d:.6e} s"),
             None => eprintln!("  no free particle has a stiffness or damping: any dt passes"),
@@ -76,6 +91,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
             "dt": scene.dt,
             "particles": scene.num_particles(),
             "free_particles": free,
+            "degenerate_angles": degenerate,
     }))
 }
 
