@@ -1,10 +1,14 @@
 //! CSV trajectories: header `frame,particle,x,y,z`, one row per particle per frame, in any
 //! order. Frames `0..T` and particles `0..N` must each appear exactly once per pair.
+//!
+//! Read as [`Observations`] ([`parse_csv_observations`]), a tracker's export may have gaps: an
+//! empty coordinate cell (or `nan`) is a missing coordinate, and an absent row a missing
+//! marker at that frame (every coordinate NaN); a pair given twice is still an error.
 
 use std::fmt::Write;
 
 use crate::error::{CordisError, Result};
-use crate::Trajectory;
+use crate::{Observations, Trajectory};
 
 const HEADER: [&str; 5] = ["frame", "particle", "x", "y", "z"];
 
@@ -18,6 +22,23 @@ struct Row {
 /// Parses CSV text; `name` (usually the file name) starts every error's place, as `name:LINE`.
 /// Blank lines are skipped; fields may carry surrounding whitespace.
 pub fn parse_csv(name: &str, text: &str) -> Result<Trajectory> {
+    let (frames, n, data) = parse_rows(name, text, false)?;
+    Trajectory::from_flat(frames, n, data)
+}
+
+/// Parses CSV text with gaps (module docs): empty cells and `nan` are missing coordinates,
+/// absent rows missing markers.
+pub fn parse_csv_observations(name: &str, text: &str) -> Result<Observations> {
+    let (frames, n, data) = parse_rows(name, text, true)?;
+    Observations::from_flat(frames, n, data)
+}
+
+/// Rows with gaps may leave a table at most this many times larger than the rows given:
+/// beyond it an index is surely a mistake, and the table would be allocated for nothing.
+const SPARSE_LIMIT: u64 = 64;
+
+/// `(frames, particles, values)`; with `gaps`, missing cells and rows are NaN.
+fn parse_rows(name: &str, text: &str, gaps: bool) -> Result<(usize, usize, Vec<f64>)> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut lines = text
         .lines()
@@ -60,8 +81,12 @@ pub fn parse_csv(name: &str, text: &str) -> Result<Trajectory> {
             parse_index(fields[1], "particle").map_err(|m| CordisError::trajectory(place(), m))?;
         let mut pos = [0.0; 3];
         for k in 0..3 {
-            pos[k] = parse_coord(fields[2 + k], HEADER[2 + k])
-                .map_err(|m| CordisError::trajectory(place(), m))?;
+            let f = fields[2 + k];
+            pos[k] = if gaps && (f.is_empty() || f.eq_ignore_ascii_case("nan")) {
+                f64::NAN
+            } else {
+                parse_coord(f, HEADER[2 + k]).map_err(|m| CordisError::trajectory(place(), m))?
+            };
         }
         rows.push(Row {
             frame,
@@ -81,6 +106,9 @@ pub fn parse_csv(name: &str, text: &str) -> Result<Trajectory> {
     // table, so that a huge index costs nothing before it is reported as a gap.
     let n = rows.iter().map(|r| r.particle).max().unwrap_or(0) + 1;
     let frames = rows.last().map_or(0, |r| r.frame) + 1;
+    if gaps {
+        return fill_gaps(name, &rows, frames, n);
+    }
     let mut expect = (0u64, 0u64);
     for (k, r) in rows.iter().enumerate() {
         if k > 0 && (rows[k - 1].frame, rows[k - 1].particle) == (r.frame, r.particle) {
@@ -108,7 +136,47 @@ pub fn parse_csv(name: &str, text: &str) -> Result<Trajectory> {
     }
     let data = rows.iter().flat_map(|r| r.pos).collect();
     // Both counts fit in usize: their product is the number of rows held in memory.
-    Trajectory::from_flat(frames as usize, n as usize, data)
+    Ok((frames as usize, n as usize, data))
+}
+
+/// The table of sorted `rows`, NaN where a row is absent; duplicates refused.
+fn fill_gaps(name: &str, rows: &[Row], frames: u64, n: u64) -> Result<(usize, usize, Vec<f64>)> {
+    let cells = frames
+        .checked_mul(n)
+        .filter(|&c| c <= SPARSE_LIMIT.saturating_mul(rows.len() as u64).max(1 << 20));
+    let Some(cells) = cells else {
+        let r = rows
+            .iter()
+            .max_by_key(|r| r.frame.max(r.particle))
+            .expect("rows");
+        return Err(CordisError::trajectory(
+            format!("{name}:{}", r.line),
+            format!(
+                "frame {} / particle {} leaves the {frames} × {n} table almost empty \
+                 ({} rows): an index is wrong",
+                r.frame,
+                r.particle,
+                rows.len()
+            ),
+        ));
+    };
+    let mut data = vec![f64::NAN; cells as usize * 3];
+    for (k, r) in rows.iter().enumerate() {
+        if k > 0 && (rows[k - 1].frame, rows[k - 1].particle) == (r.frame, r.particle) {
+            return Err(CordisError::trajectory(
+                format!("{name}:{}", r.line),
+                format!(
+                    "duplicate row for frame {}, particle {} (first given on line {})",
+                    r.frame,
+                    r.particle,
+                    rows[k - 1].line
+                ),
+            ));
+        }
+        let at = ((r.frame * n + r.particle) * 3) as usize;
+        data[at..at + 3].copy_from_slice(&r.pos);
+    }
+    Ok((frames as usize, n as usize, data))
 }
 
 fn missing(name: &str, (frame, particle): (u64, u64)) -> CordisError {
@@ -169,6 +237,28 @@ mod tests {
             .map(|(f, i)| t.pos(f, i).x)
             .collect();
         assert_eq!(xs, [1.0, 2.0, 3.0, 4.0]);
+    }
+
+    #[test]
+    fn gaps_are_missing_observations_not_errors() {
+        let text = "frame,particle,x,y,z\n0,0,1,2,3\n0,1,,5,nan\n1,0,7,8,9\n";
+        let o = parse_csv_observations("a.csv", text).unwrap();
+        assert_eq!((o.frames(), o.particles()), (2, 2));
+        let v = o.as_flat();
+        assert_eq!(&v[..3], &[1.0, 2.0, 3.0]);
+        assert!(v[3].is_nan() && v[4] == 5.0 && v[5].is_nan());
+        assert!(v[9..12].iter().all(|x| x.is_nan()), "absent row");
+        assert_eq!(o.missing(), 5);
+        // The complete reader still refuses the same text, naming the place.
+        assert!(parse_csv("a.csv", text).is_err());
+        let e = parse_csv_observations("a.csv", "frame,particle,x,y,z\n0,0,1,2,3\n0,0,1,2,3\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("a.csv:3: duplicate row"), "{e}");
+        let e = parse_csv_observations("a.csv", "frame,particle,x,y,z\n0,99999999999,1,2,3\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("an index is wrong"), "{e}");
     }
 
     #[test]

@@ -56,6 +56,22 @@ pub fn read_trajectory(path: &Path) -> Result<Trajectory> {
     parse_trajectory(&path.display().to_string(), format, &bytes)
 }
 
+/// Reads observed positions with gaps (see [`crate::Observations`]): NaN in `.npy`, empty
+/// cells, `nan` and absent rows in CSV; a `.tra` file has no gaps.
+pub fn read_observations(path: &Path) -> Result<crate::Observations> {
+    let format = TrajectoryFormat::from_path(path)?;
+    let bytes = std::fs::read(path).map_err(|e| CordisError::io(path, e))?;
+    let name = path.display().to_string();
+    match format {
+        TrajectoryFormat::Csv => csv::parse_csv_observations(&name, &decode_text(&bytes)),
+        TrajectoryFormat::Npy => npy::parse_npy_observations(&name, &bytes),
+        TrajectoryFormat::Tra => Ok(crate::Observations::from_trajectory(&tra::parse_tra(
+            &name,
+            &decode_text(&bytes),
+        )?)),
+    }
+}
+
 /// Parses trajectory bytes in `format`; `name` starts every error's place.
 pub fn parse_trajectory(name: &str, format: TrajectoryFormat, bytes: &[u8]) -> Result<Trajectory> {
     match format {

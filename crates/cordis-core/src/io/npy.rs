@@ -11,12 +11,33 @@
 //! so the data starts on a 64-byte boundary, as NumPy does.
 
 use crate::error::{CordisError, Result};
-use crate::Trajectory;
+use crate::{Observations, Trajectory};
 
 const MAGIC: &[u8] = b"\x93NUMPY";
 
 /// Parses `.npy` bytes; `name` is the place of header errors.
 pub fn parse_npy(name: &str, bytes: &[u8]) -> Result<Trajectory> {
+    let (t, n, values) = parse_values(name, bytes)?;
+    Trajectory::from_flat(t, n, values).map_err(|e| placed(name, e))
+}
+
+/// Parses `.npy` bytes whose NaN values are missing observations (±inf is still refused).
+pub fn parse_npy_observations(name: &str, bytes: &[u8]) -> Result<Observations> {
+    let (t, n, values) = parse_values(name, bytes)?;
+    Observations::from_flat(t, n, values).map_err(|e| placed(name, e))
+}
+
+fn placed(name: &str, e: CordisError) -> CordisError {
+    match e {
+        CordisError::Trajectory { place, message } => {
+            CordisError::trajectory(format!("{name}: {place}"), message)
+        }
+        e => e,
+    }
+}
+
+/// The shape and the C-order values of `.npy` bytes.
+fn parse_values(name: &str, bytes: &[u8]) -> Result<(usize, usize, Vec<f64>)> {
     let err = |m: String| CordisError::format(name, m);
     if bytes.len() < 10 || !bytes.starts_with(MAGIC) {
         return Err(err(
@@ -111,12 +132,7 @@ pub fn parse_npy(name: &str, bytes: &[u8]) -> Result<Trajectory> {
     } else {
         values
     };
-    Trajectory::from_flat(t, n, values).map_err(|e| match e {
-        CordisError::Trajectory { place, message } => {
-            CordisError::trajectory(format!("{name}: {place}"), message)
-        }
-        e => e,
-    })
+    Ok((t, n, values))
 }
 
 /// `.npy` bytes (version 1.0, `<f8`, C order) of a trajectory.

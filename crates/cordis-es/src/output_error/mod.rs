@@ -202,9 +202,8 @@ pub fn estimate(
 /// window whose fit leaves residuals well above the noise read from the data (rms > 1.5 × the
 /// third-difference level, or beyond rounding on noiseless data) is a wrong basin reached by
 /// growing too fast: the fit goes back to the last good window's optimum and grows by a
-/// smaller factor (2, then 1.5, 1.25, 1.125), up to the budget of windows; a first window
-/// that misses is halved (down to 6 frames) from the start; a window that cannot be grown
-/// into cleanly is kept as it ended.
+/// smaller factor (1.5, 1.25, 1.125 of the last clean window); a window that cannot be grown
+/// into cleanly even so is kept as it ended and the doubling resumes from it.
 fn grow_windows(
     fitter: &Fitter<'_>,
     q: &mut Vec<f64>,
@@ -214,22 +213,15 @@ fn grow_windows(
     counts: &mut Counts,
     buf: &mut Sens,
 ) -> Result<(StageEnd, Vec<usize>), CostError> {
-    const MAX_WINDOWS: usize = 24;
     let longest = fitter.takes.iter().map(Take::frames).max().unwrap_or(0);
-    let size = fitter.observed_size();
-    let tolerance = (1.5 * noise).max(1e-9 * size);
+    let tolerance = (1.5 * noise).max(1e-9 * fitter.observed_size());
     let mut windows = Vec::new();
     let mut good: Option<(Vec<f64>, usize)> = None;
     let mut growth = 2.0;
     let mut w = config.first_window.min(longest);
-    let start = q.clone();
-    let mut end;
     loop {
-        if windows.len() + 1 >= MAX_WINDOWS {
-            w = longest;
-        }
         windows.push(w);
-        end = fit::lm_stage(fitter, q, w, set, counts, buf);
+        let end = fit::lm_stage(fitter, q, w, set, counts, buf);
         if end == StageEnd::Diverged {
             return Err(CostError::mismatch(
                 "output-error",
@@ -239,34 +231,25 @@ fn grow_windows(
                 ),
             ));
         }
-        let rms = fitter.rms(q, w, buf);
-        let clean = rms <= tolerance;
-        match (&good, clean) {
-            // The first window already missed: a shorter one is closer to quadratic.
-            (None, false) if w > 6 => {
-                q.clone_from(&start);
-                w /= 2;
-                continue;
-            }
-            (Some((back, from)), false) if growth > 1.1 => {
+        if w >= longest {
+            return Ok((end, windows));
+        }
+        let clean = fitter.rms(q, w, buf) <= tolerance;
+        if let (Some((back, from)), false) = (&good, clean) {
+            if growth > 1.1 {
                 // Too far in one step: back to the last clean optimum, a smaller step.
+                let from = *from;
                 q.clone_from(back);
                 growth = 1.0 + (growth - 1.0) / 2.0;
-                w = ((*from as f64 * growth).ceil() as usize).clamp(from + 1, longest);
+                w = ((from as f64 * growth).ceil() as usize).clamp(from + 1, longest);
                 continue;
             }
-            _ => {}
         }
-        if w >= longest {
-            break;
-        }
+        // Clean, the first window, or no smaller step left: go on from here.
         good = Some((q.clone(), w));
-        if clean {
-            growth = 2.0;
-        }
-        w = ((w as f64 * growth).ceil() as usize).min(longest);
+        growth = 2.0;
+        w = (2 * w).min(longest);
     }
-    Ok((end, windows))
 }
 
 #[allow(clippy::too_many_arguments)]

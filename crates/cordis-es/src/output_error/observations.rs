@@ -7,7 +7,7 @@
 //! marker tracked twice as precisely gets weight 2). Missing values are a mask, never a number:
 //! the stored value of a missing coordinate is 0 and is never read.
 
-use cordis_core::{Trajectory, Vec3};
+use cordis_core::{Observations, Trajectory, Vec3};
 
 use crate::error::CostError;
 
@@ -144,6 +144,22 @@ impl Take {
             ));
         }
         Ok(take)
+    }
+
+    /// A take from observations read from a file ([`cordis_core::io::read_observations`]):
+    /// the file's particle `i` is the scene's particle `i`; particles beyond the file's (and
+    /// any whose every coordinate is NaN) are hidden.
+    pub fn from_observations(obs: &Observations, particles: usize) -> Result<Self, CostError> {
+        if obs.particles() > particles {
+            return Err(CostError::mismatch(
+                "trajectory",
+                format!(
+                    "has {} particles but the scene has {particles}",
+                    obs.particles()
+                ),
+            ));
+        }
+        Take::from_markers(obs.frames(), obs.as_flat(), particles, None, None, None)
     }
 
     pub fn frames(&self) -> usize {

@@ -147,11 +147,12 @@ fn one_draw(a: &Args, seed: u64, rel: f64, pattern: &str, cell: &mut Cell) {
     if a.verbose {
         eprintln!(
             "  draw {seed}: error {:.3e} %, {} after {} iterations, σ̂ {:.3e} m (σ {sigma:.3e}), \
-             start: {}",
+             windows {:?}, start: {}",
             space.error_pct(&e.genome, &tv),
             e.end,
             e.iterations,
             e.sigma,
+            e.windows,
             e.start
         );
     }
