@@ -96,7 +96,6 @@ __all__ = [
     "Particle",
     "ParticleList",
     "PopulationEvaluator",
-    "RayExecutor",
     "Scene",
     "SceneError",
     "SceneIndexError",
@@ -114,6 +113,14 @@ __all__ = [
     "read_trajectory",
     "write_trajectory",
 ]
+
+
+# `RayExecutor` is not in `__all__`: `from cordis import *` would import Ray (an optional
+# extra) and fail without it. `cordis.RayExecutor` works as before.
+
+
+def __dir__():
+    return sorted(set(globals()) | {"RayExecutor"})
 
 
 def __getattr__(name: str):

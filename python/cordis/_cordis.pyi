@@ -531,14 +531,23 @@ class IdentifyResult:
         """Mean relative error against the truth, %."""
     @property
     def stopped_by(self) -> str:
-        """``generations``, ``max_evals``, ``time_limit``, ``target_cost``, ``callback``, ``interrupted``."""
+        """``converged`` (the solver's own criterion met), ``strategy_budget`` (its restarts or
+        cycles spent short of it), ``not_determined`` (unknowns the data leave free), or a stop
+        rule: ``generations``, ``max_evals``, ``time_limit``, ``target_cost``, ``callback``,
+        ``interrupted``."""
+    @property
+    def report(self) -> Optional[Dict[str, Any]]:
+        """The solver's own report (as the CLI's ``"solver"``); None for evolution strategies."""
+    @property
+    def warnings(self) -> List[str]:
+        """What the CLI prints as ``warning:`` lines (also raised with ``warnings.warn``)."""
 
 def identify(
     scene: Scene,
     traj: _ArrayLike,
     strategy: str = "auto",
     generations: Optional[int] = 1000,
-    population: int = 100,
+    population: Optional[int] = None,
     seed: int = 0,
     callback: Optional[Callable[[int, float, Dict[str, float]], Optional[bool]]] = None,
     *,
@@ -558,8 +567,24 @@ def identify(
     islands: Optional[int] = None,
     migrate_every: int = 10,
     migrants: int = 2,
+    total_mass: Optional[float] = None,
+    lock: Optional[Union[str, _PathLike, Sequence[str]]] = None,
+    param_gene: Optional[_PathLike] = None,
+    descent_start: int = 400,
+    descent_every: int = 100,
 ) -> IdentifyResult:
     """Identifies the unknowns of ``scene`` from the observed positions ``traj`` (GIL released).
+
+    What ``cordis identify`` does, under the same option names (``time_limit`` is
+    ``--time-limit``), through the same session: the same checks, the same result.
+    ``total_mass`` (kg) is needed when the free particles' masses are unknown; ``lock`` keeps
+    unknowns at their start (a ``NAME.lock`` file or names); ``param_gene`` reads a thesis
+    ``Param.gene`` file; ``descent_start``/``descent_every`` set the thesis strategy's Powell
+    descent. ``threads`` beyond the machine's cores are capped, with a warning.
+
+    A strategy that cannot run on the problem is refused before any work (``ValueError``
+    naming why), one that finds no estimate raises ``RuntimeError``; what the CLI prints as
+    ``warning:`` is raised with ``warnings.warn`` and kept in ``IdentifyResult.warnings``.
 
     ``executor``: None/``"local"``, ``"ray"`` or an executor object (``cordis.RayExecutor``):
     where populations are evaluated; the result is the same on every executor. ``islands``:

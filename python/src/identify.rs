@@ -11,22 +11,18 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Arc};
 use std::time::Duration;
 
-use cordis_es::executor::{
-    self, HistoryRow, Observer, RunConfig, RunResult, StopReason, StopRules,
-};
-use cordis_es::identify::{
-    add_noise, check_strategy, make_islands, make_strategy, StrategyName, StrategyOptions,
-};
-use cordis_es::problem::Problem;
+use cordis_es::executor::{HistoryRow, Observer, StopReason};
+use cordis_es::session::{Generations, IdentifyRequest, Lock, Outcome, Session, Style};
 use cordis_es::space::ParameterSpace;
 use cordis_es::strategies::islands::IslandConfig;
+use cordis_es::CostError;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2};
-use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
+use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyUserWarning, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::errors::{checkpoint_error, cost_to_py, SceneError};
+use crate::errors::{checkpoint_error, cost_to_py};
 use crate::evaluator::PyEvaluator;
 use crate::scene::Scene;
 use crate::trajectory::{check_dt, traj_from_py, traj_to_py};
@@ -83,10 +79,20 @@ pub struct IdentifyResult {
     /// Mean relative error of the identified values against the truth, %, or None.
     #[pyo3(get)]
     param_error_pct: Option<f64>,
-    /// Why the run stopped: `generations`, `max_evals`, `time_limit`, `target_cost`,
-    /// `callback` or `interrupted`.
+    /// Why the run stopped: `converged` (the solver's own criterion met), `strategy_budget`
+    /// (its restarts or cycles spent short of it), `not_determined` (unknowns the data leave
+    /// free, see `report`), or a stop rule: `generations`, `max_evals`, `time_limit`,
+    /// `target_cost`, `callback`, `interrupted`.
     #[pyo3(get)]
     stopped_by: String,
+    /// The solver's own report (an exact solver's condition number, undetermined and clamped
+    /// unknowns and notes; levenberg-marquardt's restarts), as the CLI prints it under
+    /// `"solver"`; None for the evolution strategies.
+    #[pyo3(get)]
+    report: Option<Py<PyAny>>,
+    /// What the CLI prints as `warning:` lines (also raised with `warnings.warn`).
+    #[pyo3(get)]
+    warnings: Vec<String>,
 }
 
 #[pymethods]
@@ -202,33 +208,150 @@ fn bad(what: &str, message: impl std::fmt::Display) -> PyErr {
     PyValueError::new_err(format!("{what}: {message}"))
 }
 
+/// `cordis.identify`'s arguments, as received (checked by the session, not here).
+struct PyArgs<'py> {
+    strategy: &'py str,
+    generations: Option<i64>,
+    population: Option<i64>,
+    seed: i128,
+    noise: f64,
+    cost: &'py str,
+    time_limit: Option<f64>,
+    target_cost: Option<f64>,
+    max_evals: Option<i64>,
+    threads: Option<i64>,
+    checkpoint: Option<PathBuf>,
+    resume: Option<PathBuf>,
+    dt: Option<f64>,
+    stable_horizon: Option<i64>,
+    stable_spread: f64,
+    islands: Option<i64>,
+    migrate_every: i64,
+    migrants: i64,
+    total_mass: Option<f64>,
+    lock: Option<Bound<'py, PyAny>>,
+    param_gene: Option<PathBuf>,
+    descent_start: i64,
+    descent_every: i64,
+}
+
+/// The arguments as a session request: integer conversions and Python's types here, every
+/// range check in the session (the same as the CLI's).
+fn request(
+    scene: &cordis_core::Scene,
+    traj: &Bound<'_, PyAny>,
+    truth: Option<PyRef<'_, Scene>>,
+    a: PyArgs<'_>,
+) -> PyResult<IdentifyRequest> {
+    let mut take = traj_from_py(traj, "traj")?;
+    if let Some(dt) = a.dt {
+        take.dt = Some(check_dt(dt, "dt")?);
+    }
+    let mut r = IdentifyRequest::new(scene.clone(), take);
+    r.style = Style::Python;
+    r.strategy = a.strategy.parse().map_err(|e| bad("strategy", e))?;
+    r.generations = match a.generations {
+        Some(g) => Generations::Limit(count(g, "generations")?),
+        None => Generations::Unlimited,
+    };
+    r.population = a.population.map(|p| count(p, "population")).transpose()?;
+    r.seed = count(a.seed, "seed")?;
+    r.noise = a.noise;
+    r.cost = a.cost.parse().map_err(cost_to_py)?;
+    r.time_limit = a.time_limit;
+    r.target_cost = a.target_cost;
+    r.max_evals = a.max_evals.map(|m| count(m, "max_evals")).transpose()?;
+    r.threads = a.threads.map(|t| count(t, "threads")).transpose()?;
+    r.checkpoint = a.checkpoint;
+    r.resume = a.resume;
+    r.stable_horizon = a
+        .stable_horizon
+        .map(|h| count(h, "stable_horizon"))
+        .transpose()?;
+    r.stable_spread = a.stable_spread;
+    r.islands = match a.islands {
+        Some(k) => Some(IslandConfig {
+            islands: count(k, "islands")?,
+            migrate_every: count(a.migrate_every, "migrate_every")?,
+            migrants: count(a.migrants, "migrants")?,
+        }),
+        None => None,
+    };
+    r.total_mass = a.total_mass;
+    r.lock = a.lock.map(|l| lock_arg(&l)).transpose()?;
+    r.param_gene = a.param_gene;
+    r.descent_start = count(a.descent_start, "descent_start")?;
+    r.descent_every = count(a.descent_every, "descent_every")?;
+    r.truth = truth.map(|t| (*t.core()).clone());
+    Ok(r)
+}
+
+/// `lock`: a `NAME.lock` path or comma-separated names as in the CLI, or a list of names.
+fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
+    if let Ok(text) = l.extract::<String>() {
+        return Ok(Lock::parse(&text));
+    }
+    if let Ok(p) = l.extract::<PathBuf>() {
+        return Ok(Lock::File(p));
+    }
+    l.extract::<Vec<String>>().map(Lock::Names).map_err(|_| {
+        PyTypeError::new_err(format!(
+            "lock: expected a .lock path, comma-separated names or a list of names, got {}",
+            l.get_type()
+                .name()
+                .map(|n| n.to_string())
+                .unwrap_or_default()
+        ))
+    })
+}
+
+/// A session's error as Python raises it: bad options and refused strategies as
+/// `ValueError`, a checkpoint that cannot resume as `CheckpointError`, a failed run as
+/// `RuntimeError`, the rest (scene, trajectory, cost kind) as the library's own classes.
+fn session_to_py(err: CostError) -> PyErr {
+    match err {
+        CostError::Invalid { .. } | CostError::Refused { .. } => {
+            PyValueError::new_err(err.to_string())
+        }
+        CostError::Resume { .. } => checkpoint_error(err.to_string()),
+        CostError::Run { .. } => PyRuntimeError::new_err(err.to_string()),
+        other => cost_to_py(other),
+    }
+}
+
 /// Identifies the unknown parameters of `scene` (written `{"min", "max"}`) from the observed
-/// positions `traj` `(T, N, 3)`, m — what `cordis identify` does, with the GIL released.
+/// positions `traj` `(T, N, 3)`, m — what `cordis identify` does, with the GIL released, under
+/// the same option names (`time_limit` is `--time-limit`).
 ///
-/// - `strategy`: `auto` or `thesis`; `generations` (None: no limit), `population`, `seed` (the
-///   same seed gives the same result on any number of threads).
+/// - `strategy`: `auto`, `thesis`, `least-squares`, `hybrid`, `cmaes`, `self-adaptive`,
+///   `annealing`, `parisian` or `levenberg-marquardt`; `generations` (None: no limit),
+///   `population` (None: the `param_gene` file's, else 100), `seed` (the same seed gives the
+///   same result on any number of threads).
 /// - `callback(generation, best_cost, params)` is called after every generation (and once for
 ///   the initial population), from a worker thread, with the best values so far by name;
 ///   returning `False` (any false value but None) stops the run, an exception stops it and is
 ///   raised again here.
 /// - `noise` (m): Gaussian noise added to `traj` first (drawn from `seed`); `cost`: the cost
 ///   kind; `time_limit` (s), `target_cost`, `max_evals`: further stop rules; `threads`
-///   (default: all cores); `truth`: the true scene, to report `param_error_pct`;
-///   `checkpoint`/`resume`: a checkpoint file written every 50 generations and at the end, and
-///   one to continue from; `dt` (s): the trajectory's time step, checked against the scene's.
-/// - `executor`: where populations are evaluated: None or `"local"` (this process' threads),
-///   `"ray"` (a `cordis.RayExecutor()` on the current or a new local Ray instance: `pip install
-///   cordis-anima[ray]`), or an executor object (`cordis.RayExecutor(num_workers=…)`, or any
-///   object whose `evaluator(scene_json, traj, cost)` returns a callable `(genomes, generation,
-///   local) -> costs | (costs, local)`, with an optional `close()`). The result is the same,
-///   bit for bit, on any executor.
-/// - `islands` (≥ 2): an island model of that many `thesis` populations of `population` each,
-///   seeded from `seed` and the island index, the `migrants` best of each island copied to the
-///   next every `migrate_every` generations (a ring); deterministic given the seed and the
-///   island count.
+///   (default: all cores; more than the machine has are capped, with a warning); `truth`: the
+///   true scene, to report `param_error_pct`; `checkpoint`/`resume`: a checkpoint file written
+///   every 50 generations and at the end, and one to continue from (refused when made for
+///   another scene, data, cost, noise or options); `dt` (s): the trajectory's time step.
+/// - `total_mass` (kg): the free particles' total, needed when their masses are unknown;
+///   `lock`: unknowns kept at their start (a `NAME.lock` file or names); `param_gene`: a thesis
+///   `Param.gene` file; `descent_start`, `descent_every`: the thesis strategy's Powell descent.
+/// - `executor`: where populations are evaluated: None or `"local"`, `"ray"` (a
+///   `cordis.RayExecutor()`: `pip install cordis-anima[ray]`), or an executor object whose
+///   `evaluator(scene_json, traj, cost)` returns a callable `(genomes, generation, local) ->
+///   costs | (costs, local)`, with an optional `close()`. The result is the same, bit for bit.
+/// - `islands` (≥ 2): an island model of that many populations of `population` each, the
+///   `migrants` best of each copied to the next every `migrate_every` generations (a ring).
 ///
-/// Ctrl-C stops the run cleanly (checkpoint written) and raises `KeyboardInterrupt`, whose
-/// `result` attribute holds the `IdentifyResult` so far.
+/// A strategy that cannot run on the problem is refused before any work (`ValueError`), one
+/// that finds no estimate raises `RuntimeError`; what the CLI prints as `warning:` is raised
+/// with `warnings.warn` and kept in `IdentifyResult.warnings`. Ctrl-C stops the run cleanly
+/// (checkpoint written) and raises `KeyboardInterrupt`, whose `result` attribute holds the
+/// `IdentifyResult` so far.
 ///
 /// >>> truth = cordis.example("rigid")
 /// >>> res = cordis.identify(cordis.example("rigid", unknowns=True), truth.simulate(100),
@@ -237,18 +360,20 @@ fn bad(what: &str, message: impl std::fmt::Display) -> PyErr {
 /// True
 #[pyfunction]
 #[pyo3(signature = (
-    scene, traj, strategy = "auto", generations = Some(1000), population = 100, seed = 0,
+    scene, traj, strategy = "auto", generations = Some(1000), population = None, seed = 0,
     callback = None, *, noise = 0.0, cost = "short", time_limit = None, target_cost = None,
     max_evals = None, threads = None, truth = None, checkpoint = None, resume = None, dt = None,
     stable_horizon = None, stable_spread = cordis_es::stable::DEFAULT_SPREAD,
-    executor = None, islands = None, migrate_every = 10, migrants = 2
+    executor = None, islands = None, migrate_every = 10, migrants = 2, total_mass = None,
+    lock = None, param_gene = None, descent_start = 400, descent_every = 100
 ))]
 #[pyo3(
-    text_signature = "(scene, traj, strategy='auto', generations=1000, population=100, \
+    text_signature = "(scene, traj, strategy='auto', generations=1000, population=None, \
     seed=0, callback=None, *, noise=0.0, cost='short', time_limit=None, target_cost=None, \
     max_evals=None, threads=None, truth=None, checkpoint=None, resume=None, dt=None, \
     stable_horizon=None, stable_spread=2.0, \
-    executor=None, islands=None, migrate_every=10, migrants=2)"
+    executor=None, islands=None, migrate_every=10, migrants=2, total_mass=None, lock=None, \
+    param_gene=None, descent_start=400, descent_every=100)"
 )]
 #[allow(clippy::too_many_arguments)]
 pub fn identify(
@@ -257,7 +382,7 @@ pub fn identify(
     traj: &Bound<'_, PyAny>,
     strategy: &str,
     generations: Option<i64>,
-    population: i64,
+    population: Option<i64>,
     seed: i128,
     callback: Option<Bound<'_, PyAny>>,
     noise: f64,
@@ -276,51 +401,39 @@ pub fn identify(
     islands: Option<i64>,
     migrate_every: i64,
     migrants: i64,
+    total_mass: Option<f64>,
+    lock: Option<Bound<'_, PyAny>>,
+    param_gene: Option<PathBuf>,
+    descent_start: i64,
+    descent_every: i64,
 ) -> PyResult<IdentifyResult> {
-    let name: StrategyName = strategy.parse().map_err(|e| bad("strategy", e))?;
-    let generations: Option<u64> = generations.map(|g| count(g, "generations")).transpose()?;
-    let population: usize = count(population, "population")?;
-    let seed: u64 = count(seed, "seed")?;
-    let max_evals: Option<u64> = max_evals.map(|m| count(m, "max_evals")).transpose()?;
-    let threads: Option<usize> = threads.map(|t| count(t, "threads")).transpose()?;
-    let stable = stable_horizon
-        .map(|h| {
-            let h = count(h, "stable_horizon")?;
-            cordis_es::stable::StableHorizon::new(h, stable_spread).map_err(cost_to_py)
-        })
-        .transpose()?;
-    let islands = match islands {
-        Some(k) => Some(IslandConfig {
-            islands: count(k, "islands")?,
-            migrate_every: count(migrate_every, "migrate_every")?,
-            migrants: count(migrants, "migrants")?,
-        }),
-        None => None,
+    let args = PyArgs {
+        strategy,
+        generations,
+        population,
+        seed,
+        noise,
+        cost,
+        time_limit,
+        target_cost,
+        max_evals,
+        threads,
+        checkpoint,
+        resume,
+        dt,
+        stable_horizon,
+        stable_spread,
+        islands,
+        migrate_every,
+        migrants,
+        total_mass,
+        lock,
+        param_gene,
+        descent_start,
+        descent_every,
     };
+    let req = request(&scene.core(), traj, truth, args)?;
     let executor = executor_object(py, executor)?;
-    if population < 2 {
-        return Err(bad(
-            "population",
-            format!("must be 2 or more, got {population}"),
-        ));
-    }
-    if !(noise.is_finite() && noise >= 0.0) {
-        return Err(bad(
-            "noise",
-            format!("must be a standard deviation ≥ 0 m, got {noise}"),
-        ));
-    }
-    let time_limit = match time_limit {
-        Some(t) if t.is_finite() && t >= 0.0 => Some(Duration::from_secs_f64(t)),
-        Some(t) => return Err(bad("time_limit", format!("must be seconds ≥ 0, got {t}"))),
-        None => None,
-    };
-    if target_cost.is_some_and(f64::is_nan) {
-        return Err(bad("target_cost", "must be a number, got nan"));
-    }
-    if threads == Some(0) {
-        return Err(bad("threads", "must be 1 or more (None: all cores)"));
-    }
     if let Some(cb) = &callback {
         if !cb.is_callable() {
             return Err(PyTypeError::new_err(format!(
@@ -329,103 +442,97 @@ pub fn identify(
             )));
         }
     }
-    let kind = cost.parse().map_err(cost_to_py)?;
-    let scene = scene.core();
-    if !scene.has_unknowns() {
-        return Err(SceneError::new_err(
-            "scene: no parameter to identify: write unknowns as {\"min\": …, \"max\": …}",
-        ));
-    }
-    let mut traj = traj_from_py(traj, "traj")?;
-    if let Some(dt) = dt {
-        traj.dt = Some(check_dt(dt, "dt")?);
-    }
-    let truth = truth.map(|t| t.core().clone());
-    let threads = threads.unwrap_or(0);
-    let callback = callback.map(Bound::unbind);
-
-    let prepared = py.detach(|| -> Result<_, PyErr> {
-        if noise > 0.0 {
-            traj = add_noise(&traj, noise, seed);
-        }
-        let mut problem = Problem::new(&scene, &traj, kind).map_err(cost_to_py)?;
-        if let Some(t) = &truth {
-            if t.has_unknowns() || t.param_layout() != scene.param_layout() {
-                return Err(SceneError::new_err(
-                    "truth: must be the scene with every parameter known (same types and \
-                     particles)",
-                ));
-            }
-            problem = problem.with_truth(t).map_err(cost_to_py)?;
-        }
-        if let Some(h) = stable {
-            problem = problem.with_stable_horizon(h);
-        }
-        Ok(problem)
-    });
-    let mut problem = prepared?;
-    let options = StrategyOptions {
-        population,
-        ..StrategyOptions::default()
-    };
-    let (mut strategy, ran) = match islands {
-        Some(config) => {
-            make_islands(name, &problem, &options, config).map_err(|e| bad("islands", e))?
-        }
-        None => make_strategy(name, &problem, &options),
-    };
-    if ran == "levenberg-marquardt" {
-        // It needs the short cost's residuals: say so before the run, as the CLI does.
-        check_strategy(ran, &problem).map_err(|e| bad("strategy", e))?;
-    }
-    // The executor's workers compile the same problem from the same data (the noisy
-    // trajectory, not the caller's): only genomes and costs travel from here on.
+    let mut session = py.detach(|| Session::new(req)).map_err(session_to_py)?;
+    warn_all(py, session.warnings())?;
+    let early = session.warnings().len();
     let evaluator = match &executor {
         Some(ex) => {
-            let traj = traj_to_py(py, traj.clone())?;
-            let ev = ex.call_method1("evaluator", (scene.to_json_string(), traj, cost))?;
-            let remote = Arc::new(PyEvaluator::new(ev.clone().unbind()));
-            problem = problem.with_evaluator(remote.clone());
-            Some((ev, remote))
+            let (s, ev) = attach(py, session, ex, &scene.core().to_json_string(), cost)?;
+            session = s;
+            Some(ev)
         }
         None => None,
     };
-    let config = RunConfig {
-        seed,
-        stop: StopRules {
-            generations,
-            max_evals,
-            time_limit,
-            target_cost,
-        },
-        checkpoint,
-        checkpoint_every: 50,
-        resume,
-        fingerprint: None,
-    };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| PyRuntimeError::new_err(format!("threads: {e}")))?;
-    let mut observer = CallbackObserver {
-        callback,
-        space: problem.space.clone(),
+    let observer = CallbackObserver {
+        callback: callback.map(Bound::unbind),
+        space: session.problem().space.clone(),
         error: None,
         stop: false,
     };
-    let interrupt = AtomicBool::new(false);
+    let (outcome, signal, mut observer) = run_waiting(py, session, observer);
+    // The executor's workers are released whatever happened.
+    let mut remote_error = None;
+    if let Some((ev, remote)) = evaluator {
+        remote_error = remote.take_error();
+        if ev.hasattr("close")? {
+            ev.call_method0("close")?;
+        }
+    }
+    let outcome = outcome
+        .map_err(|_| PyRuntimeError::new_err("identify: the run panicked (a bug in cordis)"))?;
+    if let Some(e) = observer.error.take() {
+        return Err(e);
+    }
+    // The executor's own exception (a lost cluster, a bad return value), not a string of it.
+    if let Some(e) = remote_error {
+        return Err(e);
+    }
+    let outcome = outcome.map_err(session_to_py)?;
+    warn_all(py, &outcome.warnings[early..])?;
+    let result = build_result(py, outcome)?;
+    if let Some(e) = signal {
+        let result = Py::new(py, result)?;
+        e.value(py).setattr("result", result)?;
+        return Err(e);
+    }
+    Ok(result)
+}
 
+/// A remote evaluator: the executor's object (closed after the run) and its adapter.
+type Remote<'py> = (Bound<'py, PyAny>, Arc<PyEvaluator>);
+
+/// The session evaluating on `executor`'s workers, with the evaluator (to close). They
+/// compile the same problem from the same data (the noisy trajectory, not the caller's): only
+/// genomes and costs travel from here on.
+fn attach<'py>(
+    py: Python<'py>,
+    session: Session,
+    executor: &Bound<'py, PyAny>,
+    scene_json: &str,
+    cost: &str,
+) -> PyResult<(Session, Remote<'py>)> {
+    let data = traj_to_py(py, session.data().clone())?;
+    let ev = executor.call_method1("evaluator", (scene_json, data, cost))?;
+    let remote = Arc::new(PyEvaluator::new(ev.clone().unbind()));
+    Ok((session.with_evaluator(remote.clone()), (ev, remote)))
+}
+
+/// `warnings.warn` for each line the CLI prints as `warning:`.
+fn warn_all(py: Python<'_>, lines: &[String]) -> PyResult<()> {
+    let warnings = py.import("warnings")?;
+    for w in lines {
+        warnings.call_method1("warn", (w.as_str(), py.get_type::<PyUserWarning>(), 2))?;
+    }
+    Ok(())
+}
+
+type RunOutcome = Result<Result<Outcome, CostError>, Box<dyn std::any::Any + Send>>;
+
+/// Runs the session on a worker thread without the GIL while this thread, the one Python
+/// delivers signals to, checks for Ctrl-C every [`SIGNAL_POLL`] and raises the interrupt flag.
+fn run_waiting(
+    py: Python<'_>,
+    session: Session,
+    mut observer: CallbackObserver,
+) -> (RunOutcome, Option<PyErr>, CallbackObserver) {
+    let interrupt = AtomicBool::new(false);
     let (outcome, signal) = py.detach(|| {
         let (done, finished) = mpsc::channel::<()>();
-        let (problem, config, interrupt, pool) = (&mut problem, &config, &interrupt, &pool);
-        let observer = &mut observer;
-        let strategy = strategy.as_mut();
+        let (interrupt, observer) = (&interrupt, &mut observer);
         std::thread::scope(|s| {
             let worker = s.spawn(move || {
                 let mut observers: Vec<&mut dyn Observer> = vec![observer];
-                let r = pool.install(|| {
-                    executor::run(problem, strategy, config, &mut observers, Some(interrupt))
-                });
+                let r = session.run(&mut observers, Some(interrupt));
                 let _ = done.send(());
                 r
             });
@@ -446,31 +553,7 @@ pub fn identify(
             (worker.join(), signal)
         })
     });
-    // The executor's workers are released whatever happened.
-    let mut remote_error = None;
-    if let Some((ev, remote)) = evaluator {
-        remote_error = remote.take_error();
-        if ev.hasattr("close")? {
-            ev.call_method0("close")?;
-        }
-    }
-    let outcome = outcome
-        .map_err(|_| PyRuntimeError::new_err("identify: the run panicked (a bug in cordis)"))?;
-    if let Some(e) = observer.error.take() {
-        return Err(e);
-    }
-    // The executor's own exception (a lost cluster, a bad return value), not a string of it.
-    if let Some(e) = remote_error {
-        return Err(e);
-    }
-    let run = outcome.map_err(checkpoint_error)?;
-    let result = build_result(py, &scene, &problem, run)?;
-    if let Some(e) = signal {
-        let result = Py::new(py, result)?;
-        e.value(py).setattr("result", result)?;
-        return Err(e);
-    }
-    Ok(result)
+    (outcome, signal, observer)
 }
 
 /// The executor object for `executor`: None for the local pool, `"ray"` for a default
@@ -504,14 +587,15 @@ fn executor_object<'py>(
     Ok(Some(ex))
 }
 
-fn build_result(
-    py: Python<'_>,
-    scene: &cordis_core::Scene,
-    problem: &Problem,
-    run: RunResult,
-) -> PyResult<IdentifyResult> {
+fn build_result(py: Python<'_>, outcome: Outcome) -> PyResult<IdentifyResult> {
+    let Outcome {
+        result: run,
+        report,
+        scene: identified,
+        problem,
+        warnings,
+    } = outcome;
     let space = &problem.space;
-    let identified = space.scene_with(scene, &run.genome);
     let params = PyDict::new(py);
     for (u, v) in space.unknowns.iter().zip(space.values(&run.genome)) {
         params.set_item(&u.name, v)?;
@@ -525,6 +609,10 @@ fn build_result(
             Some(d.unbind())
         }
         None => None,
+    };
+    let report = match report.to_json() {
+        serde_json::Value::Null => None,
+        v => Some(crate::json::to_py(py, &v)?.unbind()),
     };
     let rows: Vec<f64> = run
         .history
@@ -557,6 +645,8 @@ fn build_result(
         strategy: run.strategy.to_string(),
         param_error_pct: run.param_error_pct,
         stopped_by: stop_text(run.stopped_by).to_string(),
+        report,
+        warnings,
     })
 }
 

@@ -48,7 +48,7 @@ enum Command {
         after_help = "Example:\n  cordis cost rigid.json --trajectory rigid.csv --cost short"
     )]
     Cost(commands::cost::Args),
-    /// Propose a spring network (links, masses, types) from positions alone (issue 10).
+    /// Propose a spring network (links, masses, types) from positions alone.
     #[command(
         after_help = "Example:\n  cordis simulate net.json --frames 300 --out net.csv\n  cordis discover --trajectory net.csv --dt 0.005 --total-mass 20 --out found.json --scores scores.json"
     )]

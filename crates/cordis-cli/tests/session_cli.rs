@@ -195,3 +195,36 @@ fn unknown_masses_without_a_total_are_refused_saying_to_pass_it() {
         );
     }
 }
+
+#[test]
+fn cmaes_counts_its_evaluation_time_and_help_names_no_issue() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    rigid(d);
+    let out = cordis(
+        d,
+        &[
+            "identify",
+            "u.json",
+            "-t",
+            "t.csv",
+            "--strategy",
+            "cmaes",
+            "-g",
+            "20",
+            "-q",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    let s: serde_json::Value = serde_json::from_str(text.lines().last().unwrap()).unwrap();
+    let (eval, total) = (
+        s["eval_seconds"].as_f64().unwrap(),
+        s["seconds"].as_f64().unwrap(),
+    );
+    assert!(eval > 0.0 && eval <= total, "{s}");
+    for args in [&["--help"][..], &["identify", "--help"]] {
+        let help = String::from_utf8_lossy(&cordis(d, args).stdout).into_owned();
+        assert!(!help.contains("(issue"), "{help}");
+    }
+}

@@ -236,27 +236,7 @@ pub fn run_typed(
         mut history,
     } = match &config.resume {
         Some(path) => resume(path, problem, strategy, config)?,
-        None => {
-            problem.set_evals(0);
-            problem.objective.set_generation(0);
-            strategy.init(problem, config.seed);
-            if let Some(e) = problem.take_eval_error() {
-                return Err(CostError::run("generation 0", e));
-            }
-            // A strategy that found no estimate is an error, not its start point as a result.
-            if let Some(e) = strategy.failure() {
-                return Err(CostError::run(strategy.name(), e));
-            }
-            let row = make_row(problem, &*strategy, 0, start.elapsed().as_secs_f64());
-            for o in observers.iter_mut() {
-                o.observe_best(&row, strategy.best().0);
-            }
-            Start {
-                generation: 0,
-                seconds_before: 0.0,
-                history: vec![row],
-            }
-        }
+        None => init(problem, strategy, config, observers, &start)?,
     };
     let elapsed = |start: &Instant| seconds_before + start.elapsed().as_secs_f64();
     let stop = &config.stop;
@@ -351,6 +331,35 @@ pub fn run_typed(
         param_error_pct: problem.error_pct(genome),
         history,
         stopped_by,
+    })
+}
+
+/// Generation 0: the strategy's initial population, evaluated and observed.
+fn init(
+    problem: &mut Problem,
+    strategy: &mut dyn Strategy,
+    config: &RunConfig,
+    observers: &mut [&mut dyn Observer],
+    start: &Instant,
+) -> Result<Start, CostError> {
+    problem.set_evals(0);
+    problem.objective.set_generation(0);
+    strategy.init(problem, config.seed);
+    if let Some(e) = problem.take_eval_error() {
+        return Err(CostError::run("generation 0", e));
+    }
+    // A strategy that found no estimate is an error, not its start point as a result.
+    if let Some(e) = strategy.failure() {
+        return Err(CostError::run(strategy.name(), e));
+    }
+    let row = make_row(problem, &*strategy, 0, start.elapsed().as_secs_f64());
+    for o in observers.iter_mut() {
+        o.observe_best(&row, strategy.best().0);
+    }
+    Ok(Start {
+        generation: 0,
+        seconds_before: 0.0,
+        history: vec![row],
     })
 }
 

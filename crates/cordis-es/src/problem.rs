@@ -211,7 +211,8 @@ impl Problem {
 
     /// Global costs of a population of genomes (row-major, [`Problem::dim`] values each) into
     /// `costs`, and their per-particle local costs (row-major, `num_particles` each) into
-    /// `local` when given, by this problem's [`Evaluator`]. Counts `costs.len()` evaluations.
+    /// `local` when given, by this problem's [`Evaluator`]. Counts `costs.len()` evaluations
+    /// and their time ([`Problem::eval_seconds`]).
     /// Should the evaluator fail, every cost is +inf and the failure is kept for the run loop
     /// ([`Problem::take_eval_error`]), which then stops.
     pub fn evaluate_population(
@@ -221,9 +222,11 @@ impl Problem {
         mut local: Option<&mut [f64]>,
     ) {
         self.evals.fetch_add(costs.len() as u64, Ordering::Relaxed);
-        let outcome = self
-            .evaluator
-            .evaluate(self, genomes, costs, local.as_deref_mut());
+        // Timed here, not by each strategy: one that forgot (cmaes did) reported 0 s.
+        let outcome = self.timed(|| {
+            self.evaluator
+                .evaluate(self, genomes, costs, local.as_deref_mut())
+        });
         match outcome {
             // A remote evaluator's NaN is the same +inf a local one gives.
             Ok(()) => costs

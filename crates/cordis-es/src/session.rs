@@ -244,14 +244,16 @@ impl Session {
             None => make_strategy(req.strategy, &problem, &options),
         };
         check(&req, ran, &problem)?;
-        let fingerprint = fingerprint(&req, &data, noise, &options);
+        // Only a checkpoint reads it; hashing the data costs a pass over it.
+        let fingerprint = (req.checkpoint.is_some() || req.resume.is_some())
+            .then(|| fingerprint(&req, &data, noise, &options));
         let config = RunConfig {
             seed: req.seed,
             stop: stop_rules(&req, gene.as_ref()),
             checkpoint: req.checkpoint.clone(),
             checkpoint_every: CHECKPOINT_EVERY,
             resume: req.resume.clone(),
-            fingerprint: Some(fingerprint),
+            fingerprint,
         };
         Ok(Session {
             problem,
@@ -340,10 +342,11 @@ impl Session {
 fn validate(req: &IdentifyRequest) -> Result<(), CostError> {
     let bad = |name: &str, m: String| Err(CostError::invalid(req.opt(name), m));
     if !req.scene.has_unknowns() {
-        return Err(CostError::invalid(
+        return Err(cordis_core::CordisError::scene(
             &req.scene_place,
             "no parameter to identify: write unknowns as {\"min\": …, \"max\": …}",
-        ));
+        )
+        .into());
     }
     if let Some(p) = req.population.filter(|&p| p < 2) {
         return bad("population", format!("must be 2 or more, got {p}"));
@@ -420,10 +423,11 @@ fn build_problem(req: &IdentifyRequest, data: &Trajectory) -> Result<Problem, Co
     }
     if let Some(t) = &req.truth {
         if t.has_unknowns() || t.param_layout() != req.scene.param_layout() {
-            return Err(CostError::invalid(
+            return Err(cordis_core::CordisError::scene(
                 req.opt("truth"),
                 "must be the scene with every parameter known (same types and particles)",
-            ));
+            )
+            .into());
         }
         problem = problem.with_truth(t)?;
     }

@@ -195,7 +195,7 @@ impl Thesis {
         let genomes: Vec<f64> = inds.iter().flat_map(|i| i.genes.iter().copied()).collect();
         let mut costs = vec![f64::INFINITY; inds.len()];
         let mut local = vec![0.0; inds.len() * n];
-        problem.timed(|| problem.evaluate_population(&genomes, &mut costs, Some(&mut local)));
+        problem.evaluate_population(&genomes, &mut costs, Some(&mut local));
         for (k, ind) in inds.iter_mut().enumerate() {
             ind.cost = costs[k];
             ind.local.clear();

@@ -1,7 +1,7 @@
 //! `cordis bench pareto`: every identification strategy on every shipped example at several
 //! budgets of cost evaluations, as (seconds, evaluations, cost, mean parameter error) points;
 //! and, per example, how much sooner than the `thesis` strategy the best other strategy
-//! reaches the error the thesis reports for that experiment (issue 5).
+//! reaches the error the thesis reports for that experiment.
 //!
 //! One run per (scene, strategy), stopped at the largest budget (or `--time-limit`); the point
 //! of a budget B is the first generation of that run at which B evaluations were spent. That
@@ -29,16 +29,16 @@
 //! the same data (`benches/pareto.py` runs pycma on them).
 
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use anyhow::{anyhow, bail, Context, Result};
 use cordis_core::{examples, LinkKind, Param, Scene, Trajectory};
 use cordis_es::cost::CostKind;
-use cordis_es::executor::{self, HistoryRow, RunConfig, RunResult, StopRules};
-use cordis_es::identify::{
-    check_strategy, make_strategy, with_unknown_boxes, StrategyName, StrategyOptions,
-};
+use cordis_es::executor::{HistoryRow, RunResult};
+use cordis_es::identify::{with_unknown_boxes, StrategyName};
 use cordis_es::problem::Problem;
+use cordis_es::session::{Generations, IdentifyRequest, Session};
+use cordis_es::CostError;
 use serde_json::{json, Value};
 
 /// Every strategy but `auto` (which only picks one of these).
@@ -277,10 +277,6 @@ pub fn run(a: Args, output: super::super::Output) -> Result<()> {
             write_data(dir, s)?;
         }
     }
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(a.threads)
-        .build()
-        .context("--threads")?;
     let mut lines: Vec<Value> = Vec::new();
     let mut speedups = Vec::new();
     out.table(format!(
@@ -302,42 +298,42 @@ pub fn run(a: Args, output: super::super::Output) -> Result<()> {
         let mut reaches: Vec<(String, Option<f64>, f64)> = Vec::new();
         for (label, name) in &strategies {
             let setup_start = Instant::now();
-            let mut problem = Problem::new(&s.unknown, &s.traj, CostKind::Short)?
-                .with_truth(&s.truth)
-                .map_err(|e| anyhow!("{}: {e}", s.name))?;
-            let options = StrategyOptions {
-                population: a.population,
-                ..StrategyOptions::default()
+            let mut req = IdentifyRequest::new(s.unknown.clone(), s.traj.clone());
+            req.scene_place = s.name.clone();
+            req.truth = Some(s.truth.clone());
+            req.strategy = *name;
+            req.population = Some(a.population);
+            req.seed = a.seed;
+            // 0: all cores, as rayon counts.
+            req.threads = (a.threads > 0).then_some(a.threads);
+            req.generations = Generations::Unlimited;
+            req.max_evals = Some(max_budget);
+            req.time_limit = Some(a.time_limit);
+            let session = match Session::new(req) {
+                Ok(session) => session,
+                Err(CostError::Refused {
+                    message: reason, ..
+                }) => {
+                    out.table(format!(
+                        "{:<7} {:<14} not applicable: {reason}",
+                        s.name, label
+                    ));
+                    out.record(
+                        &mut lines,
+                        json!({
+                            "bench": "pareto", "record": "not_applicable", "scene": s.name,
+                            "strategy": label, "reason": reason,
+                        }),
+                    );
+                    continue;
+                }
+                Err(e) => return Err(anyhow!("{} with {label}: {e}", s.name)),
             };
-            let (mut strategy, ran) = make_strategy(*name, &problem, &options);
-            if let Err(reason) = check_strategy(ran, &problem) {
-                out.table(format!(
-                    "{:<7} {:<14} not applicable: {reason}",
-                    s.name, label
-                ));
-                out.record(
-                    &mut lines,
-                    json!({
-                        "bench": "pareto", "record": "not_applicable", "scene": s.name,
-                        "strategy": label, "reason": reason,
-                    }),
-                );
-                continue;
-            }
             let setup = setup_start.elapsed().as_secs_f64();
-            let config = RunConfig {
-                seed: a.seed,
-                stop: StopRules {
-                    generations: None,
-                    max_evals: Some(max_budget),
-                    time_limit: Some(Duration::from_secs_f64(a.time_limit)),
-                    target_cost: None,
-                },
-                ..RunConfig::default()
-            };
-            let result = pool
-                .install(|| executor::run(&mut problem, strategy.as_mut(), &config, &mut [], None))
-                .map_err(|e| anyhow!("{} with {label}: {e}", s.name))?;
+            let result = session
+                .run(&mut [], None)
+                .map_err(|e| anyhow!("{} with {label}: {e}", s.name))?
+                .result;
             for (budget, row) in points(&result.history, &budgets) {
                 let stop = if budget.is_none() {
                     format!("{:?}", result.stopped_by)

@@ -581,9 +581,8 @@ fn extremes() -> Result<()> {
 /// boxes, and the table shows which strategies still reach a finite cost.
 fn wide_identification(a: &Args) -> Result<()> {
     use cordis_es::cost::CostKind;
-    use cordis_es::executor::{self, RunConfig, StopRules};
-    use cordis_es::identify::{make_strategy, with_unknown_boxes, StrategyName, StrategyOptions};
-    use cordis_es::problem::Problem;
+    use cordis_es::identify::{with_unknown_boxes, StrategyName};
+    use cordis_es::session::{Generations, IdentifyRequest, Session};
 
     eprintln!(
         "\nwide_identification: long cost, boxes 1e-3…1e3 × truth, {} evaluations per run",
@@ -599,19 +598,17 @@ fn wide_identification(a: &Args) -> Result<()> {
         for seed in 0..a.identify_seeds {
             let scene = with_unknown_boxes(&truth, 1e6, seed);
             for strategy in [StrategyName::Cmaes, StrategyName::Thesis] {
-                let mut problem = Problem::new(&scene, &traj, CostKind::Long)?;
-                let (mut s, ran) = make_strategy(strategy, &problem, &StrategyOptions::default());
-                let config = RunConfig {
-                    seed,
-                    stop: StopRules {
-                        max_evals: Some(a.identify_evals),
-                        ..StopRules::default()
-                    },
-                    ..RunConfig::default()
-                };
+                let mut req = IdentifyRequest::new(scene.clone(), traj.clone());
+                req.strategy = strategy;
+                req.cost = CostKind::Long;
+                req.seed = seed;
+                req.generations = Generations::Unlimited;
+                req.max_evals = Some(a.identify_evals);
                 let start = Instant::now();
-                let r = executor::run(&mut problem, s.as_mut(), &config, &mut [], None)
-                    .map_err(|e| anyhow::anyhow!(e))?;
+                let session = Session::new(req)?;
+                let ran = session.strategy();
+                let outcome = session.run(&mut [], None)?;
+                let (r, problem) = (&outcome.result, &outcome.problem);
                 let secs = start.elapsed().as_secs_f64();
                 let in_box = problem
                     .space

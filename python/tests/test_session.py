@@ -1,0 +1,143 @@
+"""`cordis.identify` and `cordis identify` are one session: the same checks, refusals,
+warnings and outcome for the same request."""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+import warnings
+
+import pytest
+
+import cordis
+
+STRATEGIES = ["auto", "thesis", "least-squares", "hybrid", "cmaes", "self-adaptive",
+              "annealing", "parisian", "levenberg-marquardt"]
+
+
+@pytest.fixture(scope="module")
+def rigid():
+    truth = cordis.example("rigid")
+    return truth, truth.simulate(60), cordis.example("rigid", unknowns=True)
+
+
+def with_unknown_masses(scene):
+    d = json.loads(scene.to_json())
+    for p in d["particles"]:
+        if not p.get("fixed"):
+            p["mass"] = {"min": 0.3, "max": 3.0}
+    return cordis.Scene.from_dict(d)
+
+
+def test_unknown_masses_without_a_total_say_to_pass_total_mass(rigid):
+    truth, traj, scene = rigid
+    masses = with_unknown_masses(scene)
+    for strategy in ["auto", "least-squares", "thesis"]:
+        with pytest.raises(ValueError, match="pass total_mass"):
+            cordis.identify(masses, traj, strategy=strategy, generations=2)
+    # With the total, the exact solver determines masses and links together.
+    total = sum(p.mass for p in truth.particles if not p.fixed)
+    r = cordis.identify(masses, traj, total_mass=total, truth=truth)
+    assert r.strategy == "least-squares" and r.param_error_pct < 1e-6
+
+
+def test_an_exact_solver_on_a_muscle_is_refused_before_any_work():
+    truth = cordis.example("muscle")
+    traj = truth.simulate(100)
+    scene = cordis.example("muscle", unknowns=True)
+    calls = []
+    for strategy in ["least-squares", "hybrid"]:
+        start = time.perf_counter()
+        with pytest.raises(ValueError, match="muscle"):
+            cordis.identify(scene, traj, strategy=strategy,
+                            callback=lambda *a: calls.append(a))
+        assert time.perf_counter() - start < 5.0
+    assert calls == [], "a refused run evaluated something"
+    with pytest.raises(ValueError, match="short cost"):
+        cordis.identify(cordis.example("rigid", unknowns=True), cordis.example("rigid").simulate(50),
+                        strategy="least-squares", cost="long")
+
+
+def test_threads_beyond_the_machine_are_capped_with_a_warning(rigid):
+    _, traj, scene = rigid
+    with pytest.warns(UserWarning, match="threads 100000: capped"):
+        r = cordis.identify(scene, traj, threads=100000)
+    assert any("capped" in w for w in r.warnings)
+
+
+def test_out_of_range_options_are_value_errors_naming_them(rigid):
+    _, traj, scene = rigid
+    for key, value in [("time_limit", 1e308), ("noise", 1e308), ("noise", float("inf")),
+                       ("total_mass", -1.0), ("population", 10**11)]:
+        with pytest.raises(ValueError, match=key):
+            cordis.identify(scene, traj, strategy="thesis", **{key: value})
+
+
+def test_the_report_and_lock_reach_python(rigid, tmp_path):
+    truth, traj, scene = rigid
+    r = cordis.identify(scene, traj, truth=truth)
+    assert r.report["condition"] >= 1.0 and r.report["undetermined"] == []
+    assert r.warnings == []
+    name = next(iter(r.params))
+    locked = cordis.identify(scene, traj, lock=[name])
+    assert name not in locked.params
+    with pytest.raises(ValueError, match="not an unknown"):
+        cordis.identify(scene, traj, lock=["types.nope.stiffness"])
+    gene = tmp_path / "Param.gene"
+    gene.write_text("population=12\ngeneration=3\n")
+    g = cordis.identify(scene, traj, strategy="thesis", generations=3, param_gene=gene,
+                        descent_start=2, descent_every=1)
+    assert g.history[0, 1] == 12 and g.generations == 3
+
+
+def test_import_star_works_without_ray(tmp_path):
+    code = ("import sys; sys.modules['ray'] = None\n"
+            "from cordis import *\n"
+            "assert 'identify' in dir() and 'RayExecutor' not in dir()\n"
+            "import cordis; assert 'RayExecutor' in dir(cordis)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=tmp_path, timeout=120)
+    assert out.returncode == 0, out.stderr
+
+
+def test_help_lists_every_strategy():
+    for name in STRATEGIES:
+        assert f"`{name}`" in cordis.identify.__doc__, name
+
+
+def cordis_exe():
+    exe = shutil.which("cordis", path=os.path.dirname(sys.executable))
+    assert exe is not None, "the cordis console script is not installed beside python"
+    return exe
+
+
+@pytest.mark.parametrize("strategy", STRATEGIES + ["islands"])
+def test_the_cli_and_python_give_the_same_outcome(rigid, tmp_path, strategy):
+    """Same request through both front ends: the same numbers, stop reason, report and
+    identified scene, for every strategy (a few generations on the rigid example)."""
+    truth, traj, scene = rigid
+    (tmp_path / "truth.json").write_text(truth.to_json())
+    (tmp_path / "scene.json").write_text(scene.to_json())
+    cordis.write_trajectory(tmp_path / "traj.npy", traj)
+    kw = dict(strategy=strategy, generations=4, population=8, seed=3, noise=1e-6)
+    args = ["--strategy", strategy, "--generations", "4", "--population", "8", "--seed", "3",
+            "--noise", "1e-6"]
+    if strategy == "islands":
+        kw.update(strategy="thesis", islands=2, migrate_every=2, migrants=1)
+        args[1] = "thesis"
+        args += ["--islands", "2", "--migrate-every", "2", "--migrants", "1"]
+    out = subprocess.run([cordis_exe(), "identify", "scene.json", "-t", "traj.npy", "--truth",
+                          "truth.json", "--out", "out.json", "-q", *args],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert out.returncode == 0, out.stderr
+    summary = json.loads(out.stdout.strip().splitlines()[-1])
+    with warnings.catch_warnings(record=True):
+        res = cordis.identify(scene, traj, truth=truth, **kw)
+    for key in ["cost", "rmse", "evals", "generations", "param_error_pct", "stopped_by"]:
+        assert summary[key] == getattr(res, key), key
+    if strategy != "islands":  # the CLI names what each island runs, Python "islands"
+        assert summary["strategy"] == res.strategy
+    assert json.loads(json.dumps(summary.get("solver"))) == json.loads(json.dumps(res.report))
+    assert cordis.Scene.from_json(tmp_path / "out.json") == res.scene
