@@ -324,7 +324,9 @@ fn session_to_py(err: CostError) -> PyErr {
 /// the same option names (`time_limit` is `--time-limit`).
 ///
 /// - `strategy`: `auto`, `thesis`, `least-squares`, `hybrid`, `cmaes`, `self-adaptive`,
-///   `annealing`, `parisian` or `levenberg-marquardt`; `generations` (None: no limit),
+///   `annealing`, `parisian`, `levenberg-marquardt` or `output-error` (see
+///   docs/identification.md; `auto` picks one from the scene and the data); `generations`
+///   (None: no limit),
 ///   `population` (None: the `param_gene` file's, else 100), `seed` (the same seed gives the
 ///   same result on any number of threads).
 /// - `callback(generation, best_cost, params)` is called after every generation (and once for

@@ -14,7 +14,7 @@ import pytest
 import cordis
 
 STRATEGIES = ["auto", "thesis", "least-squares", "hybrid", "cmaes", "self-adaptive",
-              "annealing", "parisian", "levenberg-marquardt"]
+              "annealing", "parisian", "levenberg-marquardt", "output-error"]
 
 
 @pytest.fixture(scope="module")

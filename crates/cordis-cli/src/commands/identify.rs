@@ -21,8 +21,9 @@ pub struct Args {
     #[arg(long, short = 't')]
     trajectory: PathBuf,
     /// Strategy: auto | thesis | least-squares | hybrid | cmaes | self-adaptive | annealing |
-    /// parisian | levenberg-marquardt. auto = least-squares when every unknown enters linearly,
-    /// hybrid when only ranges, v_max or a TGR's stiffness and tendon do not,
+    /// parisian | levenberg-marquardt | output-error. auto = output-error on noisy or gappy data
+    /// (when every kind has exact sensitivities), else least-squares when every unknown enters
+    /// linearly, hybrid when only ranges, v_max or a TGR's stiffness and tendon do not,
     /// levenberg-marquardt when the short cost is smooth in every unknown (muscles, worlds),
     /// else thesis.
     #[arg(long, default_value = "auto")]

@@ -568,8 +568,20 @@ impl Strategy for Cmaes {
 
     fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String> {
         self.boxes = boxes(problem);
+        let n = problem.dim();
+        // Every vector and matrix of the search sized by the problem: a hand-edited or foreign
+        // state would otherwise index out of them generations later.
         self.state = load_checked("cmaes", state, |st: &State| {
-            st.best_genome.len() == problem.dim()
+            let r = &st.ipop.run;
+            st.best_genome.len() == n
+                && st.ipop.best_x.len() == n
+                && r.n == n
+                && [&r.mean, &r.scale, &r.pc, &r.ps]
+                    .iter()
+                    .all(|v| v.len() == n)
+                && r.cov.len() == n * n
+                && r.basis.len() == n * n
+                && r.lambda >= 2
         })?;
         Ok(())
     }

@@ -384,6 +384,11 @@ impl Strategy for Parisian {
             st.best_genome.len() == problem.dim()
                 && st.whole.len() == problem.dim()
                 && st.subs.len() == self.groups.len()
+                && st
+                    .subs
+                    .iter()
+                    .zip(&self.groups)
+                    .all(|(s, g)| s.fits(g.len()))
         })?;
         Ok(())
     }

@@ -118,6 +118,24 @@ pub struct SaEs {
 }
 
 impl SaEs {
+    /// Whether a loaded state searches `n` coordinates: its parents and their step sizes and
+    /// rotation angles sized for them (a checkpoint's state is checked before it runs).
+    pub(crate) fn fits(&self, n: usize) -> bool {
+        let c = &self.config;
+        let sigmas = if c.per_coordinate { n } else { 1 };
+        let alphas = if c.correlated {
+            n * n.saturating_sub(1) / 2
+        } else {
+            0
+        };
+        self.n == n
+            && !self.parents.is_empty()
+            && self
+                .parents
+                .iter()
+                .all(|p| p.x.len() == n && p.sigma.len() == sigmas && p.alpha.len() == alphas)
+    }
+
     pub fn new(config: SelfAdaptiveConfig, n: usize) -> SaEs {
         let mut config = config;
         config.lambda = config.lambda.max(1);
@@ -394,7 +412,7 @@ impl Strategy for SelfAdaptive {
     fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String> {
         self.boxes = boxes(problem);
         self.state = load_checked("self-adaptive", state, |st: &State| {
-            st.best_genome.len() == problem.dim() && !st.es.parents.is_empty()
+            st.best_genome.len() == problem.dim() && st.es.fits(problem.dim())
         })?;
         Ok(())
     }
