@@ -153,7 +153,7 @@ impl Fitter<'_> {
     /// The cost at which residuals are at the rounding of the positions themselves
     /// (`(8 ε max|y|)²` per observed coordinate): noiseless data fitted exactly, where no step
     /// can lower the cost any further.
-    fn rounding_floor(&self, window: usize) -> f64 {
+    pub(crate) fn rounding_floor(&self, window: usize) -> f64 {
         let (mut count, mut size) = (0usize, 0.0f64);
         for take in self.takes {
             for t in 0..window.min(take.frames()) {
@@ -217,7 +217,7 @@ impl Fitter<'_> {
     }
 
     /// Which θ coordinates sit on a bound with the descent direction (-g) pointing out.
-    fn held(&self, q: &[f64], g: &DVector<f64>) -> Vec<bool> {
+    pub(crate) fn held(&self, q: &[f64], g: &DVector<f64>) -> Vec<bool> {
         let mut held = vec![false; self.len()];
         for (k, u) in self.unknowns.iter().enumerate() {
             let (lo, hi) = u.internal_bounds();

@@ -42,6 +42,7 @@
 //! initial state goes into the identified scene, so replaying it reproduces the observed motion.
 
 pub mod fit;
+pub mod matrix_free;
 pub mod observations;
 pub mod start;
 pub mod tangent;
@@ -141,7 +142,12 @@ pub fn estimate(
     check_config(config)?;
     let slots: Vec<usize> = space.unknowns.iter().map(|u| u.slot).collect();
     let cols = tangent.columns(&slots);
-    check_memory(&tangent, &cols, takes.len())?;
+    let large = cols.len > matrix_free::DENSE_MAX_COLUMNS;
+    if large {
+        matrix_free::check_memory(&tangent, takes)?;
+    } else {
+        check_memory(&tangent, &cols, takes.len())?;
+    }
     let noise_level: Vec<f64> = takes.iter().map(start::noise_level).collect();
     let (genome, start_note) = match &config.start {
         Some(g) if g.len() == space.dim() => (g.clone(), "given start".to_string()),
@@ -177,10 +183,17 @@ pub fn estimate(
         xtol: config.xtol,
         gtol: config.gtol,
     };
+    let noise = noise_level.iter().cloned().fold(0.0, f64::max);
+    if large {
+        // Above the threshold the dense normal equations cost more than the whole
+        // matrix-free fit (matrix_free::DENSE_MAX_COLUMNS).
+        return matrix_free::fit(&fitter, q, config, set, noise, noise_level, start_note);
+    }
     let mut counts = Counts::default();
     let mut buf = Sens::default();
-    let noise = noise_level.iter().cloned().fold(0.0, f64::max);
-    let (end, windows) = grow_windows(&fitter, &mut q, config, set, noise, &mut counts, &mut buf)?;
+    let (end, windows) = grow_windows(&fitter, &mut q, config, noise, &mut |q, w| {
+        fit::lm_stage(&fitter, q, w, set, &mut counts, &mut buf)
+    })?;
     counts.evaluations += 1;
     let ne = fitter
         .normal(&q, longest, &mut buf)
@@ -204,15 +217,16 @@ pub fn estimate(
 /// growing too fast: the fit goes back to the last good window's optimum and grows by a
 /// smaller factor (1.5, 1.25, 1.125 of the last clean window); a window that cannot be grown
 /// into cleanly even so is kept as it ended and the doubling resumes from it.
-fn grow_windows(
+/// `stage(q, w)` minimises over the first w frames from q: the dense [`fit::lm_stage`] or the
+/// matrix-free one, so both paths grow the same windows.
+pub(crate) fn grow_windows(
     fitter: &Fitter<'_>,
     q: &mut Vec<f64>,
     config: &Config,
-    set: LmSettings,
     noise: f64,
-    counts: &mut Counts,
-    buf: &mut Sens,
+    stage: &mut dyn FnMut(&mut Vec<f64>, usize) -> StageEnd,
 ) -> Result<(StageEnd, Vec<usize>), CostError> {
+    let buf = &mut Sens::default();
     let longest = fitter.takes.iter().map(Take::frames).max().unwrap_or(0);
     let tolerance = (1.5 * noise).max(1e-9 * fitter.observed_size());
     let mut windows = Vec::new();
@@ -221,7 +235,7 @@ fn grow_windows(
     let mut w = config.first_window.min(longest);
     loop {
         windows.push(w);
-        let end = fit::lm_stage(fitter, q, w, set, counts, buf);
+        let end = stage(q, w);
         if end == StageEnd::Diverged {
             return Err(CostError::mismatch(
                 "output-error",

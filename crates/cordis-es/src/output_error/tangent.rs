@@ -356,18 +356,31 @@ impl Ctx<'_> {
 }
 
 /// One spring's force on its end i and its derivatives (module docs).
-struct SpringLink {
+pub(crate) struct SpringLink {
     /// ∂f_i/∂d.
-    a: [[f64; 3]; 3],
+    pub a: [[f64; 3]; 3],
     /// ∂f_i/∂w (zero when undamped).
     b: [[f64; 3]; 3],
     /// ∂f_i/∂(K, l0, Z).
-    dp: [Vec3; 3],
+    pub dp: [Vec3; 3],
+    /// The unit direction u (∂f_i/∂w = Z u uᵀ: the matrix-free passes apply it as a rank one),
+    /// the elongation `l - l0` and the rate `s = w·u` (∂f_i/∂θ = (l - l0, -K, s) u).
+    pub u: Vec3,
+    pub e: f64,
+    pub s: f64,
     damped: bool,
 }
 
 /// The spring from `xi` to `xj` (the force acts on i): see the module docs.
-fn spring_link(xj: &Vec3, xi: &Vec3, vj: &Vec3, vi: &Vec3, k: f64, l0: f64, z: f64) -> SpringLink {
+pub(crate) fn spring_link(
+    xj: &Vec3,
+    xi: &Vec3,
+    vj: &Vec3,
+    vi: &Vec3,
+    k: f64,
+    l0: f64,
+    z: f64,
+) -> SpringLink {
     let d = xj - xi;
     let l = d.norm();
     let inv = if l >= cordis_core::forces::MIN_LENGTH {
@@ -394,6 +407,9 @@ fn spring_link(xj: &Vec3, xi: &Vec3, vj: &Vec3, vi: &Vec3, k: f64, l0: f64, z: f
         a,
         b,
         dp: [u * (l - l0), -u * k, u * s],
+        u,
+        e: l - l0,
+        s,
         damped: z != 0.0,
     }
 }

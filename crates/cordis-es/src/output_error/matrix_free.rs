@@ -1,0 +1,1898 @@
+//! Matrix-free Gauss–Newton for large scenes: the same estimate as [`super::fit`], without ever
+//! forming the sensitivity matrices or the normal equations.
+//!
+//! # Why
+//!
+//! The dense path carries `S(n) = ∂x(n)/∂q`, a `3N × P` matrix, through every step and
+//! accumulates `H = Σ w² JᵀJ` (`3N P²` multiply-adds per frame). On the 32 × 32 cloth
+//! (N = 1024, P = 18 + 6·992 = 5,970) that is ~1.1·10¹¹ per frame for H alone and ~10⁹ per
+//! frame for the tangent: hours per Levenberg–Marquardt iteration. Here every product with J
+//! costs about one simulation.
+//!
+//! # The step
+//!
+//! Each Levenberg–Marquardt step solves `(JᵀW²J + λD) δ = -JᵀW²e` by preconditioned conjugate
+//! gradients (PCG), which only needs products `H v = Jᵀ (W² (J v))`:
+//!
+//! - **`J v`** (forward, [`Mf::forward`]): the tangent recursion of [`super::tangent`] for a single
+//!   direction v instead of P columns,
+//!
+//!   ```text
+//!   s(n+1) = 2 s(n) - s(n-1) + h (K(n) s(n) + C(n) ṡ(n) + G(n) v_θ),   ṡ(n) = (s(n) - s(n-1))/dt
+//!   ```
+//!
+//!   with `h = dt²/m` per particle (0 rows for fixed particles), `K = ∂F/∂x`, `C = ∂F/∂v`
+//!   assembled from the per-link 3×3 blocks `A = ∂f/∂d`, `B = ∂f/∂w = Z u uᵀ` of
+//!   [`super::tangent`] (`K_ii = K_jj = -A`, `K_ij = K_ji = A` for a link i–j), `G = ∂F/∂θ`
+//!   (with the mass column `-F/m`), and `s(0) = v_x0`, `s(-1) = v_x0 - dt v_v0`.
+//! - **`Jᵀ u`** (reverse, [`Mf::adjoint`]): the transpose of that linear recursion, run
+//!   backwards over the stored linearisation. With `z(n) = (s(n), s(n-1))` the forward map is
+//!   `z(n+1) = Φ(n) z(n) + …`; the adjoint `λ(n) = (a(n), b(n))` obeys
+//!   `λ(n) = Φ(n)ᵀ λ(n+1) + (u(n), 0)`, i.e. with `P` the free-row mask,
+//!
+//!   ```text
+//!   φ = h ⊙ P a(n+1)                                   (adjoint of the force increment)
+//!   ψ = C(n)ᵀ φ                                        (adjoint of the velocity ṡ(n))
+//!   a(n) = u(n) + 2 P a(n+1) + K(n)ᵀ φ + ψ/dt + b(n+1)
+//!   b(n) = -P a(n+1) - ψ/dt
+//!   ∂/∂θ += G(n)ᵀ φ
+//!   ```
+//!
+//!   from `a(T-1) = u(T-1)`, `b(T-1) = 0`; then `∂/∂x0 = a(0) + b(0)`, `∂/∂v0 = -dt b(0)`.
+//!   `Kᵀ` uses `Aᵀ` per link: A is *not* symmetric when the spring is damped (its last term
+//!   `(Z/l) u ((I - u uᵀ) w)ᵀ`), so the transpose is applied explicitly.
+//!
+//! The linearisation (A, u, l - l0 and w·u per link, v and F per particle, every step) is stored once
+//! per iterate by the nonlinear rollout ([`Lin`]): forward and adjoint then read the same
+//! numbers, and `⟨J v, u⟩ = ⟨v, Jᵀ u⟩` holds to rounding (tested).
+//!
+//! # The preconditioner
+//!
+//! `M = [[H_θθ, H_θs], [H_sθ, D_s]]`: the θ rows and columns of H exactly (one forward pass
+//! with the `nθ` unit directions and one adjoint pass, both `nθ` wide), and for the initial
+//! states a 6×6 block per free particle from a *local model* (the particle alone, its
+//! neighbours held: `s(n+1) = 2s - s(n-1) + h (K_ii s + C_ii ṡ)`, `D_i = Σ w² sᵀ s` over its
+//! own observed coordinates). `M⁻¹` is applied through the Schur complement
+//! `H_θθ - H_θs D_s⁻¹ H_sθ` (18 × 18 on the cloth); if that is not positive definite the
+//! θ–state coupling is dropped (block-Jacobi). The exact θ rows matter: the parameters couple
+//! to every initial state, and a diagonal preconditioner leaves that coupling to CG.
+//!
+//! # The iteration
+//!
+//! The same windows, start, Marquardt scaling (the running maximum of the diagonal, here the
+//! preconditioner's), Nielsen λ rule and projection as [`super::fit::lm_stage`], with what a
+//! step costing ~50–300 simulations calls for:
+//!
+//! - **inexact steps**: the CG solve stops at a relative residual `0.5 √(‖g‖/‖g₀‖)` clamped
+//!   to [[`STEP_CG_TOL`], [`STEP_CG_TOL_MAX`]], or after [`STEP_CG_ITERATIONS`] (a truncated
+//!   CG iterate still descends the model);
+//! - **halving before re-solving**: a step that raises the cost is tried at ½ and ¼ (one
+//!   simulation each) before a new solve at a larger λ;
+//! - **statistical stopping**: a window stops when a step lowers the cost by less than
+//!   `χ² σ̂²` (the estimate moves by less than √χ² standard errors): [`FINAL_CHI2`] = 0.01 on
+//!   the last window, [`WINDOW_CHI2`] = 1 (or [`WINDOW_FTOL`], or [`WINDOW_ITERATIONS`]) on the
+//!   others, whose only job is to bring the next into the basin. The dense criteria
+//!   (ftol 1e-10) spend most iterations creeping along parameters held at their bounds;
+//! - the preconditioner's θ columns refreshed every [`COLUMNS_EVERY`] accepted steps.
+//!
+//! # What it reports
+//!
+//! Standard errors for θ: the θ block of `H⁻¹` by nθ PCG solves `H x_k = e_k` (run together,
+//! nθ wide), scaled by `σ̂²`. A solve that does not converge leaves its unknown's standard error
+//! NaN (not computed), never a guessed number. The undetermined directions of the full system
+//! are not computed on this path (no eigendecomposition of a 6,000-wide H).
+
+// Index loops mirror the row-major `(3i + c)·w + col` layout the passes address.
+#![allow(clippy::needless_range_loop)]
+
+use cordis_core::plan::Scratch;
+use cordis_core::Vec3;
+use nalgebra::{DMatrix, DVector, Matrix6};
+
+use super::fit::{Counts, Fitter, LmSettings, StageEnd};
+use super::tangent::{spring_link, NONE};
+
+/// Floats stored per spring or anchor per step: A (9, row-major), u (3), `l - l0`, `s = w·u`
+/// (∂f_i/∂(K, l0, Z) = (l - l0, -K, s) u). The passes are bound by reading this: 14 floats,
+/// not the 27 of A, B and ∂f/∂θ.
+const LINK: usize = 14;
+
+/// The dense path is used up to this many local columns (θ plus one take's initial state).
+/// Measured on the cloth without its Provot limit, 100 frames, σ = 1e-3 of its size, on the
+/// shared 2-core machine: the dense path on 8 × 8 (P = 354) takes 96 s wall (0.18 s per
+/// evaluation of the normal equations, `3N·P²` per frame), the matrix-free one on 12 × 12
+/// (P = 810) 11 s for the fit plus 12 s for the standard errors. Below the threshold the dense
+/// path stays: it is exact, it reports the undetermined directions, and on the 12–30-mass
+/// networks it is well under a second.
+pub const DENSE_MAX_COLUMNS: usize = 500;
+
+/// Refuses matrix-free fits whose stored linearisations would not fit in memory: per take and
+/// frame, 14 floats per spring or anchor, 3 per damper, 4 per coordinate, plus the θ-wide
+/// forward output of the preconditioner (3N·nθ per frame).
+pub(crate) fn check_memory(
+    tangent: &super::tangent::Tangent,
+    takes: &[super::Take],
+) -> Result<(), crate::error::CostError> {
+    const LIMIT: f64 = 8.0 * (1u64 << 30) as f64;
+    let plan = &tangent.plan;
+    let links = (plan.springs.pairs.len() + plan.anchors.particles.len()) as f64;
+    let per_frame =
+        14.0 * links + 3.0 * plan.dampers.pairs.len() as f64 + 4.0 * 3.0 * plan.n as f64;
+    let frames: f64 = takes.iter().map(|t| t.frames() as f64).sum();
+    let longest = takes.iter().map(|t| t.frames()).max().unwrap_or(0) as f64;
+    let theta = plan.layout.len as f64;
+    let bytes = 8.0 * (per_frame * frames + 3.0 * plan.n as f64 * longest * theta.min(64.0));
+    if bytes > LIMIT {
+        return Err(crate::error::CostError::mismatch(
+            "output-error",
+            format!(
+                "the matrix-free fit needs about {:.1} GB to store {frames} frames' \
+                 linearisation (limit {:.0} GB)",
+                bytes / 1e9,
+                LIMIT / 1e9
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Relative residual of the CG solve of each Levenberg–Marquardt step: an inexact
+/// Gauss–Newton step (the λ rule and the cost test still decide), since the step's accuracy
+/// beyond this costs CG iterations (each about two simulations) without better steps.
+pub const STEP_CG_TOL: f64 = 1e-3;
+/// A window stops when a step lowers the cost by less than this many σ̂² (the estimate moves
+/// by less than √· standard errors): intermediate windows only have to bring the next into the
+/// basin (1 standard error), the last stops at 0.1 standard error. On the cloth the dense
+/// criteria (ftol 1e-10) spend most iterations creeping along poorly determined dampings.
+pub const WINDOW_CHI2: f64 = 1.0;
+pub const FINAL_CHI2: f64 = 1e-2;
+
+/// Relative residual of the standard-error solves `H x = e_k`: the variances to ~4 digits.
+pub const STDERR_CG_TOL: f64 = 1e-6;
+/// The loosest relative residual of a step's CG solve (far from the optimum).
+pub const STEP_CG_TOL_MAX: f64 = 0.1;
+/// Halvings of a rejected step tried before a new solve at a larger λ.
+const BACKTRACK: usize = 2;
+/// Iteration budget and relative cost tolerance of every window but the last (they only
+/// bring the next into the basin).
+pub const WINDOW_ITERATIONS: usize = 10;
+pub const WINDOW_FTOL: f64 = 1e-4;
+/// Iterations of a step's CG solve: beyond, the (truncated, still descending) step is taken.
+pub const STEP_CG_ITERATIONS: usize = 80;
+/// Accepted steps between refreshes of the preconditioner's θ columns.
+pub const COLUMNS_EVERY: usize = 3;
+
+/// Settings of the inner conjugate-gradient solves.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct CgSettings {
+    /// Relative residual `‖r‖/‖b‖` at which a solve stops.
+    pub tol: f64,
+    pub max_iterations: usize,
+}
+
+impl Default for CgSettings {
+    fn default() -> Self {
+        CgSettings {
+            tol: 1e-6,
+            max_iterations: 300,
+        }
+    }
+}
+
+/// The linearisation of one take's rollout at the current iterate, over its window.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Lin {
+    frames: usize,
+    /// `[(n · springs + l) · LINK ..]`, steps n < frames - 1.
+    springs: Vec<f64>,
+    anchors: Vec<f64>,
+    /// `[(n · dampers + l) · 3 ..]`: `v_j - v_i` (∂f_i/∂Z).
+    dampers: Vec<f64>,
+    /// `[n · 3N + r]`: v(n) (drags' ∂f/∂Z) and F(n) (the mass column).
+    vel: Vec<f64>,
+    force: Vec<f64>,
+    /// `[t · 3N + r]`: `w²` (0 where missing) and `w² (x - y)`.
+    wsq: Vec<f64>,
+    res: Vec<f64>,
+    /// Per free particle, the local-model 6×6 block (row-major).
+    local: Vec<f64>,
+    pub cost: f64,
+    /// Observed coordinates in the window.
+    pub observed: usize,
+}
+
+/// Caller-owned buffers of the passes (no allocation once sized).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Work {
+    x: Vec<Vec3>,
+    x_prev: Vec<Vec3>,
+    scratch: Option<Scratch>,
+    cur: Vec<f64>,
+    prev: Vec<f64>,
+    vel: Vec<f64>,
+    df: Vec<f64>,
+    phi: Vec<f64>,
+    dth: Vec<f64>,
+    /// Local direction (θ, the take's state) × width, and the local gradient.
+    dir: Vec<f64>,
+    grad: Vec<f64>,
+    /// Forward output, frames × 3N × width.
+    out: Vec<f64>,
+    /// Local model: K_ii and C_ii per particle (9 each).
+    kii: Vec<f64>,
+    cii: Vec<f64>,
+}
+
+/// The matrix-free operator at one iterate: the fitter, its parameters and every take's
+/// linearisation.
+pub(crate) struct Mf<'a, 'b> {
+    pub fit: &'a Fitter<'b>,
+    p: Vec<f64>,
+    chain: Vec<f64>,
+    pub lins: Vec<Lin>,
+}
+
+impl<'a, 'b> Mf<'a, 'b> {
+    pub fn new(fit: &'a Fitter<'b>) -> Self {
+        Mf {
+            fit,
+            p: Vec::new(),
+            chain: Vec::new(),
+            lins: vec![Lin::default(); fit.takes.len()],
+        }
+    }
+
+    fn local_len(&self) -> usize {
+        self.fit.theta() + self.fit.state_len()
+    }
+
+    pub fn cost(&self) -> f64 {
+        self.lins.iter().map(|l| l.cost).sum()
+    }
+
+    /// Rolls every take out from `q` over `window` frames, storing the linearisation; returns
+    /// false when a rollout diverges or the cost is not finite.
+    pub fn linearise(&mut self, q: &[f64], window: usize, work: &mut Work) -> bool {
+        self.p = self.fit.params(q);
+        self.chain = self.fit.chain(q);
+        let (nt, ns) = (self.fit.theta(), self.fit.state_len());
+        for k in 0..self.fit.takes.len() {
+            let state = &q[nt + k * ns..][..ns];
+            let mut lin = std::mem::take(&mut self.lins[k]);
+            let ok = self.linearise_take(k, state, window, &mut lin, work);
+            self.lins[k] = lin;
+            if !ok {
+                return false;
+            }
+        }
+        self.cost().is_finite()
+    }
+
+    fn linearise_take(
+        &self,
+        k: usize,
+        state: &[f64],
+        window: usize,
+        lin: &mut Lin,
+        work: &mut Work,
+    ) -> bool {
+        let tangent = self.fit.tangent;
+        let plan = &tangent.plan;
+        let take = &self.fit.takes[k];
+        let (n, dt, p) = (plan.n, plan.dt, &self.p);
+        let rows = 3 * n;
+        let frames = window.min(take.frames());
+        let steps = frames - 1;
+        let (nsp, nan, nd) = (
+            plan.springs.pairs.len(),
+            plan.anchors.particles.len(),
+            plan.dampers.pairs.len(),
+        );
+        lin.frames = frames;
+        lin.springs.resize(steps * nsp * LINK, 0.0);
+        lin.anchors.resize(steps * nan * LINK, 0.0);
+        lin.dampers.resize(steps * nd * 3, 0.0);
+        lin.vel.resize(steps * rows, 0.0);
+        lin.force.resize(steps * rows, 0.0);
+        lin.wsq.resize(frames * rows, 0.0);
+        lin.res.resize(frames * rows, 0.0);
+        lin.cost = 0.0;
+        lin.observed = 0;
+        let Work {
+            x, x_prev, scratch, ..
+        } = work;
+        x.clear();
+        x.extend_from_slice(&plan.x0);
+        x_prev.clear();
+        x_prev.extend_from_slice(&plan.x0);
+        for (f, &i) in tangent.free.iter().enumerate() {
+            let s = &state[6 * f..6 * f + 6];
+            x[i] = Vec3::new(s[0], s[1], s[2]);
+            x_prev[i] = Vec3::new(s[0] - s[3] * dt, s[1] - s[4] * dt, s[2] - s[5] * dt);
+        }
+        let mut sc = scratch.take().unwrap_or_else(|| plan.scratch());
+        plan.reset_state(p, &mut sc);
+        sc.frame = 0;
+        let mut ok = true;
+        for t in 0..frames {
+            for (i, xi) in x.iter().enumerate() {
+                for c in 0..3 {
+                    let (y, w) = take.at(t, i, c);
+                    let r = t * rows + 3 * i + c;
+                    if w > 0.0 {
+                        let e = xi[c] - y;
+                        lin.cost += w * w * e * e;
+                        lin.observed += 1;
+                        lin.wsq[r] = w * w;
+                        lin.res[r] = w * w * e;
+                    } else {
+                        lin.wsq[r] = 0.0;
+                        lin.res[r] = 0.0;
+                    }
+                }
+            }
+            if t + 1 == frames {
+                break;
+            }
+            if plan.step(p, x, x_prev, &mut sc).is_some() {
+                ok = false;
+                break;
+            }
+            // After the step: x_prev = x(t), sc.v = v(t), sc.f = F(t): the point the tangent
+            // step from t to t+1 is linearised at (as in `Tangent::tangent_step`).
+            let (xn, v) = (&*x_prev, &sc.v);
+            for r in &plan.springs.runs {
+                let (kk, l0, z) = (p[r.param], p[r.param + 1], p[r.param + 2]);
+                for (l, &[i, j]) in plan.springs.pairs[r.start..r.end].iter().enumerate() {
+                    let (i, j) = (i as usize, j as usize);
+                    let lk = spring_link(&xn[j], &xn[i], &v[j], &v[i], kk, l0, z);
+                    let d = &mut lin.springs[(t * nsp + r.start + l) * LINK..][..LINK];
+                    store_link(d, &lk);
+                }
+            }
+            for r in &plan.anchors.runs {
+                let (kk, l0, z) = (p[r.param], p[r.param + 1], p[r.param + 2]);
+                let items = plan.anchors.particles[r.start..r.end]
+                    .iter()
+                    .zip(&plan.anchors.points[r.start..r.end]);
+                for (l, (&i, point)) in items.enumerate() {
+                    let i = i as usize;
+                    let lk = spring_link(point, &xn[i], &Vec3::zeros(), &v[i], kk, l0, z);
+                    let d = &mut lin.anchors[(t * nan + r.start + l) * LINK..][..LINK];
+                    store_link(d, &lk);
+                }
+            }
+            for (l, &[i, j]) in plan.dampers.pairs.iter().enumerate() {
+                let rel = v[j as usize] - v[i as usize];
+                lin.dampers[(t * nd + l) * 3..][..3].copy_from_slice(rel.as_slice());
+            }
+            for i in 0..n {
+                for c in 0..3 {
+                    lin.vel[t * rows + 3 * i + c] = v[i][c];
+                    lin.force[t * rows + 3 * i + c] = sc.f[i][c];
+                }
+            }
+        }
+        *scratch = Some(sc);
+        if ok {
+            self.local_blocks(lin, work);
+        }
+        ok && lin.cost.is_finite()
+    }
+
+    /// The local-model 6×6 block of every free particle (module docs): its own sensitivity
+    /// to its own initial state with its neighbours held, accumulated over its observations.
+    fn local_blocks(&self, lin: &mut Lin, work: &mut Work) {
+        let plan = &self.fit.tangent.plan;
+        let free = &self.fit.tangent.free;
+        let (n, dt, p) = (plan.n, plan.dt, &self.p);
+        let rows = 3 * n;
+        let (nsp, nan) = (plan.springs.pairs.len(), plan.anchors.particles.len());
+        let mo = plan.layout.mass_offset;
+        lin.local.clear();
+        lin.local.resize(36 * free.len(), 0.0);
+        // Per free particle: S (3×6) and S(n-1), row-major, packed.
+        let Work {
+            cur,
+            prev,
+            df,
+            kii,
+            cii,
+            ..
+        } = work;
+        cur.clear();
+        cur.resize(18 * free.len(), 0.0);
+        prev.clear();
+        prev.resize(18 * free.len(), 0.0);
+        df.clear();
+        df.resize(18, 0.0);
+        for f in 0..free.len() {
+            for k in 0..3 {
+                cur[18 * f + 6 * k + k] = 1.0;
+                prev[18 * f + 6 * k + k] = 1.0;
+                prev[18 * f + 6 * k + 3 + k] = -dt;
+            }
+        }
+        for t in 0..lin.frames {
+            for (f, &i) in free.iter().enumerate() {
+                let s = &cur[18 * f..18 * f + 18];
+                let blk = &mut lin.local[36 * f..36 * f + 36];
+                for c in 0..3 {
+                    let w2 = lin.wsq[t * rows + 3 * i + c];
+                    if w2 > 0.0 {
+                        let row = &s[6 * c..6 * c + 6];
+                        for a in 0..6 {
+                            for b in 0..6 {
+                                blk[6 * a + b] += w2 * row[a] * row[b];
+                            }
+                        }
+                    }
+                }
+            }
+            if t + 1 == lin.frames {
+                break;
+            }
+            kii.clear();
+            kii.resize(9 * n, 0.0);
+            cii.clear();
+            cii.resize(9 * n, 0.0);
+            let sub = |m: &mut Vec<f64>, i: usize, a: &[f64]| {
+                for (x, y) in m[9 * i..9 * i + 9].iter_mut().zip(a) {
+                    *x -= y;
+                }
+            };
+            let mut bz = [0.0; 9];
+            for r in &plan.springs.runs {
+                let z = p[r.param + 2];
+                for (l, &[i, j]) in plan.springs.pairs[r.start..r.end].iter().enumerate() {
+                    let d = &lin.springs[(t * nsp + r.start + l) * LINK..][..LINK];
+                    rank_one(&mut bz, z, &d[9..12]);
+                    for e in [i as usize, j as usize] {
+                        sub(kii, e, &d[..9]);
+                        sub(cii, e, &bz);
+                    }
+                }
+            }
+            for r in &plan.anchors.runs {
+                let z = p[r.param + 2];
+                for (l, &i) in plan.anchors.particles[r.start..r.end].iter().enumerate() {
+                    let d = &lin.anchors[(t * nan + r.start + l) * LINK..][..LINK];
+                    rank_one(&mut bz, z, &d[9..12]);
+                    sub(kii, i as usize, &d[..9]);
+                    sub(cii, i as usize, &bz);
+                }
+            }
+            for r in &plan.dampers.runs {
+                let z = p[r.param];
+                let id = [z, 0.0, 0.0, 0.0, z, 0.0, 0.0, 0.0, z];
+                for &[i, j] in &plan.dampers.pairs[r.start..r.end] {
+                    sub(cii, i as usize, &id);
+                    sub(cii, j as usize, &id);
+                }
+            }
+            for r in &plan.drags.runs {
+                let z = p[r.param];
+                let id = [z, 0.0, 0.0, 0.0, z, 0.0, 0.0, 0.0, z];
+                for &i in &plan.drags.particles[r.start..r.end] {
+                    sub(cii, i as usize, &id);
+                }
+            }
+            for (f, &i) in free.iter().enumerate() {
+                let h = dt * dt / p[mo + i];
+                let (s, sp) = (&cur[18 * f..18 * f + 18], &prev[18 * f..18 * f + 18]);
+                let (km, cm) = (&kii[9 * i..9 * i + 9], &cii[9 * i..9 * i + 9]);
+                for r in 0..3 {
+                    for q in 0..6 {
+                        let mut g = 0.0;
+                        for c in 0..3 {
+                            let sv = s[6 * c + q];
+                            g += km[3 * r + c] * sv + cm[3 * r + c] * (sv - sp[6 * c + q]) / dt;
+                        }
+                        df[6 * r + q] = 2.0 * s[6 * r + q] - sp[6 * r + q] + h * g;
+                    }
+                }
+                prev[18 * f..18 * f + 18].copy_from_slice(&cur[18 * f..18 * f + 18]);
+                cur[18 * f..18 * f + 18].copy_from_slice(df);
+            }
+        }
+    }
+
+    /// `J v` for one take, `w` directions at once: `dir` holds the take's local variables
+    /// (θ in internal coordinates, then the take's state) × `w`, row-major; the raw position
+    /// sensitivities s(t) (frames × 3N × w) go to `work.out`.
+    pub fn forward(&self, k: usize, w: usize, work: &mut Work) {
+        let plan = &self.fit.tangent.plan;
+        let lin = &self.lins[k];
+        let (n, dt, nt) = (plan.n, plan.dt, self.fit.theta());
+        let rows = 3 * n;
+        let Work {
+            cur,
+            prev,
+            vel,
+            df,
+            dth,
+            dir,
+            out,
+            ..
+        } = work;
+        for b in [&mut *cur, &mut *prev, &mut *vel, &mut *df] {
+            b.clear();
+            b.resize(rows * w, 0.0);
+        }
+        out.clear();
+        out.resize(lin.frames * rows * w, 0.0);
+        dth.clear();
+        dth.extend((0..nt * w).map(|a| dir[a] * self.chain[a / w]));
+        for (f, &i) in self.fit.tangent.free.iter().enumerate() {
+            for c in 0..3 {
+                for col in 0..w {
+                    let x0 = dir[(nt + 6 * f + c) * w + col];
+                    let v0 = dir[(nt + 6 * f + 3 + c) * w + col];
+                    cur[(3 * i + c) * w + col] = x0;
+                    prev[(3 * i + c) * w + col] = x0 - dt * v0;
+                }
+            }
+        }
+        for t in 0..lin.frames {
+            out[t * rows * w..(t + 1) * rows * w].copy_from_slice(cur);
+            if t + 1 == lin.frames {
+                break;
+            }
+            self.forward_step(lin, t, w, cur, prev, vel, df, dth);
+            std::mem::swap(cur, prev);
+        }
+    }
+
+    /// One step of the directional tangent recursion: writes s(t+1) into `prev`.
+    #[allow(clippy::too_many_arguments)]
+    fn forward_step(
+        &self,
+        lin: &Lin,
+        t: usize,
+        w: usize,
+        cur: &[f64],
+        prev: &mut [f64],
+        vel: &mut [f64],
+        df: &mut [f64],
+        dth: &[f64],
+    ) {
+        let plan = &self.fit.tangent.plan;
+        let of_slot = &self.fit.cols.of_slot;
+        let (n, dt, p) = (plan.n, plan.dt, &self.p);
+        let rows = 3 * n;
+        let inv_dt = 1.0 / dt;
+        for ((v, a), b) in vel.iter_mut().zip(cur).zip(prev.iter()) {
+            *v = (a - b) * inv_dt;
+        }
+        df.iter_mut().for_each(|x| *x = 0.0);
+        let (nsp, nan, nd) = (
+            plan.springs.pairs.len(),
+            plan.anchors.particles.len(),
+            plan.dampers.pairs.len(),
+        );
+        // θ forcing of a link (∂f_i/∂θ · v_θ = (e v_K - K v_l0 + s v_Z) u) in column `col`.
+        let theta = |slots: &[usize; 3], k: f64, e: f64, sr: f64, col: usize| -> f64 {
+            let at = |s: usize| if s == NONE { 0.0 } else { dth[s * w + col] };
+            e * at(slots[0]) - k * at(slots[1]) + sr * at(slots[2])
+        };
+        for r in &plan.springs.runs {
+            let (k, z) = (p[r.param], p[r.param + 2]);
+            let slots = [r.param, r.param + 1, r.param + 2].map(|q| of_slot[q]);
+            for (l, &[i, j]) in plan.springs.pairs[r.start..r.end].iter().enumerate() {
+                let (i, j) = (i as usize, j as usize);
+                let d = &lin.springs[(t * nsp + r.start + l) * LINK..][..LINK];
+                let (a, u) = (&d[..9], &d[9..12]);
+                for col in 0..w {
+                    let at = |m: &[f64], e: usize, c: usize| m[(3 * e + c) * w + col];
+                    let dd = [0, 1, 2].map(|c| at(cur, j, c) - at(cur, i, c));
+                    let dv = [0, 1, 2].map(|c| at(vel, j, c) - at(vel, i, c));
+                    // B dv = Z u (u·dv), plus the θ forcing along u.
+                    let along = z * (u[0] * dv[0] + u[1] * dv[1] + u[2] * dv[2])
+                        + theta(&slots, k, d[12], d[13], col);
+                    for c in 0..3 {
+                        let g = a[3 * c] * dd[0]
+                            + a[3 * c + 1] * dd[1]
+                            + a[3 * c + 2] * dd[2]
+                            + u[c] * along;
+                        df[(3 * i + c) * w + col] += g;
+                        df[(3 * j + c) * w + col] -= g;
+                    }
+                }
+            }
+        }
+        for r in &plan.anchors.runs {
+            let (k, z) = (p[r.param], p[r.param + 2]);
+            let slots = [r.param, r.param + 1, r.param + 2].map(|q| of_slot[q]);
+            for (l, &i) in plan.anchors.particles[r.start..r.end].iter().enumerate() {
+                let i = i as usize;
+                let d = &lin.anchors[(t * nan + r.start + l) * LINK..][..LINK];
+                let (a, u) = (&d[..9], &d[9..12]);
+                for col in 0..w {
+                    let dd = [0, 1, 2].map(|c| -cur[(3 * i + c) * w + col]);
+                    let dv = [0, 1, 2].map(|c| -vel[(3 * i + c) * w + col]);
+                    let along = z * (u[0] * dv[0] + u[1] * dv[1] + u[2] * dv[2])
+                        + theta(&slots, k, d[12], d[13], col);
+                    for c in 0..3 {
+                        let g = a[3 * c] * dd[0]
+                            + a[3 * c + 1] * dd[1]
+                            + a[3 * c + 2] * dd[2]
+                            + u[c] * along;
+                        df[(3 * i + c) * w + col] += g;
+                    }
+                }
+            }
+        }
+        for r in &plan.dampers.runs {
+            let z = p[r.param];
+            let s = of_slot[r.param];
+            for (l, &[i, j]) in plan.dampers.pairs[r.start..r.end].iter().enumerate() {
+                let (i, j) = (i as usize, j as usize);
+                let rel = &lin.dampers[(t * nd + r.start + l) * 3..][..3];
+                for col in 0..w {
+                    let dz = if s != NONE { dth[s * w + col] } else { 0.0 };
+                    for c in 0..3 {
+                        let (ri, rj) = ((3 * i + c) * w + col, (3 * j + c) * w + col);
+                        let g = z * (vel[rj] - vel[ri]) + rel[c] * dz;
+                        df[ri] += g;
+                        df[rj] -= g;
+                    }
+                }
+            }
+        }
+        for r in &plan.drags.runs {
+            let z = p[r.param];
+            let s = of_slot[r.param];
+            for &i in &plan.drags.particles[r.start..r.end] {
+                let i = i as usize;
+                for col in 0..w {
+                    let dz = if s != NONE { dth[s * w + col] } else { 0.0 };
+                    for c in 0..3 {
+                        let ri = (3 * i + c) * w + col;
+                        df[ri] -= z * vel[ri] + lin.vel[t * rows + 3 * i + c] * dz;
+                    }
+                }
+            }
+        }
+        let mo = plan.layout.mass_offset;
+        let dt2 = dt * dt;
+        for i in 0..n {
+            let base = 3 * i * w;
+            if !plan.free[i] {
+                prev[base..base + 3 * w].iter_mut().for_each(|x| *x = 0.0);
+                continue;
+            }
+            let m = p[mo + i];
+            let h = dt2 / m;
+            let ms = of_slot[mo + i];
+            for c in 0..3 {
+                let row = base + c * w;
+                let fm = h * lin.force[t * rows + 3 * i + c] / m;
+                for col in 0..w {
+                    let q = row + col;
+                    prev[q] = 2.0 * cur[q] - prev[q] + h * df[q];
+                    if ms != NONE {
+                        prev[q] -= fm * dth[ms * w + col];
+                    }
+                }
+            }
+        }
+    }
+
+    /// `Jᵀ u` for one take, `w` cotangents at once: `cot` holds u(t) (frames × 3N × w, raw
+    /// positions); the local gradient (θ in internal coordinates, then the take's state) × w
+    /// goes to `work.grad`. The adjoint recursion of the module docs.
+    pub fn adjoint(&self, k: usize, w: usize, cot: &[f64], work: &mut Work) {
+        let plan = &self.fit.tangent.plan;
+        let of_slot = &self.fit.cols.of_slot;
+        let lin = &self.lins[k];
+        let (n, dt, p, nt) = (plan.n, plan.dt, &self.p, self.fit.theta());
+        let rows = 3 * n;
+        let frames = lin.frames;
+        let Work {
+            cur: a,
+            prev: b,
+            vel: psi,
+            df: na,
+            phi,
+            grad,
+            ..
+        } = work;
+        for buf in [&mut *b, &mut *psi, &mut *na, &mut *phi] {
+            buf.clear();
+            buf.resize(rows * w, 0.0);
+        }
+        grad.clear();
+        grad.resize(self.local_len() * w, 0.0);
+        a.clear();
+        a.extend_from_slice(&cot[(frames - 1) * rows * w..frames * rows * w]);
+        let (nsp, nan, nd) = (
+            plan.springs.pairs.len(),
+            plan.anchors.particles.len(),
+            plan.dampers.pairs.len(),
+        );
+        let mo = plan.layout.mass_offset;
+        let inv_dt = 1.0 / dt;
+        for t in (0..frames.saturating_sub(1)).rev() {
+            // φ = h ⊙ P a(t+1); a(t) starts as u(t) + 2 P a(t+1) + b(t+1), b(t) as -P a(t+1).
+            let u = &cot[t * rows * w..(t + 1) * rows * w];
+            for i in 0..n {
+                let range = 3 * i * w..3 * (i + 1) * w;
+                if plan.free[i] {
+                    let h = dt * dt / p[mo + i];
+                    for q in range {
+                        phi[q] = h * a[q];
+                        na[q] = u[q] + 2.0 * a[q] + b[q];
+                        b[q] = -a[q];
+                    }
+                } else {
+                    for q in range {
+                        phi[q] = 0.0;
+                        na[q] = u[q] + b[q];
+                        b[q] = 0.0;
+                    }
+                }
+            }
+            psi.iter_mut().for_each(|x| *x = 0.0);
+            // θ adjoint of a link: -δ·∂f_i/∂θ = -(u·δ) (e, -K, s).
+            let mut theta = |slots: &[usize; 3], k: f64, e: f64, sr: f64, col: usize, ud: f64| {
+                for (s, f) in slots.iter().zip([e, -k, sr]) {
+                    if *s != NONE {
+                        grad[s * w + col] -= f * ud;
+                    }
+                }
+            };
+            for r in &plan.springs.runs {
+                let (k, z) = (p[r.param], p[r.param + 2]);
+                let slots = [r.param, r.param + 1, r.param + 2].map(|q| of_slot[q]);
+                for (l, &[i, j]) in plan.springs.pairs[r.start..r.end].iter().enumerate() {
+                    let (i, j) = (i as usize, j as usize);
+                    let d = &lin.springs[(t * nsp + r.start + l) * LINK..][..LINK];
+                    let (am, u) = (&d[..9], &d[9..12]);
+                    for col in 0..w {
+                        let del = [0, 1, 2]
+                            .map(|c| phi[(3 * j + c) * w + col] - phi[(3 * i + c) * w + col]);
+                        let ud = u[0] * del[0] + u[1] * del[1] + u[2] * del[2];
+                        for c in 0..3 {
+                            // (Aᵀ δ)_c: column c of A.
+                            let g = am[c] * del[0] + am[3 + c] * del[1] + am[6 + c] * del[2];
+                            na[(3 * i + c) * w + col] += g;
+                            na[(3 * j + c) * w + col] -= g;
+                            psi[(3 * i + c) * w + col] += z * u[c] * ud;
+                            psi[(3 * j + c) * w + col] -= z * u[c] * ud;
+                        }
+                        theta(&slots, k, d[12], d[13], col, ud);
+                    }
+                }
+            }
+            for r in &plan.anchors.runs {
+                let (k, z) = (p[r.param], p[r.param + 2]);
+                let slots = [r.param, r.param + 1, r.param + 2].map(|q| of_slot[q]);
+                for (l, &i) in plan.anchors.particles[r.start..r.end].iter().enumerate() {
+                    let i = i as usize;
+                    let d = &lin.anchors[(t * nan + r.start + l) * LINK..][..LINK];
+                    let (am, u) = (&d[..9], &d[9..12]);
+                    for col in 0..w {
+                        let del = [0, 1, 2].map(|c| -phi[(3 * i + c) * w + col]);
+                        let ud = u[0] * del[0] + u[1] * del[1] + u[2] * del[2];
+                        for c in 0..3 {
+                            let g = am[c] * del[0] + am[3 + c] * del[1] + am[6 + c] * del[2];
+                            na[(3 * i + c) * w + col] += g;
+                            psi[(3 * i + c) * w + col] += z * u[c] * ud;
+                        }
+                        theta(&slots, k, d[12], d[13], col, ud);
+                    }
+                }
+            }
+            for r in &plan.dampers.runs {
+                let z = p[r.param];
+                let s = of_slot[r.param];
+                for (l, &[i, j]) in plan.dampers.pairs[r.start..r.end].iter().enumerate() {
+                    let (i, j) = (i as usize, j as usize);
+                    let rel = &lin.dampers[(t * nd + r.start + l) * 3..][..3];
+                    for col in 0..w {
+                        for c in 0..3 {
+                            let (ri, rj) = ((3 * i + c) * w + col, (3 * j + c) * w + col);
+                            let del = phi[rj] - phi[ri];
+                            psi[ri] += z * del;
+                            psi[rj] -= z * del;
+                            if s != NONE {
+                                grad[s * w + col] -= rel[c] * del;
+                            }
+                        }
+                    }
+                }
+            }
+            for r in &plan.drags.runs {
+                let z = p[r.param];
+                let s = of_slot[r.param];
+                for &i in &plan.drags.particles[r.start..r.end] {
+                    let i = i as usize;
+                    for col in 0..w {
+                        for c in 0..3 {
+                            let ri = (3 * i + c) * w + col;
+                            psi[ri] -= z * phi[ri];
+                            if s != NONE {
+                                grad[s * w + col] -= lin.vel[t * rows + 3 * i + c] * phi[ri];
+                            }
+                        }
+                    }
+                }
+            }
+            for i in 0..n {
+                let ms = of_slot[mo + i];
+                if ms == NONE || !plan.free[i] {
+                    continue;
+                }
+                let m = p[mo + i];
+                for c in 0..3 {
+                    let fm = lin.force[t * rows + 3 * i + c] / m;
+                    for col in 0..w {
+                        grad[ms * w + col] -= fm * phi[(3 * i + c) * w + col];
+                    }
+                }
+            }
+            for ((x, y), s) in na.iter_mut().zip(b.iter_mut()).zip(psi.iter()) {
+                *x += s * inv_dt;
+                *y -= s * inv_dt;
+            }
+            std::mem::swap(a, na);
+        }
+        for (g, c) in grad[..nt * w].iter_mut().zip(0..) {
+            *g *= self.chain[c / w];
+        }
+        for (f, &i) in self.fit.tangent.free.iter().enumerate() {
+            for c in 0..3 {
+                for col in 0..w {
+                    let q = (3 * i + c) * w + col;
+                    grad[(nt + 6 * f + c) * w + col] = a[q] + b[q];
+                    grad[(nt + 6 * f + 3 + c) * w + col] = -dt * b[q];
+                }
+            }
+        }
+    }
+
+    /// `out = H v` over every take (global variables × w), `H = Σ w² JᵀJ`.
+    pub fn hv(&self, v: &[f64], w: usize, out: &mut [f64], work: &mut Work) {
+        let (nt, ns) = (self.fit.theta(), self.fit.state_len());
+        out.iter_mut().for_each(|x| *x = 0.0);
+        for k in 0..self.lins.len() {
+            self.gather(v, k, w, work);
+            self.forward(k, w, work);
+            let mut cot = std::mem::take(&mut work.out);
+            let rows = 3 * self.fit.tangent.plan.n;
+            for (chunk, wsq) in cot.chunks_mut(w).zip(&self.lins[k].wsq) {
+                chunk.iter_mut().for_each(|x| *x *= wsq);
+            }
+            debug_assert_eq!(cot.len(), self.lins[k].frames * rows * w);
+            self.adjoint(k, w, &cot, work);
+            work.out = cot;
+            self.scatter(k, w, &work.grad, out, nt, ns);
+        }
+    }
+
+    /// Half the gradient, `g = Σ w² e J` (global variables).
+    pub fn gradient(&self, out: &mut [f64], work: &mut Work) {
+        let (nt, ns) = (self.fit.theta(), self.fit.state_len());
+        out.iter_mut().for_each(|x| *x = 0.0);
+        for k in 0..self.lins.len() {
+            self.adjoint(k, 1, &self.lins[k].res, work);
+            self.scatter(k, 1, &work.grad, out, nt, ns);
+        }
+    }
+
+    fn gather(&self, v: &[f64], k: usize, w: usize, work: &mut Work) {
+        let (nt, ns) = (self.fit.theta(), self.fit.state_len());
+        work.dir.clear();
+        work.dir.extend_from_slice(&v[..nt * w]);
+        work.dir
+            .extend_from_slice(&v[(nt + k * ns) * w..(nt + (k + 1) * ns) * w]);
+    }
+
+    fn scatter(&self, k: usize, w: usize, grad: &[f64], out: &mut [f64], nt: usize, ns: usize) {
+        for (o, g) in out[..nt * w].iter_mut().zip(&grad[..nt * w]) {
+            *o += g;
+        }
+        for (o, g) in out[(nt + k * ns) * w..(nt + (k + 1) * ns) * w]
+            .iter_mut()
+            .zip(&grad[nt * w..])
+        {
+            *o += g;
+        }
+    }
+
+    /// The parts of the preconditioner that do not depend on λ: the θ columns of H (exact)
+    /// and the local blocks (already in the linearisation).
+    pub fn theta_columns(&self, work: &mut Work) -> DMatrix<f64> {
+        let (nt, ns, len) = (self.fit.theta(), self.fit.state_len(), self.fit.len());
+        let mut cols = DMatrix::zeros(len, nt);
+        if nt == 0 {
+            return cols;
+        }
+        let local = self.local_len();
+        let rows = 3 * self.fit.tangent.plan.n;
+        for k in 0..self.lins.len() {
+            work.dir.clear();
+            work.dir.resize(local * nt, 0.0);
+            for a in 0..nt {
+                work.dir[a * nt + a] = 1.0;
+            }
+            self.forward(k, nt, work);
+            let mut cot = std::mem::take(&mut work.out);
+            for (chunk, wsq) in cot.chunks_mut(nt).zip(&self.lins[k].wsq) {
+                chunk.iter_mut().for_each(|x| *x *= wsq);
+            }
+            debug_assert_eq!(cot.len(), self.lins[k].frames * rows * nt);
+            self.adjoint(k, nt, &cot, work);
+            work.out = cot;
+            for a in 0..local {
+                let g = if a < nt { a } else { nt + k * ns + (a - nt) };
+                for c in 0..nt {
+                    cols[(g, c)] += work.grad[a * nt + c];
+                }
+            }
+        }
+        cols
+    }
+}
+
+fn store_link(d: &mut [f64], lk: &super::tangent::SpringLink) {
+    for r in 0..3 {
+        d[3 * r..3 * r + 3].copy_from_slice(&lk.a[r]);
+    }
+    d[9..12].copy_from_slice(lk.u.as_slice());
+    d[12] = lk.e;
+    d[13] = lk.s;
+}
+
+/// `z u uᵀ`, row-major.
+fn rank_one(out: &mut [f64; 9], z: f64, u: &[f64]) {
+    for r in 0..3 {
+        for c in 0..3 {
+            out[3 * r + c] = z * u[r] * u[c];
+        }
+    }
+}
+
+/// The preconditioner `M⁻¹` at one λ (module docs).
+pub(crate) struct Pre {
+    nt: usize,
+    /// Inverse of each damped local block, 36 per free particle per take, in state order.
+    dinv: Vec<f64>,
+    /// `Y = D⁻¹ H_sθ` (state rows × nθ), and the Cholesky factor of the θ system.
+    y: DMatrix<f64>,
+    hst: DMatrix<f64>,
+    schur: Option<nalgebra::Cholesky<f64, nalgebra::Dyn>>,
+    held: Vec<bool>,
+}
+
+impl Pre {
+    /// Builds `M + λ diag(scale)` restricted to the coordinates not held, and factors it.
+    pub fn new(
+        mf: &Mf<'_, '_>,
+        cols: &DMatrix<f64>,
+        scale: &[f64],
+        held: &[bool],
+        lambda: f64,
+    ) -> Pre {
+        let nt = mf.fit.theta();
+        let len = mf.fit.len();
+        let nss = len - nt;
+        let mut dinv = vec![0.0; 36 * (nss / 6)];
+        let mut b = 0;
+        for lin in &mf.lins {
+            for blk in lin.local.chunks(36) {
+                let mut m = Matrix6::from_row_slice(blk);
+                for a in 0..6 {
+                    let s = scale[nt + 6 * b + a];
+                    m[(a, a)] += lambda * if s > 0.0 { s } else { 1.0 };
+                    // A particle its own observations do not see (hidden): keep D invertible.
+                    if m[(a, a)] <= 0.0 {
+                        m[(a, a)] = 1.0;
+                    }
+                }
+                let inv = m
+                    .cholesky()
+                    .map(|c| c.inverse())
+                    .unwrap_or_else(|| Matrix6::from_diagonal(&m.diagonal().map(|d| 1.0 / d)));
+                for r in 0..6 {
+                    for c in 0..6 {
+                        dinv[36 * b + 6 * r + c] = inv[(r, c)];
+                    }
+                }
+                b += 1;
+            }
+        }
+        let mut hst = cols.rows(nt, nss).into_owned();
+        let mut att = cols.rows(0, nt).into_owned();
+        for a in 0..nt {
+            att[(a, a)] += lambda * if scale[a] > 0.0 { scale[a] } else { 1.0 };
+        }
+        for a in 0..nt {
+            if held[a] {
+                for c in 0..nt {
+                    att[(a, c)] = 0.0;
+                    att[(c, a)] = 0.0;
+                }
+                att[(a, a)] = 1.0;
+                hst.column_mut(a).fill(0.0);
+            }
+        }
+        let att = (&att + att.transpose()) * 0.5;
+        let mut y = DMatrix::zeros(nss, nt);
+        for p in 0..nss / 6 {
+            for c in 0..nt {
+                for r in 0..6 {
+                    let mut s = 0.0;
+                    for q in 0..6 {
+                        s += dinv[36 * p + 6 * r + q] * hst[(6 * p + q, c)];
+                    }
+                    y[(6 * p + r, c)] = s;
+                }
+            }
+        }
+        let s = &att - hst.transpose() * &y;
+        let s = (&s + s.transpose()) * 0.5;
+        let schur = s.cholesky().or_else(|| {
+            // The local blocks underestimate the states' information: drop the coupling.
+            y.fill(0.0);
+            hst.fill(0.0);
+            att.clone().cholesky()
+        });
+        Pre {
+            nt,
+            dinv,
+            y,
+            hst,
+            schur,
+            held: held.to_vec(),
+        }
+    }
+
+    /// `z = M⁻¹ r` (one vector).
+    pub fn apply(&self, r: &[f64], z: &mut [f64]) {
+        let nt = self.nt;
+        let (rt, rs) = r.split_at(nt);
+        let (zt, zs) = z.split_at_mut(nt);
+        for (p, (o, x)) in zs.chunks_mut(6).zip(rs.chunks(6)).enumerate() {
+            let m = &self.dinv[36 * p..36 * p + 36];
+            for a in 0..6 {
+                o[a] = (0..6).map(|b| m[6 * a + b] * x[b]).sum();
+            }
+        }
+        if nt == 0 {
+            return;
+        }
+        let mut rhs =
+            DVector::from_iterator(nt, (0..nt).map(|a| if self.held[a] { 0.0 } else { rt[a] }));
+        let zs_v = DVector::from_column_slice(zs);
+        rhs -= self.hst.transpose() * &zs_v;
+        let th = match &self.schur {
+            Some(c) => c.solve(&rhs),
+            None => rhs,
+        };
+        let corr = &self.y * &th;
+        for (o, c) in zs.iter_mut().zip(corr.iter()) {
+            *o -= c;
+        }
+        for a in 0..nt {
+            zt[a] = if self.held[a] { 0.0 } else { th[a] };
+        }
+    }
+}
+
+/// Buffers of the conjugate-gradient solves (one vector each).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct CgWork {
+    r: Vec<f64>,
+    z: Vec<f64>,
+    p: Vec<f64>,
+    ap: Vec<f64>,
+}
+
+/// Solves `(H + λ diag(scale)) x = rhs` on the coordinates not held (held ones stay 0) by
+/// PCG; returns the iterations and whether the relative residual reached `set.tol`.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn pcg(
+    mf: &Mf<'_, '_>,
+    pre: &Pre,
+    scale: &[f64],
+    held: &[bool],
+    lambda: f64,
+    rhs: &[f64],
+    x: &mut [f64],
+    set: CgSettings,
+    cg: &mut CgWork,
+    work: &mut Work,
+) -> (usize, bool) {
+    let len = rhs.len();
+    let CgWork { r, z, p, ap } = cg;
+    for v in [&mut *r, &mut *z, &mut *p, &mut *ap] {
+        v.clear();
+        v.resize(len, 0.0);
+    }
+    x.iter_mut().for_each(|v| *v = 0.0);
+    for a in 0..len {
+        r[a] = if held[a] { 0.0 } else { rhs[a] };
+    }
+    let bnorm = dot(r, r).sqrt();
+    if bnorm == 0.0 {
+        return (0, true);
+    }
+    pre.apply(r, z);
+    p.copy_from_slice(z);
+    let mut rz = dot(r, z);
+    for it in 1..=set.max_iterations {
+        mf.hv(p, 1, ap, work);
+        for a in 0..len {
+            if held[a] {
+                ap[a] = 0.0;
+            } else {
+                let s = if scale[a] > 0.0 { scale[a] } else { 1.0 };
+                ap[a] += lambda * s * p[a];
+            }
+        }
+        let pap = dot(p, ap);
+        if pap.is_nan() || pap <= 0.0 {
+            return (it, false);
+        }
+        let alpha = rz / pap;
+        for a in 0..len {
+            x[a] += alpha * p[a];
+            r[a] -= alpha * ap[a];
+        }
+        if dot(r, r).sqrt() <= set.tol * bnorm {
+            return (it, true);
+        }
+        pre.apply(r, z);
+        let rz_new = dot(r, z);
+        let beta = rz_new / rz;
+        rz = rz_new;
+        for a in 0..len {
+            p[a] = z[a] + beta * p[a];
+        }
+    }
+    (set.max_iterations, false)
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// Diagonal of the preconditioner's H (exact for θ, the local blocks for states): the
+/// Marquardt scaling and gtol's column norms.
+fn approx_diag(mf: &Mf<'_, '_>, cols: &DMatrix<f64>) -> Vec<f64> {
+    let nt = mf.fit.theta();
+    let mut d: Vec<f64> = (0..nt).map(|a| cols[(a, a)]).collect();
+    for lin in &mf.lins {
+        for blk in lin.local.chunks(36) {
+            d.extend((0..6).map(|a| blk[7 * a]));
+        }
+    }
+    d
+}
+
+/// Statistics of the matrix-free fit, for the estimate's note.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct CgCounts {
+    pub solves: usize,
+    pub iterations: usize,
+    pub unconverged: usize,
+}
+
+/// The matrix-free counterpart of [`super::fit::lm_stage`]: the same Marquardt scaling,
+/// Nielsen λ rule, projection and tolerances; steps by PCG.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn lm_stage(
+    mf: &mut Mf<'_, '_>,
+    q: &mut [f64],
+    window: usize,
+    set: LmSettings,
+    cgset: CgSettings,
+    chi2: f64,
+    window_ftol: f64,
+    counts: &mut Counts,
+    cgc: &mut CgCounts,
+    work: &mut Work,
+) -> StageEnd {
+    let fit = mf.fit;
+    let len = fit.len();
+    counts.evaluations += 1;
+    if !mf.linearise(q, window, work) {
+        return StageEnd::Diverged;
+    }
+    let mut g = vec![0.0; len];
+    mf.gradient(&mut g, work);
+    let mut cols = mf.theta_columns(work);
+    let mut diag = approx_diag(mf, &cols);
+    let mut scale = diag.clone();
+    let mut cost = mf.cost();
+    let mut lambda = 1e-3;
+    let mut nu = 2.0;
+    let floor = fit.rounding_floor(window);
+    let mut cg = CgWork::default();
+    let mut delta = vec![0.0; len];
+    let mut hstep = vec![0.0; len];
+    let mut sens = super::tangent::Sens::default();
+    let mut g0norm: Option<f64> = None;
+    let mut accepted = 0usize;
+    for _ in 0..set.max_iterations {
+        counts.iterations += 1;
+        if cost <= floor {
+            return StageEnd::Converged;
+        }
+        let gv = DVector::from_column_slice(&g);
+        let held = fit.held(q, &gv);
+        let gmax = (0..len)
+            .filter(|&a| !held[a] && diag[a] > 0.0)
+            .map(|a| g[a].abs() / (diag[a] * cost).sqrt())
+            .fold(0.0, f64::max);
+        if gmax <= set.gtol {
+            return StageEnd::Converged;
+        }
+        let pre = Pre::new(mf, &cols, &scale, &held, lambda);
+        let rhs: Vec<f64> = g.iter().map(|x| -x).collect();
+        // Inexact Newton (Eisenstat–Walker's choice 2 flavour): loose solves far from the
+        // optimum, down to `cgset.tol` as the gradient falls.
+        let gnorm = dot(&g, &g).sqrt();
+        let g0 = *g0norm.get_or_insert(gnorm);
+        let forcing = CgSettings {
+            tol: (0.5 * (gnorm / g0).sqrt()).clamp(cgset.tol, STEP_CG_TOL_MAX),
+            ..cgset
+        };
+        let (its, ok) = pcg(
+            mf, &pre, &scale, &held, lambda, &rhs, &mut delta, forcing, &mut cg, work,
+        );
+        cgc.solves += 1;
+        cgc.iterations += its;
+        cgc.unconverged += usize::from(!ok);
+        if delta.iter().any(|v| !v.is_finite()) {
+            lambda *= nu;
+            nu *= 2.0;
+            if lambda > 1e20 {
+                return StageEnd::Stalled;
+            }
+            continue;
+        }
+        // The step, then (if it raises the cost) its halves: a rejected Gauss–Newton step is
+        // usually right in direction and too long, and a cost evaluation (one simulation)
+        // is far cheaper than the CG solve at a larger λ.
+        let mut trial = vec![0.0; len];
+        let mut step = vec![0.0; len];
+        let mut c = f64::INFINITY;
+        let mut shrunk = 0;
+        for t in 0..=BACKTRACK {
+            let f = 0.5f64.powi(t as i32);
+            for a in 0..len {
+                trial[a] = q[a] + f * delta[a];
+            }
+            fit.project(&mut trial);
+            counts.evaluations += 1;
+            c = fit.cost(&trial, window, &mut sens);
+            shrunk = t;
+            if c < cost {
+                break;
+            }
+        }
+        for a in 0..len {
+            step[a] = trial[a] - q[a];
+        }
+        mf.hv(&step, 1, &mut hstep, work);
+        let predicted = -(2.0 * dot(&g, &step) + dot(&step, &hstep));
+        if c < cost {
+            if shrunk > 0 {
+                // The full step failed: damp the next one as a rejection would.
+                lambda *= nu;
+                nu *= 2.0;
+            }
+            let reduction = cost - c;
+            let rho = if predicted > 0.0 {
+                reduction / predicted
+            } else {
+                0.0
+            };
+            if shrunk == 0 {
+                lambda *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
+                nu = 2.0;
+            }
+            let qnorm = dot(q, q).sqrt();
+            let small_step = dot(&step, &step).sqrt() <= set.xtol * (set.xtol + qnorm);
+            let small_gain = reduction <= set.ftol * cost && predicted <= set.ftol * cost;
+            // The statistical criterion (module docs): a step that lowers the cost by less
+            // than `chi2` σ̂² moves the estimate by less than √chi2 standard errors.
+            let observed: usize = mf.lins.iter().map(|l| l.observed).sum();
+            let s2 = cost / observed.saturating_sub(len).max(1) as f64;
+            let small_gain = small_gain
+                || (reduction <= chi2 * s2 && predicted <= chi2 * s2)
+                || (reduction <= window_ftol * cost && predicted <= window_ftol * cost);
+            q.copy_from_slice(&trial);
+            counts.evaluations += 1;
+            if !mf.linearise(q, window, work) {
+                return StageEnd::Diverged;
+            }
+            cost = mf.cost();
+            mf.gradient(&mut g, work);
+            // The θ columns only precondition (and scale): refreshed every few accepted steps,
+            // they cost nθ-wide passes, ~nθ/3 CG iterations.
+            accepted += 1;
+            if accepted % COLUMNS_EVERY == 0 {
+                cols = mf.theta_columns(work);
+                diag = approx_diag(mf, &cols);
+            }
+            for (s, d) in scale.iter_mut().zip(&diag) {
+                *s = s.max(*d);
+            }
+            if small_step || small_gain {
+                return StageEnd::Converged;
+            }
+        } else {
+            lambda *= nu;
+            nu *= 2.0;
+            if lambda > 1e20 {
+                return StageEnd::Stalled;
+            }
+        }
+    }
+    StageEnd::Budget
+}
+
+/// The θ block of `H⁻¹` (internal coordinates) by nθ PCG solves `H x_k = e_k`, at the
+/// linearisation `mf` holds, run together (every product nθ wide: the passes read the stored
+/// linearisation once for all columns). Columns whose solve did not converge are NaN.
+pub(crate) fn theta_inverse(
+    mf: &Mf<'_, '_>,
+    cgset: CgSettings,
+    cgc: &mut CgCounts,
+    work: &mut Work,
+) -> DMatrix<f64> {
+    let nt = mf.fit.theta();
+    let len = mf.fit.len();
+    let mut out = DMatrix::from_element(nt, nt, f64::NAN);
+    if nt == 0 {
+        return out;
+    }
+    let cols = mf.theta_columns(work);
+    let scale = approx_diag(mf, &cols);
+    let held = vec![false; len];
+    // A tiny damping in the preconditioner only (the operator is H itself): hidden particles'
+    // empty local blocks stay invertible.
+    let pre = Pre::new(mf, &cols, &scale, &held, 1e-12);
+    let w = nt;
+    // Row-major len × w: column k solves H x = e_k.
+    let mut x = vec![0.0; len * w];
+    let mut r = vec![0.0; len * w];
+    let mut z = vec![0.0; len * w];
+    let mut p = vec![0.0; len * w];
+    let mut ap = vec![0.0; len * w];
+    let (mut rc, mut zc) = (vec![0.0; len], vec![0.0; len]);
+    for k in 0..nt {
+        r[k * w + k] = 1.0;
+    }
+    let precondition = |r: &[f64], z: &mut [f64], rc: &mut [f64], zc: &mut [f64]| {
+        for c in 0..w {
+            for a in 0..len {
+                rc[a] = r[a * w + c];
+            }
+            pre.apply(rc, zc);
+            for a in 0..len {
+                z[a * w + c] = zc[a];
+            }
+        }
+    };
+    let coldot = |u: &[f64], v: &[f64], c: usize| -> f64 {
+        (0..len).map(|a| u[a * w + c] * v[a * w + c]).sum()
+    };
+    precondition(&r, &mut z, &mut rc, &mut zc);
+    p.copy_from_slice(&z);
+    let mut rz: Vec<f64> = (0..w).map(|c| coldot(&r, &z, c)).collect();
+    let mut done = vec![false; w];
+    let mut failed = vec![false; w];
+    let mut its = 0;
+    while its < cgset.max_iterations && done.iter().zip(&failed).any(|(d, f)| !d && !f) {
+        its += 1;
+        mf.hv(&p, w, &mut ap, work);
+        for c in 0..w {
+            if done[c] || failed[c] {
+                continue;
+            }
+            let pap = coldot(&p, &ap, c);
+            if pap.is_nan() || pap <= 0.0 {
+                failed[c] = true;
+                continue;
+            }
+            let alpha = rz[c] / pap;
+            for a in 0..len {
+                x[a * w + c] += alpha * p[a * w + c];
+                r[a * w + c] -= alpha * ap[a * w + c];
+            }
+            // ‖e_k‖ = 1: the residual is already relative.
+            if coldot(&r, &r, c).sqrt() <= cgset.tol {
+                done[c] = true;
+            }
+        }
+        precondition(&r, &mut z, &mut rc, &mut zc);
+        for c in 0..w {
+            if done[c] || failed[c] {
+                continue;
+            }
+            let rz_new = coldot(&r, &z, c);
+            let beta = rz_new / rz[c];
+            rz[c] = rz_new;
+            for a in 0..len {
+                p[a * w + c] = z[a * w + c] + beta * p[a * w + c];
+            }
+        }
+        // Finished columns stop moving: their direction is zeroed so hv's work on them is
+        // wasted but harmless.
+        for c in 0..w {
+            if done[c] || failed[c] {
+                for a in 0..len {
+                    p[a * w + c] = 0.0;
+                }
+            }
+        }
+    }
+    cgc.solves += nt;
+    cgc.iterations += its;
+    for c in 0..w {
+        if done[c] {
+            for a in 0..nt {
+                out[(a, c)] = x[a * w + c];
+            }
+        } else {
+            cgc.unconverged += 1;
+        }
+    }
+    out
+}
+
+/// The whole matrix-free fit from the start `q` (growing windows, as the dense path), and the
+/// estimate with its standard errors (module docs).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn fit(
+    fitter: &Fitter<'_>,
+    mut q: Vec<f64>,
+    config: &super::Config,
+    set: LmSettings,
+    noise: f64,
+    noise_level: Vec<f64>,
+    start: String,
+) -> Result<super::Estimate, crate::error::CostError> {
+    let cgset = CgSettings::default();
+    let step_cg = CgSettings {
+        tol: STEP_CG_TOL,
+        max_iterations: STEP_CG_ITERATIONS,
+    };
+    let mut mf = Mf::new(fitter);
+    let mut work = Work::default();
+    let mut counts = Counts::default();
+    let mut cgc = CgCounts::default();
+    let longest = fitter
+        .takes
+        .iter()
+        .map(super::Take::frames)
+        .max()
+        .unwrap_or(0);
+    let (end, windows) = super::grow_windows(fitter, &mut q, config, noise, &mut |q, w| {
+        let last = w >= longest;
+        let (chi2, wftol) = if last {
+            (FINAL_CHI2, 0.0)
+        } else {
+            (WINDOW_CHI2, WINDOW_FTOL)
+        };
+        let set = if last {
+            set
+        } else {
+            LmSettings {
+                max_iterations: set.max_iterations.min(WINDOW_ITERATIONS),
+                ..set
+            }
+        };
+        lm_stage(
+            &mut mf,
+            q,
+            w,
+            set,
+            step_cg,
+            chi2,
+            wftol,
+            &mut counts,
+            &mut cgc,
+            &mut work,
+        )
+    })?;
+    counts.evaluations += 1;
+    if !mf.linearise(&q, longest, &mut work) {
+        return Err(crate::error::CostError::mismatch(
+            "output-error",
+            "the model diverged at its estimate",
+        ));
+    }
+    let cost = mf.cost();
+    let observed: usize = fitter.takes.iter().map(super::Take::observed).sum();
+    let variables = fitter.len();
+    let dof = observed.saturating_sub(variables).max(1);
+    let sigma2 = cost / dof as f64;
+    let dim = fitter.theta();
+    let solves_before = cgc.unconverged;
+    let inv = theta_inverse(
+        &mf,
+        CgSettings {
+            tol: STDERR_CG_TOL,
+            ..cgset
+        },
+        &mut cgc,
+        &mut work,
+    );
+    let cov_q = DMatrix::from_fn(dim, dim, |a, b| {
+        let v = 0.5 * (inv[(a, b)] + inv[(b, a)]);
+        sigma2 * v
+    });
+    let chain = fitter.chain(&q);
+    let covariance = super::uncertainty::physical(&cov_q, &chain);
+    let correlation = super::uncertainty::correlation(&covariance);
+    let params = fitter.params(&q);
+    let stderr: Vec<f64> = (0..dim).map(|a| covariance[(a, a)].sqrt()).collect();
+    let intervals = (0..dim)
+        .map(|a| {
+            let v = params[fitter.unknowns[a].slot];
+            (v - 1.96 * stderr[a], v + 1.96 * stderr[a])
+        })
+        .collect();
+    let ns = fitter.state_len();
+    let states = (0..fitter.takes.len())
+        .map(|k| q[dim + k * ns..dim + (k + 1) * ns].to_vec())
+        .collect();
+    let missing = cgc.unconverged - solves_before;
+    let note = format!(
+        "{start}; matrix-free Gauss–Newton ({variables} variables > {DENSE_MAX_COLUMNS} dense \
+         columns): {} CG solves, {} iterations, {} short of tolerance; standard errors from \
+         {dim} CG solves of H{}; undetermined directions not computed",
+        cgc.solves,
+        cgc.iterations,
+        cgc.unconverged,
+        if missing > 0 {
+            format!(" ({missing} did not converge: those are NaN, not computed)")
+        } else {
+            String::new()
+        }
+    );
+    Ok(super::Estimate {
+        genome: q[..dim].to_vec(),
+        params,
+        states,
+        cost,
+        sigma: sigma2.sqrt(),
+        noise_level,
+        observed,
+        variables,
+        stderr,
+        intervals,
+        covariance,
+        correlation,
+        undetermined: Vec::new(),
+        converged: end == StageEnd::Converged,
+        end: match end {
+            StageEnd::Converged => "converged",
+            StageEnd::Budget => "budget",
+            StageEnd::Stalled | StageEnd::Diverged => "stalled",
+        },
+        iterations: counts.iterations,
+        evaluations: counts.evaluations,
+        windows,
+        start: note,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    //! The matrix-free products against the dense sensitivities of [`super::super::tangent`].
+
+    use cordis_core::examples::random_network;
+    use cordis_core::{Bounds, LinkKind, LinkType, Param, Scene, Vec3};
+
+    use super::super::fit::{self, Counts, Fitter, LmSettings};
+    use super::super::observations::Take;
+    use super::super::tangent::{Sens, Tangent};
+    use super::*;
+    use crate::identify::{add_noise, with_unknown_boxes};
+    use crate::space::ParameterSpace;
+
+    /// Damped springs (A not symmetric), a damper, an anchor, a drag, an unknown mass, a fixed
+    /// particle: every term of the recursion.
+    fn truth() -> Scene {
+        let mut s = random_network(7, 6, 2);
+        for t in &mut s.types {
+            t.params[2] = Param::Known(0.2);
+        }
+        s.add_type(LinkType::new("d", LinkKind::Damper).with("damping", 0.3));
+        s.add_type(
+            LinkType::new("a", LinkKind::Anchor)
+                .with("stiffness", 30.0)
+                .with("rest_length", 0.1)
+                .with("damping", 0.1),
+        );
+        s.add_type(LinkType::new("air", LinkKind::Drag).with("damping", 0.05));
+        s.add_link("d", &[1, 2]);
+        let a = s.add_link("a", &[3]);
+        let x = s.particles[3].pos;
+        s.links[a].point = Some([x[0] + 0.2, x[1] - 0.1, x[2] + 0.05]);
+        s.add_link("air", &[4]);
+        s.particles[5].fixed = true;
+        s
+    }
+
+    struct Setup {
+        tangent: Tangent,
+        space: ParameterSpace,
+        base: Vec<f64>,
+        takes: Vec<Take>,
+        q: Vec<f64>,
+    }
+
+    fn setup(noise: f64) -> Setup {
+        let truth = truth();
+        let mut guess = with_unknown_boxes(&truth, 25.0, 3);
+        guess.particles[2].mass = Param::Unknown(Bounds {
+            min: 0.1,
+            max: 10.0,
+            init: None,
+        });
+        let tangent = Tangent::new(&guess).unwrap();
+        let space = ParameterSpace::from_scene(&guess);
+        let traj = truth.simulate(60).unwrap();
+        let noisy = add_noise(&traj, noise * traj.scale(), 1);
+        // Two takes, the second with gaps: the θ block sums over takes.
+        let t0 = Take::complete(&noisy);
+        let t1 = Take::complete(&noisy.clone()).masked(|t, i, c| (t * 7 + i * 3 + c) % 5 != 0);
+        let base = truth.param_values();
+        let mut q: Vec<f64> = space
+            .unknowns
+            .iter()
+            .map(|u| u.to_internal(base[u.slot]) + 0.01)
+            .collect();
+        for k in 0..2 {
+            for &i in &tangent.free {
+                let p = truth.particles[i].pos;
+                let v = truth.particles[i].vel;
+                q.extend([p[0], p[1] + 0.001 * k as f64, p[2], v[0], v[1], v[2] + 0.01]);
+            }
+        }
+        Setup {
+            tangent,
+            space,
+            base,
+            takes: vec![t0, t1],
+            q,
+        }
+    }
+
+    fn fitter(s: &Setup) -> Fitter<'_> {
+        let slots: Vec<usize> = s.space.unknowns.iter().map(|u| u.slot).collect();
+        Fitter {
+            tangent: &s.tangent,
+            unknowns: &s.space.unknowns,
+            base: &s.base,
+            takes: &s.takes,
+            cols: s.tangent.columns(&slots),
+        }
+    }
+
+    /// Deterministic pseudo-random numbers in [-1, 1].
+    fn noise(k: usize, salt: u64) -> f64 {
+        let mut h = (k as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ salt;
+        h ^= h >> 31;
+        h = h.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        h ^= h >> 29;
+        (h >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+    }
+
+    /// The dense sensitivities S(t) of take k, frames × 3N × P.
+    fn dense(fit: &Fitter<'_>, q: &[f64], k: usize, frames: usize) -> Vec<f64> {
+        let p = fit.params(q);
+        let (nt, ns) = (fit.theta(), fit.state_len());
+        let mut out = Vec::new();
+        let mut visit = |_: usize, _: &[Vec3], s: Option<&[f64]>| out.extend_from_slice(s.unwrap());
+        fit.tangent
+            .rollout(
+                &p,
+                &q[nt + k * ns..][..ns],
+                frames,
+                Some(&fit.cols),
+                &mut Sens::default(),
+                &mut visit,
+            )
+            .unwrap();
+        out
+    }
+
+    #[test]
+    fn directional_rollout_is_the_dense_sensitivities_times_v() {
+        let s = setup(0.0);
+        let fit = fitter(&s);
+        let mut mf = Mf::new(&fit);
+        let mut work = Work::default();
+        let frames = 60;
+        assert!(mf.linearise(&s.q, frames, &mut work));
+        let (nt, width) = (fit.theta(), fit.cols.len);
+        let chain = fit.chain(&s.q);
+        let rows = 3 * s.tangent.plan.n;
+        for k in 0..2 {
+            let v: Vec<f64> = (0..width).map(|a| noise(a, 11 + k as u64)).collect();
+            work.dir = v.clone();
+            mf.forward(k, 1, &mut work);
+            let sens = dense(&fit, &s.q, k, frames);
+            let mut worst: f64 = 0.0;
+            let mut size: f64 = 0.0;
+            for r in 0..frames * rows {
+                let row = &sens[r * width..(r + 1) * width];
+                let exact: f64 = (0..width)
+                    .map(|a| row[a] * v[a] * if a < nt { chain[a] } else { 1.0 })
+                    .sum();
+                worst = worst.max((exact - work.out[r]).abs());
+                size = size.max(exact.abs());
+            }
+            assert!(worst <= 1e-12 * size, "take {k}: {worst:e} of {size:e}");
+        }
+    }
+
+    #[test]
+    fn adjoint_is_the_transpose_of_the_directional_rollout() {
+        let s = setup(1e-3);
+        let fit = fitter(&s);
+        let mut mf = Mf::new(&fit);
+        let mut work = Work::default();
+        let frames = 60;
+        assert!(mf.linearise(&s.q, frames, &mut work));
+        let (nt, width) = (fit.theta(), fit.cols.len);
+        let chain = fit.chain(&s.q);
+        let rows = 3 * s.tangent.plan.n;
+        for k in 0..2 {
+            let v: Vec<f64> = (0..width).map(|a| noise(a, 21 + k as u64)).collect();
+            let u: Vec<f64> = (0..frames * rows)
+                .map(|a| noise(a, 31 + k as u64))
+                .collect();
+            work.dir = v.clone();
+            mf.forward(k, 1, &mut work);
+            let jv_u = dot(&work.out, &u);
+            mf.adjoint(k, 1, &u, &mut work);
+            let v_jtu = dot(&v, &work.grad);
+            assert!(
+                (jv_u - v_jtu).abs() <= 1e-12 * jv_u.abs().max(v_jtu.abs()),
+                "take {k}: <Jv,u> = {jv_u:e}, <v,J'u> = {v_jtu:e}"
+            );
+            // And against the dense transpose, column by column.
+            let sens = dense(&fit, &s.q, k, frames);
+            for a in 0..width {
+                let exact: f64 = (0..frames * rows)
+                    .map(|r| sens[r * width + a] * u[r])
+                    .sum::<f64>()
+                    * if a < nt { chain[a] } else { 1.0 };
+                let got = work.grad[a];
+                assert!(
+                    (exact - got).abs() <= 1e-11 * exact.abs().max(1.0),
+                    "take {k}, column {a}: dense {exact:e}, adjoint {got:e}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn gauss_newton_products_match_the_dense_normal_equations() {
+        let s = setup(1e-3);
+        let fit = fitter(&s);
+        let frames = 40;
+        let ne = fit.normal(&s.q, frames, &mut Sens::default()).unwrap();
+        let mut mf = Mf::new(&fit);
+        let mut work = Work::default();
+        assert!(mf.linearise(&s.q, frames, &mut work));
+        assert!((mf.cost() - ne.cost).abs() <= 1e-12 * ne.cost);
+        let len = fit.len();
+        let mut g = vec![0.0; len];
+        mf.gradient(&mut g, &mut work);
+        let v: Vec<f64> = (0..len).map(|a| noise(a, 41)).collect();
+        let mut hv = vec![0.0; len];
+        mf.hv(&v, 1, &mut hv, &mut work);
+        let exact = &ne.h * DVector::from_column_slice(&v);
+        let hs = exact.amax();
+        let gs = ne.g.amax();
+        for a in 0..len {
+            assert!((exact[a] - hv[a]).abs() <= 1e-10 * hs, "Hv[{a}]");
+            assert!((ne.g[a] - g[a]).abs() <= 1e-10 * gs, "g[{a}]");
+        }
+        // The θ columns the preconditioner uses are H's own.
+        let cols = mf.theta_columns(&mut work);
+        for a in 0..len {
+            for c in 0..fit.theta() {
+                let e = ne.h[(a, c)];
+                assert!(
+                    (e - cols[(a, c)]).abs() <= 1e-10 * hs.max(e.abs()),
+                    "H[{a},{c}]"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn matrix_free_fit_reaches_the_dense_fits_estimate() {
+        let s = setup(1e-3);
+        let fit = fitter(&s);
+        let set = LmSettings {
+            max_iterations: 100,
+            ftol: 1e-10,
+            xtol: 1e-10,
+            gtol: 1e-10,
+        };
+        let config = super::super::Config::default();
+        let noise = fit
+            .takes
+            .iter()
+            .map(super::super::start::noise_level)
+            .fold(0.0, f64::max);
+        let mut qd = s.q.clone();
+        let mut counts = Counts::default();
+        let mut buf = Sens::default();
+        super::super::grow_windows(&fit, &mut qd, &config, noise, &mut |q, w| {
+            fit::lm_stage(&fit, q, w, set, &mut counts, &mut buf)
+        })
+        .unwrap();
+        let e = super::fit(
+            &fit,
+            s.q.clone(),
+            &config,
+            set,
+            noise,
+            vec![noise; 2],
+            "test".into(),
+        )
+        .unwrap();
+        let nt = fit.theta();
+        let moved = (0..nt).map(|a| (qd[a] - s.q[a]).abs()).fold(0.0, f64::max);
+        assert!(moved > 1e-3, "the dense fit did not move from its start");
+        // The matrix-free fit stops when a step would move the estimate by less than 0.1
+        // standard error (FINAL_CHI2): the same optimum within a fraction of its uncertainty.
+        let pd = fit.params(&qd);
+        for (a, u) in fit.unknowns.iter().enumerate() {
+            let (m, d) = (e.params[u.slot], pd[u.slot]);
+            assert!(
+                (m - d).abs() <= 0.3 * e.stderr[a],
+                "θ {a}: matrix-free {m}, dense {d}, standard error {}",
+                e.stderr[a]
+            );
+        }
+        // Standard errors against the dense inverse.
+        let ne = fit.normal(&qd, 60, &mut Sens::default()).unwrap();
+        let dof = (e.observed - e.variables) as f64;
+        let (cov, _) = super::super::uncertainty::covariance(&ne.h, ne.cost / dof);
+        let cov = super::super::uncertainty::physical(&cov, &fit.chain(&qd));
+        for a in 0..nt {
+            let sd = cov[(a, a)].sqrt();
+            // At its own (slightly different) estimate.
+            assert!(
+                (e.stderr[a] - sd).abs() <= 1e-2 * sd,
+                "stderr {a}: matrix-free {} dense {sd}",
+                e.stderr[a]
+            );
+        }
+        // At the same point, the CG solves are the dense inverse's θ block.
+        let (hinv, _) = super::super::uncertainty::covariance(&ne.h, 1.0);
+        let mut mf = Mf::new(&fit);
+        let mut work = Work::default();
+        assert!(mf.linearise(&qd, 60, &mut work));
+        let set = CgSettings {
+            tol: STDERR_CG_TOL,
+            max_iterations: 300,
+        };
+        let inv = theta_inverse(&mf, set, &mut CgCounts::default(), &mut work);
+        for a in 0..nt {
+            for b in 0..nt {
+                let scale = (hinv[(a, a)] * hinv[(b, b)]).sqrt();
+                assert!(
+                    (inv[(a, b)] - hinv[(a, b)]).abs() <= 1e-6 * scale,
+                    "H⁻¹[{a},{b}]: CG {} dense {}",
+                    inv[(a, b)],
+                    hinv[(a, b)]
+                );
+            }
+        }
+    }
+}
