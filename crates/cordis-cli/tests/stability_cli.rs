@@ -230,3 +230,22 @@ fn check_reports_a_degenerate_angle_and_simulate_warns() {
     let traj = cordis_core::io::read_trajectory(&csv).unwrap();
     assert!(traj.scale() < 1.5, "the motion reached {} m", traj.scale());
 }
+
+/// Issue 17: a ratio of 6.8e303 was printed as a 300-digit decimal (1e10 as 10000000000.0000);
+/// now with four decimals in scientific notation from 1e6 on, in `check`'s report and
+/// `simulate`'s warning.
+#[test]
+fn huge_ratios_are_printed_in_scientific_notation() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = anchored(dir.path(), 4e10);
+    let out = cordis(&["check", &scene]);
+    let report = String::from_utf8_lossy(&out.stderr);
+    assert!(report.contains("max q = 1.0000e10"), "{report}");
+    assert!(report.lines().all(|l| l.len() < 200), "{report}");
+    let out = cordis(&["simulate", &scene, "-n", "3", "-q"]);
+    let warning = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        warning.starts_with("warning: stability ratio 1.0000e10 ≥ 1"),
+        "{warning}"
+    );
+}

@@ -95,12 +95,15 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     }))
 }
 
-/// A ratio for reading: four decimals, or `inf`.
-fn shown(q: f64) -> String {
-    if q.is_finite() {
-        format!("{q:.4}")
-    } else {
+/// A ratio for reading: four decimals, in scientific notation from 1e6 on (a ratio of 6.8e303
+/// was printed as 300 digits), or `inf`.
+pub fn shown(q: f64) -> String {
+    if !q.is_finite() {
         "inf".into()
+    } else if q.abs() >= 1e6 {
+        format!("{q:.4e}")
+    } else {
+        format!("{q:.4}")
     }
 }
 

@@ -27,9 +27,9 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     if !r.stable {
         // A warning, not an error: the bound is sufficient, not necessary.
         eprintln!(
-            "warning: stability ratio {:.4} ≥ 1 at particle {} (bound 4m > K dt² + 2 Z dt): the \
+            "warning: stability ratio {} ≥ 1 at particle {} (bound 4m > K dt² + 2 Z dt): the \
              simulation may diverge; reduce dt or see `cordis check {}`",
-            r.max_ratio,
+            super::check::shown(r.max_ratio),
             r.worst_particle.map_or("?".into(), |i| i.to_string()),
             a.scene.display()
         );
