@@ -42,10 +42,21 @@ pub const MAX_EXACT_PER_SWEEP: usize = 48;
 const BOUND_SLACK: f64 = 1e-6;
 const BOUND_FLOOR: f64 = 1e-12;
 
-/// One candidate pair of a type whose range is unknown: it interacts at every range above `d`.
+/// One candidate pair of a type whose range is unknown, at one force frame: it interacts at
+/// every range above `d`. 24 bytes: its [`Terms`] are recomputed from the observed frame when
+/// a sweep uses them (stored, at 112 bytes per pair and frame, they made the sweep's memory
+/// 2.76 GB for 2,000 particles × 10 frames, issue 17).
 struct Pair {
     /// Distance, m (as the candidates list computes it).
     d: f64,
+    /// The force frame.
+    frame: u32,
+    /// The two particles.
+    ends: [u32; 2],
+}
+
+/// What a [`Pair`] adds to the rows.
+struct Terms {
     /// Row of the first axis of each free end (`usize::MAX`: the end is fixed).
     rows: [usize; 2],
     /// dt² × force on the first end per unit K, K·l0 and Z (the second end gets minus it).
@@ -72,6 +83,8 @@ pub(crate) struct Sweeper<'a> {
     cols: &'a [Col],
     /// Row width: θ columns + 1.
     width: usize,
+    /// Each particle's index among the free ones (`usize::MAX`: fixed).
+    free_index: Vec<usize>,
     /// Rows of every force but the unknown-range types', row-major, unshifted.
     w0: Vec<f64>,
     pub dims: Vec<Dim>,
@@ -165,7 +178,6 @@ impl<'a> Sweeper<'a> {
             w0.extend_from_slice(row);
         });
 
-        let dt2 = plan.dt * plan.dt;
         let mut grid = Grid::default();
         let dims = dims
             .into_iter()
@@ -180,29 +192,16 @@ impl<'a> Sweeper<'a> {
                 let mut pairs = Vec::new();
                 for pass in plan.conditionals.iter().filter(|c| c.param == o) {
                     for f in 1..frames.saturating_sub(1) {
-                        let (x, v) = (obj.obs.frame(f), obj.obs.velocity(f));
-                        let base = (f - 1) * per_frame;
+                        let x = obj.obs.frame(f);
                         pass.for_each_active_pair(&p, x, &mut grid, |i, j, d| {
-                            let (li, lj) = (free_index[i], free_index[j]);
-                            if li == usize::MAX && lj == usize::MAX {
+                            if free_index[i] == usize::MAX && free_index[j] == usize::MAX {
                                 return;
                             }
-                            let (xi, xj, vi, vj) = (&x[i], &x[j], &v[i], &v[j]);
-                            let fk = spring_force::<false>(xi, xj, vi, vj, 1.0, 0.0, 0.0);
-                            let fr = spring_force::<false>(xi, xj, vi, vj, 1.0, 1.0, 0.0) - fk;
-                            let fz = spring_force::<true>(xi, xj, vi, vj, 0.0, 0.0, 1.0);
-                            let row = |l: usize| {
-                                if l == usize::MAX {
-                                    usize::MAX
-                                } else {
-                                    base + l * 3
-                                }
-                            };
+                            // A frame or particle count beyond u32 would not fit in memory.
                             pairs.push(Pair {
                                 d: d.norm(),
-                                rows: [row(li), row(lj)],
-                                f: [fk * dt2, fr * dt2, fz * dt2],
-                                inv: [1.0 / mass(i), -1.0 / mass(j)],
+                                frame: f as u32,
+                                ends: [i as u32, j as u32],
                             });
                         });
                     }
@@ -226,6 +225,7 @@ impl<'a> Sweeper<'a> {
             problem,
             cols,
             width,
+            free_index,
             w0,
             dims,
             red,
@@ -240,6 +240,37 @@ impl<'a> Sweeper<'a> {
 
     fn rows(&self) -> usize {
         self.w0.len() / self.width
+    }
+
+    /// The rows' terms of `pair`, from its observed frame (the same operations, in the same
+    /// order, as when they were stored: the same bits).
+    fn terms(&self, pair: &Pair) -> Terms {
+        let obj = &self.problem.objective;
+        let space = &self.problem.space;
+        let mass_offset = self.problem.scene.param_layout().mass_offset;
+        let mass = |i: usize| space.base[mass_offset + i];
+        let f = pair.frame as usize;
+        let [i, j] = pair.ends.map(|e| e as usize);
+        let (x, v) = (obj.obs.frame(f), obj.obs.velocity(f));
+        let (xi, xj, vi, vj) = (&x[i], &x[j], &v[i], &v[j]);
+        let fk = spring_force::<false>(xi, xj, vi, vj, 1.0, 0.0, 0.0);
+        let fr = spring_force::<false>(xi, xj, vi, vj, 1.0, 1.0, 0.0) - fk;
+        let fz = spring_force::<true>(xi, xj, vi, vj, 0.0, 0.0, 1.0);
+        let base = (f - 1) * obj.free.len() * 3;
+        let row = |l: usize| {
+            if l == usize::MAX {
+                usize::MAX
+            } else {
+                base + l * 3
+            }
+        };
+        let dt = obj.plan().dt;
+        let dt2 = dt * dt;
+        Terms {
+            rows: [row(self.free_index[i]), row(self.free_index[j])],
+            f: [fk * dt2, fr * dt2, fz * dt2],
+            inv: [1.0 / mass(i), -1.0 / mass(j)],
+        }
     }
 
     /// The middle of interval `j` of dim `d`.
@@ -266,6 +297,7 @@ impl<'a> Sweeper<'a> {
         let dim = &self.dims[d];
         let wd = self.width;
         for pair in dim.pairs.iter().take_while(|p| p.d < range) {
+            let pair = self.terms(pair);
             for (&r0, &sign) in pair.rows.iter().zip(&pair.inv) {
                 if r0 == usize::MAX {
                     continue;
@@ -407,7 +439,7 @@ impl<'a> Sweeper<'a> {
             let range = self.middle(d, j);
             let first = next;
             while next < dim.pairs.len() && dim.pairs[next].d < range {
-                let pair = &dim.pairs[next];
+                let pair = self.terms(&dim.pairs[next]);
                 next += 1;
                 for (&r0, &sign) in pair.rows.iter().zip(&pair.inv) {
                     if r0 == usize::MAX {
@@ -586,6 +618,13 @@ impl Schur {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn a_candidate_pair_takes_24_bytes_not_112() {
+        // Issue 17: the sweep holds one per pair within the box's top range and force frame.
+        assert_eq!(std::mem::size_of::<super::Pair>(), 24);
+    }
+
     use cordis_core::Scene;
 
     use super::*;
