@@ -1,45 +1,12 @@
 //! Issue 17: bad input of any kind gives one printable line naming the place and exit 2 (or 1
 //! for a failed run), never a panic: error text escaped and cut, every numeric option bounded.
 
+mod common;
+
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn cordis(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_cordis"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("cordis runs")
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-/// A failed run: `code`, one line on stderr holding every piece of `says`.
-fn fails(dir: &Path, args: &[&str], code: i32, says: &[&str]) -> String {
-    let out = cordis(dir, args);
-    let err = stderr(&out);
-    assert_eq!(out.status.code(), Some(code), "{args:?}: {err}");
-    assert_eq!(err.lines().count(), 1, "{args:?}: {err}");
-    for s in says {
-        assert!(err.contains(s), "{args:?}: `{s}` not in {err}");
-    }
-    err
-}
-
-fn rigid_dir() -> tempfile::TempDir {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    for args in [
-        &["example", "rigid", "--out", "r.json"][..],
-        &["simulate", "r.json", "--frames", "30", "--out", "r.csv"],
-    ] {
-        let out = cordis(d, args);
-        assert!(out.status.success(), "{args:?}: {}", stderr(&out));
-    }
-    dir
-}
+use common::{cordis, fails, rigid_dir, stderr};
 
 #[test]
 fn error_messages_escape_input_bytes_and_cut_long_values() {
