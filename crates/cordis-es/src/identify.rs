@@ -96,8 +96,12 @@ pub fn make_strategy(
     problem: &Problem,
     options: &StrategyOptions,
 ) -> (Box<dyn Strategy>, &'static str) {
+    let auto_reason = match name {
+        StrategyName::Auto => output_error_reason(problem),
+        _ => None,
+    };
     let name = match name {
-        StrategyName::Auto if prefers_output_error(problem) => StrategyName::OutputError,
+        StrategyName::Auto if auto_reason.is_some() => StrategyName::OutputError,
         StrategyName::Auto => match exact::supported(problem) {
             Ok(()) if exact::split(problem).nonlinear.is_empty() => StrategyName::LeastSquares,
             Ok(()) => StrategyName::Hybrid,
@@ -157,10 +161,10 @@ pub fn make_strategy(
             Box::new(LevenbergMarquardt::new(LmConfig::default())),
             "levenberg-marquardt",
         ),
-        StrategyName::OutputError => (
-            Box::new(OutputError::new(output_error::Config::default())),
-            "output-error",
-        ),
+        StrategyName::OutputError => {
+            let oe = OutputError::new(output_error::Config::default()).chosen_because(auto_reason);
+            (Box::new(oe), "output-error")
+        }
     }
 }
 
@@ -184,6 +188,12 @@ pub fn output_error_reason(problem: &Problem) -> Option<String> {
     if problem.has_missing() {
         return Some("observations are missing (gaps or hidden particles)".into());
     }
+    if problem.take_count() > 1 {
+        return Some(format!(
+            "{} takes share one parameter set",
+            problem.take_count()
+        ));
+    }
     if !matches!(problem.objective.kind(), crate::cost::CostKind::Short) {
         return None;
     }
@@ -196,10 +206,6 @@ pub fn output_error_reason(problem: &Problem) -> Option<String> {
              motion's acceleration (noise, not a network's motion)"
         )
     })
-}
-
-fn prefers_output_error(problem: &Problem) -> bool {
-    output_error_reason(problem).is_some()
 }
 
 /// Whether `levenberg-marquardt` suits a problem the exact solvers refuse: the short cost, and
@@ -256,6 +262,13 @@ pub fn check_strategy(ran: &str, problem: &Problem) -> Result<(), String> {
              (use --strategy output-error or auto)"
         ));
     }
+    if problem.take_count() > 1 {
+        return Err(format!(
+            "{} takes: `{ran}` reads one (output-error fits several takes with one parameter \
+             set; use --strategy output-error or auto)",
+            problem.take_count()
+        ));
+    }
     if ran == "levenberg-marquardt" {
         return levenberg_marquardt::supported(problem);
     }
@@ -292,6 +305,28 @@ pub fn try_add_noise(traj: &Trajectory, sigma: f64, seed: u64) -> Option<Traject
         .collect();
     let mut out = Trajectory::from_flat(traj.frames(), traj.particles(), data).ok()?;
     out.dt = traj.dt;
+    Some(out)
+}
+
+/// [`try_add_noise`] for observations with gaps: the same draws in the same order (one per
+/// coordinate, a missing one included, so a complete take gets exactly `try_add_noise`'s
+/// values); a missing coordinate stays missing. `None` when a value overflows.
+pub fn try_add_noise_observations(
+    obs: &cordis_core::Observations,
+    sigma: f64,
+    seed: u64,
+) -> Option<cordis_core::Observations> {
+    let mut r = rng::stream(seed, u64::MAX, 0);
+    let data: Vec<f64> = obs
+        .as_flat()
+        .iter()
+        .map(|x| x + sigma * rng::normal(&mut r))
+        .collect();
+    if data.iter().any(|v| v.is_infinite()) {
+        return None;
+    }
+    let mut out = cordis_core::Observations::from_flat(obs.frames(), obs.particles(), data).ok()?;
+    out.dt = obs.dt;
     Some(out)
 }
 

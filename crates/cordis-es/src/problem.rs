@@ -100,6 +100,11 @@ impl Problem {
         }
     }
 
+    /// Number of takes (recordings) the observations hold.
+    pub fn take_count(&self) -> usize {
+        self.takes.as_ref().map_or(1, Vec::len)
+    }
+
     /// Whether some observation is missing (a gap, a hidden particle) in the recorded takes.
     pub fn has_missing(&self) -> bool {
         self.takes.as_ref().is_some_and(|ts| {

@@ -19,12 +19,13 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use cordis_core::thesis::GeneParams;
-use cordis_core::{Scene, Trajectory};
+use cordis_core::{Observations, Scene, Trajectory};
 
 use crate::cost::CostKind;
 use crate::evaluator::Evaluator;
 use crate::executor::{self, Fingerprint, Observer, RunConfig, RunResult, StopRules};
 use crate::identify::{self, make_islands, make_strategy, StrategyName, StrategyOptions};
+use crate::output_error::Take;
 use crate::problem::Problem;
 use crate::report::Report;
 use crate::stable::StableHorizon;
@@ -83,8 +84,10 @@ pub struct IdentifyRequest {
     pub scene: Scene,
     /// Where the scene came from (a file name, `scene`), to place messages.
     pub scene_place: String,
-    /// The observed takes, every particle in scene order (one take today).
-    pub takes: Vec<Trajectory>,
+    /// The observed takes, particle `i` of each the scene's particle `i`; NaN is a missing
+    /// coordinate and particles beyond a take's are hidden (only `output-error` reads gaps
+    /// and several takes; the other strategies refuse them by name).
+    pub takes: Vec<Observations>,
     /// `--strategy`.
     pub strategy: StrategyName,
     /// Population (λ, chains, …); `None`: the `Param.gene` file's, else [`DEFAULT_POPULATION`].
@@ -135,13 +138,19 @@ pub enum Lock {
 }
 
 impl IdentifyRequest {
-    /// A request with the defaults of `cordis identify` for `scene` and one take.
+    /// A request with the defaults of `cordis identify` for `scene` and one complete take.
     pub fn new(scene: Scene, take: Trajectory) -> Self {
+        Self::with_takes(scene, vec![Observations::from_trajectory(&take)])
+    }
+
+    /// A request with the defaults of `cordis identify` for `scene` and takes as recorded
+    /// (gaps are NaN; see [`IdentifyRequest::takes`]).
+    pub fn with_takes(scene: Scene, takes: Vec<Observations>) -> Self {
         let defaults = StrategyOptions::default();
         IdentifyRequest {
             scene,
             scene_place: "scene".into(),
-            takes: vec![take],
+            takes,
             strategy: StrategyName::Auto,
             population: None,
             param_gene: None,
@@ -212,22 +221,15 @@ impl Session {
             _ => gene.as_ref().and_then(|g| g.noise).unwrap_or(0.0),
         };
         check_noise(&req, noise)?;
-        let [take] = req.takes.as_slice() else {
-            return Err(CostError::invalid(
-                "takes",
-                format!("one take is supported, got {}", req.takes.len()),
-            ));
-        };
-        let data = match noise > 0.0 {
-            true => identify::try_add_noise(take, noise, req.seed).ok_or_else(|| {
-                CostError::invalid(
-                    req.opt("noise"),
-                    format!("{noise:?} m makes the observed positions overflow"),
-                )
-            })?,
-            false => take.clone(),
-        };
-        let problem = build_problem(&req, &data)?;
+        let (data, takes) = prepare_takes(&req, noise)?;
+        let mut problem = build_problem(&req, &data)?;
+        let recorded = takes.len() > 1
+            || takes
+                .iter()
+                .any(|t| t.observed() < t.frames() * t.particles() * 3);
+        if recorded {
+            problem = problem.with_takes(takes);
+        }
         let options = StrategyOptions {
             population: req
                 .population
@@ -566,6 +568,58 @@ fn available_memory() -> f64 {
 }
 
 /// What a checkpoint must match to be resumed by this request, by component.
+/// The takes with the request's noise added (seeded as `try_add_noise`, take k from `seed +
+/// k`), as the estimators read them, and the complete trajectory the costs are built on: the
+/// first take itself when it is complete (bit for bit what one complete take always gave),
+/// else its gaps filled by interpolation and hidden particles at the scene's positions.
+fn prepare_takes(req: &IdentifyRequest, noise: f64) -> Result<(Trajectory, Vec<Take>), CostError> {
+    if req.takes.is_empty() {
+        return Err(CostError::invalid(req.opt("trajectory"), "no take given"));
+    }
+    let n = req.scene.num_particles();
+    let mut takes = Vec::with_capacity(req.takes.len());
+    let mut first = None;
+    for (k, obs) in req.takes.iter().enumerate() {
+        let place = match req.takes.len() {
+            1 => req.opt("trajectory"),
+            _ => format!("{}[{k}]", req.opt("trajectory")),
+        };
+        let noisy = match noise > 0.0 {
+            true => identify::try_add_noise_observations(obs, noise, req.seed + k as u64)
+                .ok_or_else(|| {
+                    CostError::invalid(
+                        req.opt("noise"),
+                        format!("{noise:?} m makes the observed positions overflow"),
+                    )
+                })?,
+            false => obs.clone(),
+        };
+        let take = Take::from_observations(&noisy, n)
+            .map_err(|e| CostError::invalid(place, e.to_string()))?;
+        if k == 0 {
+            first = Some(noisy);
+        }
+        takes.push(take);
+    }
+    let first = first.expect("at least one take");
+    let dt = first.dt;
+    let data = match first.particles() == n && first.missing() == 0 {
+        true => first.into_trajectory()?,
+        false => {
+            let at: Vec<cordis_core::Vec3> = req
+                .scene
+                .particles
+                .iter()
+                .map(|p| cordis_core::Vec3::from(p.pos))
+                .collect();
+            let mut t = takes[0].filled(&at);
+            t.dt = dt;
+            t
+        }
+    };
+    Ok((data, takes))
+}
+
 fn fingerprint(
     req: &IdentifyRequest,
     data: &Trajectory,
@@ -583,6 +637,14 @@ fn fingerprint(
         .flat_map(|x| x.to_bits().to_le_bytes())
         .collect();
     f.insert("trajectory".into(), digest(&bits));
+    if req.takes.len() > 1 || req.takes.iter().any(|t| t.missing() > 0) {
+        let bits: Vec<u8> = req
+            .takes
+            .iter()
+            .flat_map(|t| t.as_flat().iter().flat_map(|x| x.to_bits().to_le_bytes()))
+            .collect();
+        f.insert("takes".into(), digest(&bits));
+    }
     f.insert("cost".into(), req.cost.to_string());
     f.insert("noise".into(), format!("{noise:e}"));
     f.insert("population".into(), options.population.to_string());

@@ -17,9 +17,12 @@ use super::Output;
 pub struct Args {
     /// Scene whose unknown parameters are written as {"min": …, "max": …}.
     scene: PathBuf,
-    /// Observed trajectory (.csv, .npy or .tra), every particle in scene order.
-    #[arg(long, short = 't')]
-    trajectory: PathBuf,
+    /// Observed trajectory (.csv, .npy or .tra), particle i of the file the scene's particle
+    /// i. Gaps are missing observations: empty CSV cells, `nan`, absent rows, NaN in .npy;
+    /// particles the file lacks are hidden. Repeat for several takes of the same object (one
+    /// parameter set, each take its own initial state; output-error only).
+    #[arg(long, short = 't', required = true)]
+    trajectory: Vec<PathBuf>,
     /// Strategy: auto | thesis | least-squares | hybrid | cmaes | self-adaptive | annealing |
     /// parisian | levenberg-marquardt | output-error. auto = output-error on noisy or gappy data
     /// (when every kind has exact sensitivities), else least-squares when every unknown enters
@@ -163,13 +166,17 @@ fn guard(a: &Args) -> Result<()> {
         .as_deref()
         .filter(|l| l.ends_with(".lock"))
         .map(Path::new);
-    let inputs = [
-        ("scene", Some(a.scene.as_path())),
-        ("--trajectory", Some(&a.trajectory)),
+    let mut inputs = vec![("scene", Some(a.scene.as_path()))];
+    inputs.extend(
+        a.trajectory
+            .iter()
+            .map(|t| ("--trajectory", Some(t.as_path()))),
+    );
+    inputs.extend([
         ("--truth", a.truth.as_deref()),
         ("--param-gene", a.param_gene.as_deref()),
         ("--lock", lock_file),
-    ];
+    ]);
     let (out, log) = (("--out", a.out.as_deref()), ("--log", a.log.as_deref()));
     super::guard_outputs(
         &inputs,
@@ -181,14 +188,18 @@ fn guard(a: &Args) -> Result<()> {
 /// The command line as a request: nothing is checked here, the session checks it all.
 fn request(a: &Args) -> Result<IdentifyRequest> {
     let scene = Scene::from_json_path(&a.scene)?;
-    let traj = cordis_core::io::read_trajectory(&a.trajectory)?;
-    super::check_dt(&scene, a.dt.or(traj.dt), &a.trajectory)?;
+    let mut takes = Vec::with_capacity(a.trajectory.len());
+    for path in &a.trajectory {
+        let obs = cordis_core::io::read_observations(path)?;
+        super::check_dt(&scene, a.dt.or(obs.dt), path)?;
+        takes.push(obs);
+    }
     let cost: CostKind = a.cost.parse().map_err(|e| anyhow::anyhow!("--cost: {e}"))?;
     let truth = match &a.truth {
         Some(t) => Some(Scene::from_json_path(t)?),
         None => None,
     };
-    let mut r = IdentifyRequest::new(scene, traj);
+    let mut r = IdentifyRequest::with_takes(scene, takes);
     r.scene_place = a.scene.display().to_string();
     r.strategy = a.strategy;
     r.population = a.population;
@@ -235,18 +246,31 @@ fn print_human(ran: &str, outcome: &Outcome) {
             .map(|e| format!(", mean parameter error {e:.3e} %"))
             .unwrap_or_default()
     );
-    for (u, v) in problem
+    let spread = outcome.report.uncertainty.as_deref();
+    for (k, (u, v)) in problem
         .space
         .unknowns
         .iter()
         .zip(problem.space.values(&result.genome))
+        .enumerate()
     {
         let truth = problem
             .truth
             .as_ref()
             .map(|t| format!("  (truth {:.6e})", t[u.slot]))
             .unwrap_or_default();
-        eprintln!("  {:<40} {:>14.6e}{truth}", u.name, v);
+        // A standard error and the 95 % interval, when the strategy estimates them.
+        let se = spread
+            .and_then(|s| s.get(k))
+            .map(|p| match p.std_error.is_finite() {
+                true => format!(
+                    " ± {:.2e}  [{:.6e}, {:.6e}]",
+                    p.std_error, p.interval.0, p.interval.1
+                ),
+                false => " ± not determined".to_string(),
+            })
+            .unwrap_or_default();
+        eprintln!("  {:<40} {:>14.6e}{se}{truth}", u.name, v);
     }
 }
 

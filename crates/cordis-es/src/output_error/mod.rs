@@ -197,7 +197,7 @@ pub fn estimate(
     counts.evaluations += 1;
     let ne = fitter
         .normal(&q, longest, &mut buf)
-        .ok_or_else(|| CostError::mismatch("output-error", "the model diverged at its estimate"))?;
+        .ok_or_else(|| CostError::mismatch("fit", "the model diverged at its estimate"))?;
     Ok(summarise(
         &fitter,
         scene,
@@ -236,19 +236,21 @@ pub(crate) fn grow_windows(
     loop {
         windows.push(w);
         let end = stage(q, w);
-        if end == StageEnd::Diverged {
+        let diverged = end == StageEnd::Diverged;
+        if diverged && good.is_none() {
             return Err(CostError::mismatch(
-                "output-error",
+                "fit",
                 format!(
                     "the model diverged from its start within {w} frames: \
                      narrow the boxes or check dt"
                 ),
             ));
         }
-        if w >= longest {
+        if w >= longest && !diverged {
             return Ok((end, windows));
         }
-        let clean = fitter.rms(q, w, buf) <= tolerance;
+        // A window the last optimum cannot even simulate is a window grown too far.
+        let clean = !diverged && fitter.rms(q, w, buf) <= tolerance;
         if let (Some((back, from)), false) = (&good, clean) {
             if growth > 1.1 {
                 // Too far in one step: back to the last clean optimum, a smaller step.
@@ -257,6 +259,15 @@ pub(crate) fn grow_windows(
                 growth = 1.0 + (growth - 1.0) / 2.0;
                 w = ((from as f64 * growth).ceil() as usize).clamp(from + 1, longest);
                 continue;
+            }
+            if diverged {
+                return Err(CostError::mismatch(
+                    "fit",
+                    format!(
+                        "the model fitted to {from} frames diverges within {w}: \
+                         narrow the boxes or check dt"
+                    ),
+                ));
             }
         }
         // Clean, the first window, or no smaller step left: go on from here.

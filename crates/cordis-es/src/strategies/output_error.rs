@@ -20,6 +20,8 @@ pub struct OutputError {
     state: State,
     /// Which particles are free (their initial state is estimated), set by `init`.
     free: Vec<bool>,
+    /// Why `auto` chose it, for the report.
+    chosen_because: Option<String>,
 }
 
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
@@ -41,7 +43,14 @@ impl OutputError {
             config,
             state: State::default(),
             free: Vec::new(),
+            chosen_because: None,
         }
+    }
+
+    /// Records why `auto` picked this estimator (said in the report).
+    pub fn chosen_because(mut self, why: Option<String>) -> Self {
+        self.chosen_because = why;
+        self
     }
 
     /// Why the fit could not produce an estimate, if it could not.
@@ -98,6 +107,9 @@ pub struct OutputErrorReport {
     /// Why the fit stopped short of its criterion, when it did.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unconverged: Option<String>,
+    /// Why `auto` chose this estimator, when it did.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub chosen_because: Option<String>,
 }
 
 impl OutputErrorReport {
@@ -142,6 +154,7 @@ impl OutputErrorReport {
                     e.end
                 )
             }),
+            chosen_because: None,
         }
     }
 
@@ -279,8 +292,10 @@ impl Strategy for OutputError {
         if self.state.error.is_some() {
             return Report::default();
         }
+        let mut report = self.state.report.clone();
+        report.chosen_because.clone_from(&self.chosen_because);
         Report {
-            solver: Some(SolverReport::OutputError(self.state.report.clone())),
+            solver: Some(SolverReport::OutputError(report)),
             uncertainty: Some(self.state.uncertainty.clone()),
         }
     }

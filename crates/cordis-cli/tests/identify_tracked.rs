@@ -1,0 +1,192 @@
+//! `cordis identify` on tracked motion: gaps in the file, several takes, the uncertainty in
+//! the report, the estimated initial state in the identified scene, refusals by name.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn cordis(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_cordis"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("cordis runs")
+}
+
+fn summary(out: &Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    serde_json::from_str(text.lines().last().expect("a summary line")).expect("JSON")
+}
+
+fn soft_block() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/data/soft-block")
+}
+
+/// The soft block's markers with every 7th row absent and every 11th row's y cell empty.
+fn gappy_markers(dir: &Path) -> PathBuf {
+    let text = std::fs::read_to_string(soft_block().join("markers.csv")).unwrap();
+    let mut out = String::new();
+    for (k, line) in text.lines().enumerate() {
+        if k > 0 && k % 7 == 0 {
+            continue;
+        }
+        if k > 0 && k % 11 == 0 {
+            let f: Vec<&str> = line.split(',').collect();
+            out.push_str(&format!("{},{},{},,{}\n", f[0], f[1], f[2], f[4]));
+            continue;
+        }
+        out.push_str(line);
+        out.push('\n');
+    }
+    let path = dir.join("gappy.csv");
+    std::fs::write(&path, out).unwrap();
+    path
+}
+
+#[test]
+fn gaps_in_a_csv_are_missing_observations_and_the_estimate_comes_with_intervals() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let gappy = gappy_markers(d);
+    let sb = soft_block();
+    let (guess, truth) = (sb.join("guess.json"), sb.join("truth.json"));
+    let args = [
+        "identify",
+        guess.to_str().unwrap(),
+        "--trajectory",
+        gappy.to_str().unwrap(),
+        "--truth",
+        truth.to_str().unwrap(),
+        "--out",
+        "identified.json",
+    ];
+    let out = cordis(d, &args);
+    let s = summary(&out);
+    assert_eq!(s["strategy"], "output-error", "{s}");
+    assert_eq!(s["stopped_by"], "converged", "{s}");
+    assert!(s["param_error_pct"].as_f64().unwrap() < 5.0, "{s}");
+    let why = s["solver"]["chosen_because"].as_str().unwrap();
+    assert!(why.contains("missing"), "{why}");
+    let u = s["solver"]["uncertainty"].as_array().unwrap();
+    assert_eq!(u.len(), 9);
+    for p in u {
+        let (lo, hi) = (
+            p["interval"][0].as_f64().unwrap(),
+            p["interval"][1].as_f64().unwrap(),
+        );
+        assert!(lo < hi && p["std_error"].as_f64().unwrap() > 0.0, "{p}");
+    }
+    let table = String::from_utf8_lossy(&out.stderr);
+    assert!(table.contains(" ± "), "{table}");
+    // The identified scene carries the estimated initial state: it replays the take.
+    let scene: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("identified.json")).unwrap()).unwrap();
+    let v = &scene["particles"][13]["vel"];
+    assert!(v.is_array() && v[0].as_f64().unwrap().abs() > 1e-3, "{v}");
+}
+
+#[test]
+fn two_takes_share_one_parameter_set() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let sb = soft_block();
+    // A second take: the true block pushed the other way, simulated.
+    let mut truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(sb.join("truth.json")).unwrap()).unwrap();
+    for p in truth["particles"].as_array_mut().unwrap() {
+        if p["fixed"].as_bool() != Some(true) {
+            p["vel"] = serde_json::json!([-0.2, 0.0, 0.1]);
+        }
+    }
+    std::fs::write(d.join("other.json"), truth.to_string()).unwrap();
+    assert!(cordis(
+        d,
+        &[
+            "simulate",
+            "other.json",
+            "--frames",
+            "120",
+            "--out",
+            "b.csv"
+        ]
+    )
+    .status
+    .success());
+    let (guess, markers) = (sb.join("guess.json"), sb.join("markers.csv"));
+    let out = cordis(
+        d,
+        &[
+            "identify",
+            guess.to_str().unwrap(),
+            "-t",
+            markers.to_str().unwrap(),
+            "-t",
+            "b.csv",
+            "--truth",
+            sb.join("truth.json").to_str().unwrap(),
+        ],
+    );
+    let s = summary(&out);
+    assert_eq!(s["strategy"], "output-error", "{s}");
+    assert_eq!(
+        s["solver"]["chosen_because"],
+        "2 takes share one parameter set"
+    );
+    assert!(s["param_error_pct"].as_f64().unwrap() < 5.0, "{s}");
+    // One initial state per take: 6 values for each of the 18 free particles, twice.
+    assert_eq!(s["solver"]["variables"], 9 + 2 * 6 * 18);
+    // Another strategy cannot combine takes, and says so before any work.
+    let out = cordis(
+        d,
+        &[
+            "identify",
+            guess.to_str().unwrap(),
+            "-t",
+            markers.to_str().unwrap(),
+            "-t",
+            "b.csv",
+            "--strategy",
+            "least-squares",
+        ],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(e.contains("2 takes: `least-squares` reads one"), "{e}");
+}
+
+#[test]
+fn gaps_are_refused_by_name_where_they_cannot_be_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let gappy = gappy_markers(d);
+    let guess = soft_block().join("guess.json");
+    let out = cordis(
+        d,
+        &[
+            "identify",
+            guess.to_str().unwrap(),
+            "-t",
+            gappy.to_str().unwrap(),
+            "--strategy",
+            "thesis",
+        ],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        e.contains("missing observations: `thesis` needs every coordinate"),
+        "{e}"
+    );
+    assert_eq!(e.lines().count(), 1, "{e}");
+    // A file naming a particle the scene does not have.
+    let text = "frame,particle,x,y,z\n0,0,0,0,0\n0,40,1,1,1\n";
+    std::fs::write(d.join("extra.csv"), text).unwrap();
+    let out = cordis(d, &["identify", guess.to_str().unwrap(), "-t", "extra.csv"]);
+    assert_eq!(out.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(e.contains("41 particles but the scene has 27"), "{e}");
+}
