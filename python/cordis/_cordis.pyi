@@ -541,10 +541,25 @@ class IdentifyResult:
     @property
     def warnings(self) -> List[str]:
         """What the CLI prints as ``warning:`` lines (also raised with ``warnings.warn``)."""
+    @property
+    def stderr(self) -> Optional[Dict[str, float]]:
+        """Standard error of each unknown (its own unit; inf: not determined), by name, for
+        ``output-error``; None for strategies that do not estimate it."""
+    @property
+    def intervals(self) -> Optional[Dict[str, Tuple[float, float]]]:
+        """95 % interval ``(low, high)`` of each unknown, by name; None when not estimated."""
+    @property
+    def covariance(self) -> Optional[npt.NDArray[np.float64]]:
+        """Covariance of the unknowns in ``list(params)`` order, ``(n, n)``; inf on the diagonal
+        of an undetermined unknown (0 beside it); None when not estimated."""
+    @property
+    def sigma(self) -> Optional[float]:
+        """Noise of the observed positions estimated from the residuals, m; None when not
+        estimated."""
 
 def identify(
     scene: Scene,
-    traj: _ArrayLike,
+    traj: Union[_ArrayLike, Sequence[_ArrayLike]],
     strategy: str = "auto",
     generations: Optional[int] = 1000,
     population: Optional[int] = None,
@@ -572,8 +587,17 @@ def identify(
     param_gene: Optional[_PathLike] = None,
     descent_start: int = 400,
     descent_every: int = 100,
+    visible: Optional[Union[_ArrayLike, Sequence[_ArrayLike]]] = None,
 ) -> IdentifyResult:
     """Identifies the unknowns of ``scene`` from the observed positions ``traj`` (GIL released).
+
+    Tracked motion: ``traj`` may hold NaN (a missing coordinate), have fewer particles than
+    the scene (the rest are hidden, simulated), or be a list of arrays (several takes of the
+    same object: one parameter set, each take its own initial state); ``visible`` (boolean
+    ``(T, N)``, or one per take) hides a particle where it is False. Only ``output-error``
+    reads gaps and takes, and ``auto`` picks it for them and for noisy data; its result has
+    ``stderr``, ``intervals``, ``covariance`` and ``sigma``, and its ``scene`` carries the
+    estimated initial state (``res.scene.simulate(T)`` replays the take).
 
     What ``cordis identify`` does, under the same option names (``time_limit`` is
     ``--time-limit``), through the same session: the same checks, the same result.
@@ -592,7 +616,8 @@ def identify(
     generations (deterministic given the seed and the island count).
 
     ``strategy``: ``"auto"``, ``"thesis"``, ``"least-squares"``, ``"hybrid"``, ``"cmaes"``,
-    ``"self-adaptive"``, ``"annealing"``, ``"parisian"`` or ``"levenberg-marquardt"``
+    ``"self-adaptive"``, ``"annealing"``, ``"parisian"``, ``"output-error"`` (the
+    maximum-likelihood fit of simulated to observed positions) or ``"levenberg-marquardt"``
     (nonlinear least squares on the short cost's residuals; ``cost="short"`` only, residuals
     computed in this process even with an ``executor``; ``population`` is ignored).
 

@@ -12,6 +12,7 @@ use std::sync::{mpsc, Arc};
 use std::time::Duration;
 
 use cordis_es::executor::{HistoryRow, Observer, StopReason};
+use cordis_es::report::{Report, SolverReport};
 use cordis_es::session::{Generations, IdentifyRequest, Lock, Outcome, Session, Style};
 use cordis_es::space::ParameterSpace;
 use cordis_es::strategies::islands::IslandConfig;
@@ -25,7 +26,7 @@ use pyo3::types::PyDict;
 use crate::errors::{checkpoint_error, cost_to_py};
 use crate::evaluator::PyEvaluator;
 use crate::scene::Scene;
-use crate::trajectory::{check_dt, traj_from_py, traj_to_py};
+use crate::trajectory::{check_dt, observations_from_py, traj_to_py};
 
 /// Columns of `IdentifyResult.history`, as in the CLI's CSV log.
 const HISTORY_COLUMNS: [&str; 8] = [
@@ -93,6 +94,21 @@ pub struct IdentifyResult {
     /// What the CLI prints as `warning:` lines (also raised with `warnings.warn`).
     #[pyo3(get)]
     warnings: Vec<String>,
+    /// Standard error of each unknown in its own unit (inf: not determined by the data), by
+    /// name, for strategies that estimate it (`output-error`); None otherwise.
+    #[pyo3(get)]
+    stderr: Option<Py<PyDict>>,
+    /// 95 % interval `(low, high)` of each unknown, by name; None when not estimated.
+    #[pyo3(get)]
+    intervals: Option<Py<PyDict>>,
+    /// Covariance of the unknowns (unknown order, `list(params)`), float64 `(n, n)`; an
+    /// undetermined unknown has inf on the diagonal and 0 beside it; None when not estimated.
+    #[pyo3(get)]
+    covariance: Option<Py<PyArray2<f64>>>,
+    /// Noise of the observed positions estimated from the residuals, m; None when not
+    /// estimated.
+    #[pyo3(get)]
+    sigma: Option<f64>,
 }
 
 #[pymethods]
@@ -233,6 +249,7 @@ struct PyArgs<'py> {
     param_gene: Option<PathBuf>,
     descent_start: i64,
     descent_every: i64,
+    visible: Option<Bound<'py, PyAny>>,
 }
 
 /// The arguments as a session request: integer conversions and Python's types here, every
@@ -243,11 +260,14 @@ fn request(
     truth: Option<PyRef<'_, Scene>>,
     a: PyArgs<'_>,
 ) -> PyResult<IdentifyRequest> {
-    let mut take = traj_from_py(traj, "traj")?;
+    let mut takes = takes_from_py(traj, a.visible.as_ref())?;
     if let Some(dt) = a.dt {
-        take.dt = Some(check_dt(dt, "dt")?);
+        let dt = check_dt(dt, "dt")?;
+        for t in &mut takes {
+            t.dt = Some(dt);
+        }
     }
-    let mut r = IdentifyRequest::new(scene.clone(), take);
+    let mut r = IdentifyRequest::with_takes(scene.clone(), takes);
     r.style = Style::Python;
     r.strategy = a.strategy.parse().map_err(|e| bad("strategy", e))?;
     r.generations = match a.generations {
@@ -284,6 +304,40 @@ fn request(
     r.descent_every = count(a.descent_every, "descent_every")?;
     r.truth = truth.map(|t| (*t.core()).clone());
     Ok(r)
+}
+
+/// `traj`: one array `(T, N, 3)` (NaN: missing) or a list of them (several takes of the same
+/// object); `visible`: a boolean `(T, N)` array, or a list of them, one per take.
+fn takes_from_py(
+    traj: &Bound<'_, PyAny>,
+    visible: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Vec<cordis_core::Observations>> {
+    let several = traj.is_instance_of::<pyo3::types::PyList>()
+        || traj.is_instance_of::<pyo3::types::PyTuple>();
+    if !several {
+        return Ok(vec![observations_from_py(traj, visible, "traj")?]);
+    }
+    let items: Vec<Bound<'_, PyAny>> = traj.try_iter()?.collect::<PyResult<_>>()?;
+    let masks: Option<Vec<Bound<'_, PyAny>>> = match visible {
+        Some(v) => Some(v.try_iter()?.collect::<PyResult<_>>()?),
+        None => None,
+    };
+    if let Some(m) = &masks {
+        if m.len() != items.len() {
+            return Err(bad(
+                "visible",
+                format!("{} masks for {} takes", m.len(), items.len()),
+            ));
+        }
+    }
+    items
+        .iter()
+        .enumerate()
+        .map(|(k, t)| {
+            let v = masks.as_ref().map(|m| &m[k]);
+            observations_from_py(t, v, &format!("traj[{k}]"))
+        })
+        .collect()
 }
 
 /// `lock`: a `NAME.lock` path or comma-separated names as in the CLI, or a list of names.
@@ -346,6 +400,14 @@ fn session_to_py(err: CostError) -> PyErr {
 ///   `cordis.RayExecutor()`: `pip install cordis-anima[ray]`), or an executor object whose
 ///   `evaluator(scene_json, traj, cost)` returns a callable `(genomes, generation, local) ->
 ///   costs | (costs, local)`, with an optional `close()`. The result is the same, bit for bit.
+/// - Tracked motion: `traj` may hold NaN (a missing coordinate), have fewer particles than
+///   the scene (the rest are hidden and simulated), or be a list of arrays (several takes of
+///   the same object: one parameter set, each take its own initial state); `visible`
+///   (boolean `(T, N)`, or one per take) hides a particle where it is False. Only
+///   `output-error` reads gaps and takes; `auto` picks it for them and for noisy data, and its
+///   result has `stderr`, `intervals`, `covariance` and `sigma` (None for other strategies);
+///   its `scene` carries the estimated initial state, so `res.scene.simulate(T)` replays
+///   the take.
 /// - `islands` (≥ 2): an island model of that many populations of `population` each, the
 ///   `migrants` best of each copied to the next every `migrate_every` generations (a ring).
 ///
@@ -367,7 +429,7 @@ fn session_to_py(err: CostError) -> PyErr {
     max_evals = None, threads = None, truth = None, checkpoint = None, resume = None, dt = None,
     stable_horizon = None, stable_spread = cordis_es::stable::DEFAULT_SPREAD,
     executor = None, islands = None, migrate_every = 10, migrants = 2, total_mass = None,
-    lock = None, param_gene = None, descent_start = 400, descent_every = 100
+    lock = None, param_gene = None, descent_start = 400, descent_every = 100, visible = None
 ))]
 #[pyo3(
     text_signature = "(scene, traj, strategy='auto', generations=1000, population=None, \
@@ -375,7 +437,7 @@ fn session_to_py(err: CostError) -> PyErr {
     max_evals=None, threads=None, truth=None, checkpoint=None, resume=None, dt=None, \
     stable_horizon=None, stable_spread=2.0, \
     executor=None, islands=None, migrate_every=10, migrants=2, total_mass=None, lock=None, \
-    param_gene=None, descent_start=400, descent_every=100)"
+    param_gene=None, descent_start=400, descent_every=100, visible=None)"
 )]
 #[allow(clippy::too_many_arguments)]
 pub fn identify(
@@ -408,6 +470,7 @@ pub fn identify(
     param_gene: Option<PathBuf>,
     descent_start: i64,
     descent_every: i64,
+    visible: Option<Bound<'_, PyAny>>,
 ) -> PyResult<IdentifyResult> {
     let args = PyArgs {
         strategy,
@@ -433,6 +496,7 @@ pub fn identify(
         param_gene,
         descent_start,
         descent_every,
+        visible,
     };
     let req = request(&scene.core(), traj, truth, args)?;
     let executor = executor_object(py, executor)?;
@@ -612,6 +676,7 @@ fn build_result(py: Python<'_>, outcome: Outcome) -> PyResult<IdentifyResult> {
         }
         None => None,
     };
+    let spread = uncertainty_to_py(py, &report)?;
     let report = match report.to_json() {
         serde_json::Value::Null => None,
         v => Some(crate::json::to_py(py, &v)?.unbind()),
@@ -649,7 +714,54 @@ fn build_result(py: Python<'_>, outcome: Outcome) -> PyResult<IdentifyResult> {
         stopped_by: stop_text(run.stopped_by).to_string(),
         report,
         warnings,
+        stderr: spread.stderr,
+        intervals: spread.intervals,
+        covariance: spread.covariance,
+        sigma: spread.sigma,
     })
+}
+
+/// The uncertainty fields of a result.
+#[derive(Default)]
+struct Spread {
+    stderr: Option<Py<PyDict>>,
+    intervals: Option<Py<PyDict>>,
+    covariance: Option<Py<PyArray2<f64>>>,
+    sigma: Option<f64>,
+}
+
+/// Standard errors, intervals, the covariance (from the correlations and standard errors)
+/// and σ̂ of a report that has them.
+fn uncertainty_to_py(py: Python<'_>, report: &Report) -> PyResult<Spread> {
+    let Some(u) = &report.uncertainty else {
+        return Ok(Spread::default());
+    };
+    let (stderr, intervals) = (PyDict::new(py), PyDict::new(py));
+    for p in u {
+        stderr.set_item(&p.name, p.std_error)?;
+        intervals.set_item(&p.name, (p.interval.0, p.interval.1))?;
+    }
+    let mut spread = Spread {
+        stderr: Some(stderr.unbind()),
+        intervals: Some(intervals.unbind()),
+        ..Spread::default()
+    };
+    if let Some(SolverReport::OutputError(r)) = &report.solver {
+        let n = u.len();
+        let cov = Array2::from_shape_fn((n, n), |(a, b)| {
+            let (sa, sb) = (u[a].std_error, u[b].std_error);
+            match a == b {
+                true => sa * sa,
+                false if sa.is_finite() && sb.is_finite() => r.correlation[a][b] * sa * sb,
+                // An undetermined unknown: its variance is inf, its covariances undefined
+                // (0 here: no NaN leaves a result).
+                false => 0.0,
+            }
+        });
+        spread.covariance = Some(cov.into_pyarray(py).unbind());
+        spread.sigma = Some(r.sigma);
+    }
+    Ok(spread)
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use cordis_core::Trajectory;
+use cordis_core::{Observations, Trajectory};
 use numpy::ndarray::Array3;
 use numpy::{IntoPyArray, PyArray3, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
@@ -60,6 +60,49 @@ pub fn traj_from_py(x: &Bound<'_, PyAny>, what: &str) -> PyResult<Trajectory> {
     }
     let data = c_order_values(&a)?;
     Trajectory::from_flat(shape[0], shape[1], data).map_err(to_py)
+}
+
+/// An array `(T, N, 3)` of observed positions in which NaN marks a missing coordinate; with
+/// `visible` (a boolean array `(T, N)`), a particle is also missing where it is False.
+pub fn observations_from_py(
+    x: &Bound<'_, PyAny>,
+    visible: Option<&Bound<'_, PyAny>>,
+    what: &str,
+) -> PyResult<Observations> {
+    let a = as_f64_array(x, what)?;
+    let shape = a.shape().to_vec();
+    if shape.len() != 3 || shape[2] != 3 {
+        return Err(PyValueError::new_err(format!(
+            "{what}: expected an array of shape (T, N, 3) (frames, particles, xyz), got shape {}",
+            shape_text(&shape)
+        )));
+    }
+    let mut data = c_order_values(&a)?;
+    if let Some(v) = visible {
+        let mask: numpy::PyReadonlyArrayDyn<'_, bool> = v.extract().map_err(|_| {
+            PyTypeError::new_err(format!(
+                "visible: expected a boolean array of shape ({}, {})",
+                shape[0], shape[1]
+            ))
+        })?;
+        let m = mask.as_array();
+        if m.shape() != [shape[0], shape[1]] {
+            return Err(PyValueError::new_err(format!(
+                "visible: shape {} does not match {what}'s ({}, {})",
+                shape_text(m.shape()),
+                shape[0],
+                shape[1]
+            )));
+        }
+        for ((t, i), &seen) in m.indexed_iter().map(|(ix, v)| ((ix[0], ix[1]), v)) {
+            if !seen {
+                let at = (t * shape[1] + i) * 3;
+                data[at..at + 3].fill(f64::NAN);
+            }
+        }
+    }
+    Observations::from_flat(shape[0], shape[1], data)
+        .map_err(|e| PyValueError::new_err(format!("{what}: {e}")))
 }
 
 /// A core trajectory as a C-contiguous float64 array `(T, N, 3)`.

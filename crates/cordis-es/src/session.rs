@@ -594,8 +594,13 @@ fn prepare_takes(req: &IdentifyRequest, noise: f64) -> Result<(Trajectory, Vec<T
                 })?,
             false => obs.clone(),
         };
-        let take = Take::from_observations(&noisy, n)
-            .map_err(|e| CostError::invalid(place, e.to_string()))?;
+        let take = Take::from_observations(&noisy, n).map_err(|e| {
+            let message = match e {
+                CostError::Mismatch { message, .. } => message,
+                e => e.to_string(),
+            };
+            CostError::Core(cordis_core::CordisError::trajectory(place, message))
+        })?;
         if k == 0 {
             first = Some(noisy);
         }

@@ -1,0 +1,137 @@
+"""Tracked motion through cordis.identify: NaN masks, `visible`, hidden particles, several
+takes, the uncertainty on the result, and the CLI's estimate on the same data."""
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import cordis
+
+SOFT = Path(__file__).resolve().parents[2] / "examples" / "data" / "soft-block"
+
+
+def load():
+    guess = cordis.Scene.from_json(SOFT / "guess.json")
+    truth = cordis.Scene.from_json(SOFT / "truth.json")
+    rows = np.loadtxt(SOFT / "markers.csv", delimiter=",", skiprows=1)
+    frames, n = int(rows[:, 0].max()) + 1, int(rows[:, 1].max()) + 1
+    traj = np.zeros((frames, n, 3))
+    traj[rows[:, 0].astype(int), rows[:, 1].astype(int)] = rows[:, 2:]
+    return guess, truth, traj
+
+
+def error_pct(res, truth):
+    t = truth.to_dict()["types"]
+    errs = []
+    for name, v in res.params.items():
+        _, ty, p = name.split(".")
+        errs.append(abs(v - t[ty][p]) / abs(t[ty][p]))
+    return 100 * sum(errs) / len(errs)
+
+
+def gaps(traj, seed=3):
+    rng = np.random.default_rng(seed)
+    out = traj.copy()
+    out[rng.random(out.shape) < 0.1] = np.nan
+    return out
+
+
+def test_nan_is_a_missing_coordinate_and_the_result_has_its_uncertainty():
+    guess, truth, traj = load()
+    with _no_warning():
+        res = cordis.identify(guess, gaps(traj), truth=truth)
+    assert res.strategy == "output-error"
+    assert res.stopped_by == "converged"
+    assert res.param_error_pct < 5.0
+    names = list(res.params)
+    assert set(res.stderr) == set(names) == set(res.intervals)
+    for n in names:
+        lo, hi = res.intervals[n]
+        assert lo < res.params[n] < hi
+        assert res.stderr[n] > 0 and math.isfinite(res.stderr[n])
+    cov = res.covariance
+    assert cov.shape == (len(names), len(names))
+    assert np.allclose(cov, cov.T) and np.all(np.diag(cov) > 0)
+    assert np.allclose(np.sqrt(np.diag(cov)), [res.stderr[n] for n in names])
+    # 1 mm of noise on the markers: σ̂ from the residuals.
+    assert 0.9e-3 < res.sigma < 1.1e-3
+    # The identified scene replays the take from its estimated initial state.
+    replay = res.scene.simulate(traj.shape[0])
+    assert np.sqrt(np.nanmean((replay - traj) ** 2)) < 1.2e-3
+
+
+class _no_warning:
+    def __enter__(self):
+        import warnings
+        self._w = warnings.catch_warnings()
+        self._w.__enter__()
+        warnings.simplefilter("error")
+
+    def __exit__(self, *exc):
+        return self._w.__exit__(*exc)
+
+
+def test_visible_hides_like_nan():
+    guess, _, traj = load()
+    visible = np.ones(traj.shape[:2], dtype=bool)
+    visible[50:80, 13] = False
+    nan = traj.copy()
+    nan[50:80, 13] = np.nan
+    a = cordis.identify(guess, traj, visible=visible)
+    b = cordis.identify(guess, nan)
+    assert a.params == b.params and a.intervals == b.intervals
+    with pytest.raises(ValueError, match="visible: shape"):
+        cordis.identify(guess, traj, visible=visible[:10])
+
+
+def test_a_hidden_particle_is_simulated_not_compared():
+    guess, truth, traj = load()
+    hidden = traj.copy()
+    hidden[:, 26] = np.nan  # a corner never tracked
+    res = cordis.identify(guess, hidden, truth=truth)
+    assert res.strategy == "output-error"
+    assert res.param_error_pct < 5.0
+    assert "missing" in res.report["chosen_because"]
+
+
+def test_other_strategies_refuse_gaps_by_name():
+    guess, _, traj = load()
+    with pytest.raises(ValueError, match="missing observations: `thesis` needs every coordinate"):
+        cordis.identify(guess, gaps(traj), strategy="thesis")
+
+
+def test_several_takes_share_one_parameter_set():
+    guess, truth, traj = load()
+    other = cordis.Scene.from_json(SOFT / "truth.json")
+    for p in other.particles:
+        if not p.fixed:
+            p.vel = [-0.2, 0.0, 0.1]
+    second = other.simulate(120)
+    res = cordis.identify(guess, [traj, second], truth=truth)
+    assert res.strategy == "output-error"
+    assert res.report["variables"] == 9 + 2 * 6 * 18
+    assert res.param_error_pct < 5.0
+
+
+def test_the_cli_gives_the_same_estimate_and_intervals(tmp_path):
+    guess, truth, traj = load()
+    data = gaps(traj, seed=5)
+    np.save(tmp_path / "gaps.npy", data)
+    exe = shutil.which("cordis", path=os.path.dirname(sys.executable))
+    out = subprocess.run(
+        [exe, "identify", str(SOFT / "guess.json"), "-t", str(tmp_path / "gaps.npy"), "-q"],
+        capture_output=True, text=True, timeout=120,
+    )
+    assert out.returncode == 0, out.stderr
+    line = json.loads(out.stdout.strip().splitlines()[-1])
+    res = cordis.identify(guess, data)
+    assert line["strategy"] == res.strategy == "output-error"
+    assert line["cost"] == res.cost
+    cli = {u["name"]: (u["std_error"], tuple(u["interval"])) for u in line["solver"]["uncertainty"]}
+    assert cli == {n: (res.stderr[n], res.intervals[n]) for n in res.params}
