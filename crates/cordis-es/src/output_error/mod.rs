@@ -109,7 +109,9 @@ pub struct Estimate {
     /// Observed coordinates m and fit variables P.
     pub observed: usize,
     pub variables: usize,
-    /// Standard error per unknown in its physical unit (inf: not determined).
+    /// Standard error per unknown in its physical unit (inf: not determined; NaN: not
+    /// computed, when the matrix-free path's solve for it did not converge — the strategy
+    /// then reports no uncertainty rather than a NaN).
     pub stderr: Vec<f64>,
     /// 95 % interval per unknown (`value ± 1.96 stderr`).
     pub intervals: Vec<(f64, f64)>,

@@ -29,7 +29,7 @@ struct State {
     genome: Vec<f64>,
     cost: f64,
     report: OutputErrorReport,
-    uncertainty: Vec<ParamUncertainty>,
+    uncertainty: Option<Vec<ParamUncertainty>>,
     /// Why no estimate could be made.
     error: Option<String>,
     /// Per take: `[x0, v0]` per free particle.
@@ -110,6 +110,8 @@ pub struct OutputErrorReport {
     /// Why `auto` chose this estimator, when it did.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub chosen_because: Option<String>,
+    /// Whether every standard error could be computed.
+    pub uncertainty_computed: bool,
 }
 
 impl OutputErrorReport {
@@ -155,12 +157,20 @@ impl OutputErrorReport {
                 )
             }),
             chosen_because: None,
+            uncertainty_computed: !e.stderr.iter().any(|s| s.is_nan()),
         }
     }
 
     /// What a user must read before trusting the estimate.
     pub fn warnings(&self) -> Vec<String> {
         let mut w: Vec<String> = self.unconverged.iter().cloned().collect();
+        if !self.uncertainty_computed {
+            w.push(
+                "output-error: standard errors not computed (the matrix-free solves for them \
+                 did not converge)"
+                    .into(),
+            );
+        }
         for d in &self.undetermined_directions {
             w.push(format!(
                 "not determined by the data together: {}",
@@ -171,9 +181,13 @@ impl OutputErrorReport {
     }
 }
 
-/// Standard errors and 95 % intervals of the unknowns.
-fn uncertainty(problem: &Problem, e: &Estimate) -> Vec<ParamUncertainty> {
-    problem
+/// Standard errors and 95 % intervals of the unknowns; `None` when the matrix-free path could
+/// not compute them all (a NaN never leaves a result: the report says why instead).
+fn uncertainty(problem: &Problem, e: &Estimate) -> Option<Vec<ParamUncertainty>> {
+    if e.stderr.iter().any(|s| s.is_nan()) {
+        return None;
+    }
+    let list = problem
         .space
         .unknowns
         .iter()
@@ -184,7 +198,8 @@ fn uncertainty(problem: &Problem, e: &Estimate) -> Vec<ParamUncertainty> {
             interval: e.intervals[k],
             level: 0.95,
         })
-        .collect()
+        .collect();
+    Some(list)
 }
 
 impl Strategy for OutputError {
@@ -216,7 +231,7 @@ impl Strategy for OutputError {
                 genome: problem.space.genome_of(&problem.space.base),
                 cost: f64::INFINITY,
                 report: OutputErrorReport::default(),
-                uncertainty: Vec::new(),
+                uncertainty: None,
                 error: Some(err.to_string()),
                 states: Vec::new(),
                 converged: false,
@@ -296,7 +311,7 @@ impl Strategy for OutputError {
         report.chosen_because.clone_from(&self.chosen_because);
         Report {
             solver: Some(SolverReport::OutputError(report)),
-            uncertainty: Some(self.state.uncertainty.clone()),
+            uncertainty: self.state.uncertainty.clone(),
         }
     }
 }
