@@ -9,6 +9,7 @@ pub mod descent;
 pub mod discover;
 pub mod error;
 pub mod evaluator;
+pub mod exact;
 pub mod executor;
 pub mod identify;
 pub mod output_error;

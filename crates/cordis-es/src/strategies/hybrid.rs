@@ -1,7 +1,7 @@
 //! `hybrid`: variable projection (SPEC §4). The unknowns that enter the short cost
 //! nonlinearly — a nonlinear drag's `v_max`, a conditional type's `range` — are searched; for
 //! each candidate the linear ones (K, l0, Z, c0, z1, z2, masses) are solved exactly
-//! ([`super::exact`]): for a fixed v_max the drag force is linear in z1 and z2, for a fixed
+//! ([`crate::exact`]): for a fixed v_max the drag force is linear in z1 and z2, for a fixed
 //! range the set of interacting pairs at every frame is fixed. The outer cost is the inner
 //! least-squares minimum.
 //!
@@ -19,22 +19,22 @@
 //! landscape with several separate basins can trap the grid in the wrong one; this has not
 //! been seen on driven scenes, where misclassified samples grow steadily away from the truth.
 //!
-//! **Ranges only, masses known, no Provot limit** (the fluids): [`super::range_sweep`] replaces the grid. One
+//! **Ranges only, masses known, no Provot limit** (the fluids): [`crate::exact::range_sweep`] replaces the grid. One
 //! sweep per range bounds *every* interval (normal equations updated pair by pair), the
 //! intervals are solved exactly in order of bound until none can beat the best, so each
 //! coordinate step finds the best interval of all, not of a grid; a range whose neighbours'
 //! intervals have not moved since its last sweep is not swept again. It holds every row of the
 //! short cost uncompressed, so scenes beyond [`range_sweep::MAX_ROW_VALUES`] keep the grid.
 //!
-//! **Continuous unknowns** — a TGR's K and tendon parameters ([`super::tgr_cols`]: at a fixed K
+//! **Continuous unknowns** — a TGR's K and tendon parameters ([`crate::exact::tgr_cols`]: at a fixed K
 //! the TGR's force is affine in l0 and Z) — are searched by a 1-D profile search over the box
-//! ([`super::profile`]: coarse grid, then Brent) as further coordinates of the same descent,
+//! ([`crate::exact::profile`]: coarse grid, then Brent) as further coordinates of the same descent,
 //! which stops when an interval search at the settled continuous values moves nothing. When
 //! every column has a typed kernel the inner solves use the cached design of
-//! [`super::design`] (serial, ~15 µs each on the tadpole); the final answer is solved from an
+//! [`crate::exact::design`] (serial, ~15 µs each on the tadpole); the final answer is solved from an
 //! orthogonal (Givens) factor of the rows, never the normal equations.
 //!
-//! With Provot limits the inner solve is [`super::provot_rows`]'s iteration, and candidates are
+//! With Provot limits the inner solve is [`crate::exact::provot_rows`]'s iteration, and candidates are
 //! compared by the problem's own cost (each one drops its own rows, so the inner minima are
 //! sums over different rows).
 
@@ -43,11 +43,11 @@ use std::collections::HashMap;
 use cordis_core::forces::grid::Grid;
 use rayon::prelude::*;
 
-use super::design::Design;
-use super::exact::{self, ExactReport, OneShot, Solution, Spec, Weighting};
-use super::profile;
-use super::provot_rows;
-use super::range_sweep::{self, Sweeper, MAX_EXACT_PER_SWEEP};
+use crate::exact::design::Design;
+use crate::exact::profile;
+use crate::exact::provot_rows;
+use crate::exact::range_sweep::{self, Sweeper, MAX_EXACT_PER_SWEEP};
+use crate::exact::{self, ExactReport, OneShot, Solution, Spec, Weighting};
 use crate::problem::Problem;
 use crate::space::Role;
 
@@ -283,7 +283,7 @@ fn solve_with(problem: &Problem, sweeps: bool) -> Result<Solution, String> {
         return solution.map(|s| at_cap(s, capped));
     }
     // With continuous unknowns, the cached typed design when every column has one: the same
-    // inner solve at a fraction of the cost (see `super::design`); serial, it is ~15 µs.
+    // inner solve at a fraction of the cost (see `crate::exact::design`); serial, it is ~15 µs.
     let mut design = if conts.is_empty() || provot {
         None
     } else {

@@ -1,18 +1,18 @@
 //! `least-squares`: the short cost of a linear-in-parameter scene minimised exactly (SPEC §4).
 //!
-//! The short cost is a sum of squares of residuals affine in θ ([`super::exact`]), so one
+//! The short cost is a sum of squares of residuals affine in θ ([`crate::exact`]), so one
 //! weighted linear least-squares solve finds its global minimum: on noiseless data, the
 //! generating parameters to rounding. Known masses use the objective's precomputed factor
 //! ([`crate::cost::LinearShortCost`]); free masses (under a known total, thesis §3.3) and
 //! nonlinear drags at a known v_max use the generic assembly. The solve is rank-revealing (SVD):
 //! the report gives the condition number and names what the data cannot determine. On a scene
 //! with Provot limits the rows the limit acts on are found by iteration and left out
-//! ([`super::provot_rows`]).
+//! ([`crate::exact::provot_rows`]).
 //!
 //! As a [`Strategy`]: `init` solves (generation 0); later generations change nothing.
 
-use super::exact::{self, ExactReport, OneShot, Solution};
-use super::provot_rows;
+use crate::exact::provot_rows;
+use crate::exact::{self, ExactReport, OneShot, Solution};
 use crate::problem::Problem;
 
 /// Solves `problem` exactly; `Err` when it is not linear in its unknowns (a range or v_max

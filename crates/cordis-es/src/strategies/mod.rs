@@ -3,21 +3,18 @@
 pub mod annealing;
 pub mod cmaes;
 pub(crate) mod common;
-mod design;
-pub mod exact;
 pub mod hybrid;
 pub mod islands;
 pub mod least_squares;
 pub mod levenberg_marquardt;
 pub mod output_error;
 pub mod parisian;
-mod profile;
-pub mod provot_rows;
-pub mod range_sweep;
 pub mod self_adaptive;
 #[cfg(test)]
-mod test_scenes;
-mod tgr_cols;
+pub(crate) mod test_scenes;
 pub mod thesis;
 
 pub use common::reflect;
+// The linear-solver library moved to `crate::exact`; its old paths stay valid.
+pub use crate::exact;
+pub use crate::exact::{provot_rows, range_sweep};

@@ -1,4 +1,4 @@
-//! What the exact solvers share ([`super::least_squares`], [`super::hybrid`]): the short cost of
+//! What the exact solvers share ([`crate::strategies::least_squares`], [`crate::strategies::hybrid`]): the short cost of
 //! a scene whose forces are linear in θ written as a least-squares system, reduced to the
 //! unknowns, and solved by SVD with rank, box and total-mass handling.
 //!
@@ -35,6 +35,16 @@
 //! out of its box is clamped onto the box and held there, the worst one first, and the system
 //! solved again (an active-set heuristic: each clamp is optimal for the others, not a full
 //! bounded least-squares search). Both are reported.
+//!
+//! This folder is the linear-solver library under `least-squares` and `hybrid` (design
+//! assembly, reduction and solve, Provot rows, TGR columns, the cached design, range sweeps,
+//! the 1-D profile search); the strategies themselves live in [`crate::strategies`].
+
+pub(crate) mod design;
+pub(crate) mod profile;
+pub mod provot_rows;
+pub mod range_sweep;
+pub(crate) mod tgr_cols;
 
 use std::collections::HashMap;
 
@@ -42,7 +52,7 @@ use cordis_core::{LinkKind, Scene, Vec3};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-use super::provot_rows::{ProvotRows, RowMask};
+use self::provot_rows::{ProvotRows, RowMask};
 use crate::cost::{CostKind, LinearShortCost, Objective, ThetaEntry};
 use crate::problem::Problem;
 use crate::space::Role;
@@ -71,7 +81,7 @@ pub(crate) enum Col {
     /// Gravity along an axis (m/s²), always known.
     G(usize),
     /// Rest length l0 of TGR type t (m), at the TGR's K and tendon in `p`: its force is affine
-    /// in (l0, Z) through the tendon (see [`super::tgr_cols`]).
+    /// in (l0, Z) through the tendon (see [`self::tgr_cols`]).
     Rest(usize),
     /// θ = 1: the forces at every linear parameter 0 with the nonlinear ones in `p` (a TGR's
     /// `K (L - y)` at l0 = Z = 0 and the signal's push through the tendon), N.
@@ -91,7 +101,7 @@ pub(crate) struct Block {
 pub(crate) struct System {
     pub cols: Vec<Col>,
     pub blocks: Vec<Block>,
-    /// Some rows of the short cost are left out (Provot's, [`super::provot_rows`]): the
+    /// Some rows of the short cost are left out (Provot's, [`self::provot_rows`]): the
     /// system's minimum is then not the cost.
     pub partial: bool,
 }
@@ -175,7 +185,7 @@ pub(crate) fn generic_cols(scene: &Scene) -> Result<Vec<Col>, String> {
                     ty.name
                 ))
             }
-            LinkKind::Tgr => cols.extend(super::tgr_cols::cols(t)),
+            LinkKind::Tgr => cols.extend(self::tgr_cols::cols(t)),
             #[allow(unreachable_patterns)]
             other => {
                 return Err(format!(
@@ -914,7 +924,7 @@ pub struct ExactReport {
     pub notes: Vec<String>,
     /// Why the solve failed; the answer is then the starting point.
     pub error: Option<String>,
-    /// Rows left out on a scene with Provot limits ([`super::provot_rows`]); absent otherwise.
+    /// Rows left out on a scene with Provot limits ([`self::provot_rows`]); absent otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub provot: Option<ProvotRows>,
     /// Why the search stopped short of its own criterion (`hybrid`'s coordinate descent at its
@@ -994,7 +1004,7 @@ pub(crate) fn split(problem: &Problem) -> Split {
     for (k, u) in problem.space.unknowns.iter().enumerate() {
         match u.role {
             Role::Range | Role::Speed => s.nonlinear.push(k),
-            _ if super::tgr_cols::is_nonlinear(&problem.scene, u) => s.nonlinear.push(k),
+            _ if self::tgr_cols::is_nonlinear(&problem.scene, u) => s.nonlinear.push(k),
             Role::Mass => {
                 if problem.scene.particles[u.slot - layout.mass_offset].fixed {
                     s.fixed_masses.push(k);

@@ -4,7 +4,7 @@
 //!
 //! **Why it is cheap.** For fixed ranges the short cost is `|W [θ; 1]|²` with one row of `W`
 //! per free particle, force frame and axis (position weighting: the θ part divided by the
-//! known mass, [`super::exact`]). A conditional type's range only decides which of its pairs
+//! known mass, [`crate::exact`]). A conditional type's range only decides which of its pairs
 //! enter its own three columns (K, K·l0, Z). So the rows of everything else (`w0`: every other
 //! force, every other type) are built once by the scene's own force passes, and each candidate
 //! pair of a type with unknown range (every pair closer than the top of its box, at every force
@@ -28,7 +28,7 @@ use cordis_core::forces::spring::spring_force;
 use cordis_core::Vec3;
 use nalgebra::DMatrix;
 
-use super::exact::{self, Block, Col, Reduction, Spec, System, Weighting};
+use crate::exact::{self, Block, Col, Reduction, Spec, System, Weighting};
 use crate::problem::Problem;
 use crate::space::Role;
 
@@ -664,7 +664,7 @@ mod tests {
         let dims: Vec<(usize, Vec<f64>)> = sp
             .nonlinear
             .iter()
-            .map(|&k| (k, super::super::hybrid::candidates(&problem, k).0))
+            .map(|&k| (k, crate::strategies::hybrid::candidates(&problem, k).0))
             .collect();
         assert_eq!(dims.len(), 2);
         let mut sw = Sweeper::new(&problem, &cols, &sp.linear, dims);

@@ -11,7 +11,7 @@
 //! 1. start from every row but those the observation alone points at (`at_limit`: springs
 //!    that sit at their type's longest observed length at several frames; without it a rod
 //!    always at its limit, in a wide box, is silently fitted as a stiff spring);
-//! 2. solve the weighted linear least squares on the other rows ([`super::exact`]);
+//! 2. solve the weighted linear least squares on the other rows ([`crate::exact`]);
 //! 3. with that estimate, predict every frame from the observed frames before it and run the
 //!    Provot pass on the prediction with every limit shortened by [`MARGIN`], marking each
 //!    particle it moves (cascades included): those rows are where the limit may have acted;
@@ -36,8 +36,8 @@ use cordis_core::world::{Clock, OneClock};
 use cordis_core::Vec3;
 use serde::{Deserialize, Serialize};
 
-use super::exact::{self, Col, ExactReport, Split};
 use crate::cost::Objective;
+use crate::exact::{self, Col, ExactReport, Split};
 use crate::problem::Problem;
 use crate::strategy::lossless;
 

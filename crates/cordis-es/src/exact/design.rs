@@ -2,7 +2,7 @@
 //! `[Φ | a]` kept column by column, each column recomputed only when a nonlinear parameter it
 //! depends on changes, then reduced to one small triangular factor per free particle.
 //!
-//! [`super::exact::assemble`] runs every force pass once per column and frame and rotates
+//! [`crate::exact::assemble`] runs every force pass once per column and frame and rotates
 //! every row into a factor: ~250 µs per inner solve on the tadpole (loaded 2-core machine),
 //! ~100 solves per search. In a search only one nonlinear unknown moves at a time, and its
 //! columns have typed kernels:
@@ -27,9 +27,9 @@ use cordis_core::forces::unit_and_length;
 use cordis_core::{LinkKind, Scene, Vec3};
 use nalgebra::DMatrix;
 
-use super::exact::{self, Block, Col, Factor, System, Weighting};
-use super::tgr_cols::Tendon;
 use crate::cost::Objective;
+use crate::exact::tgr_cols::Tendon;
+use crate::exact::{self, Block, Col, Factor, System, Weighting};
 
 /// Rows `[Φ | a]` of every free particle, column by column.
 #[derive(Clone, Debug)]

@@ -13,15 +13,15 @@
 //! predicted. For fixed K, m_t, K_t, Z_t this is a linear recursion in y driven by
 //! `S + K L` (known), `-K l0` and `Z s`, so `y = y₀ + l0 y_l + Z y_Z` with the three series of
 //! [`Tendon`], and `f(n) = K (L - y₀) - l0 K (1 + y_l) + Z (s - K y_Z)` is affine in (l0, Z).
-//! [`super::exact::assemble`] runs the cost's own TGR kernel on probe parameter vectors
+//! [`crate::exact::assemble`] runs the cost's own TGR kernel on probe parameter vectors
 //! (l0 = 1; Z = 1; both 0), each with its own tendon driven along the observed frames, so its
-//! columns are the cost's arithmetic; `hybrid`'s cached design ([`super::design`]) steps the
+//! columns are the cost's arithmetic; `hybrid`'s cached design ([`crate::exact::design`]) steps the
 //! three series directly (one pass per K instead of three). The series reproduce the cost's
 //! tendon to 1e-12 (tested below) and the two column builds agree (`design`'s test).
 
 use cordis_core::{LinkKind, Scene};
 
-use super::exact::Col;
+use crate::exact::Col;
 use crate::space::Unknown;
 
 /// Offsets of l0 and Z in a TGR type's parameters (K, l0, Z, m_t, K_t, Z_t).
