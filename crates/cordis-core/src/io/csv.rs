@@ -111,17 +111,7 @@ fn parse_rows(name: &str, text: &str, gaps: bool) -> Result<(usize, usize, Vec<f
     }
     let mut expect = (0u64, 0u64);
     for (k, r) in rows.iter().enumerate() {
-        if k > 0 && (rows[k - 1].frame, rows[k - 1].particle) == (r.frame, r.particle) {
-            return Err(CordisError::trajectory(
-                format!("{name}:{}", r.line),
-                format!(
-                    "duplicate row for frame {}, particle {} (first given on line {})",
-                    r.frame,
-                    r.particle,
-                    rows[k - 1].line
-                ),
-            ));
-        }
+        check_unique(name, &rows, k)?;
         if (r.frame, r.particle) != expect {
             return Err(missing(name, expect));
         }
@@ -162,21 +152,28 @@ fn fill_gaps(name: &str, rows: &[Row], frames: u64, n: u64) -> Result<(usize, us
     };
     let mut data = vec![f64::NAN; cells as usize * 3];
     for (k, r) in rows.iter().enumerate() {
-        if k > 0 && (rows[k - 1].frame, rows[k - 1].particle) == (r.frame, r.particle) {
-            return Err(CordisError::trajectory(
-                format!("{name}:{}", r.line),
-                format!(
-                    "duplicate row for frame {}, particle {} (first given on line {})",
-                    r.frame,
-                    r.particle,
-                    rows[k - 1].line
-                ),
-            ));
-        }
+        check_unique(name, rows, k)?;
         let at = ((r.frame * n + r.particle) * 3) as usize;
         data[at..at + 3].copy_from_slice(&r.pos);
     }
     Ok((frames as usize, n as usize, data))
+}
+
+/// Row `k` of the sorted rows names another `(frame, particle)` than the row before it.
+fn check_unique(name: &str, rows: &[Row], k: usize) -> Result<()> {
+    let r = &rows[k];
+    if k > 0 && (rows[k - 1].frame, rows[k - 1].particle) == (r.frame, r.particle) {
+        return Err(CordisError::trajectory(
+            format!("{name}:{}", r.line),
+            format!(
+                "duplicate row for frame {}, particle {} (first given on line {})",
+                r.frame,
+                r.particle,
+                rows[k - 1].line
+            ),
+        ));
+    }
+    Ok(())
 }
 
 fn missing(name: &str, (frame, particle): (u64, u64)) -> CordisError {

@@ -1531,17 +1531,8 @@ pub(crate) fn fit(
     let covariance = super::uncertainty::physical(&cov_q, &chain);
     let correlation = super::uncertainty::correlation(&covariance);
     let params = fitter.params(&q);
-    let stderr: Vec<f64> = (0..dim).map(|a| covariance[(a, a)].sqrt()).collect();
-    let intervals = (0..dim)
-        .map(|a| {
-            let v = params[fitter.unknowns[a].slot];
-            (v - 1.96 * stderr[a], v + 1.96 * stderr[a])
-        })
-        .collect();
-    let ns = fitter.state_len();
-    let states = (0..fitter.takes.len())
-        .map(|k| q[dim + k * ns..dim + (k + 1) * ns].to_vec())
-        .collect();
+    let (stderr, intervals) = super::spread(fitter, &params, &covariance);
+    let states = super::take_states(fitter, &q);
     let missing = cgc.unconverged - solves_before;
     let note = format!(
         "{start}; matrix-free Gauss–Newton ({variables} variables > {DENSE_MAX_COLUMNS} dense \
@@ -1571,11 +1562,7 @@ pub(crate) fn fit(
         correlation,
         undetermined: Vec::new(),
         converged: end == StageEnd::Converged,
-        end: match end {
-            StageEnd::Converged => "converged",
-            StageEnd::Budget => "budget",
-            StageEnd::Stalled | StageEnd::Diverged => "stalled",
-        },
+        end: super::end_text(end),
         iterations: counts.iterations,
         evaluations: counts.evaluations,
         windows,

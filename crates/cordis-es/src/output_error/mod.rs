@@ -301,22 +301,13 @@ fn summarise(
     let correlation = uncertainty::correlation(&covariance);
     let params = fitter.params(&q);
     let dim = fitter.theta();
-    let stderr: Vec<f64> = (0..dim).map(|a| covariance[(a, a)].sqrt()).collect();
-    let intervals = (0..dim)
-        .map(|a| {
-            let v = params[fitter.unknowns[a].slot];
-            (v - 1.96 * stderr[a], v + 1.96 * stderr[a])
-        })
-        .collect();
+    let (stderr, intervals) = spread(fitter, &params, &covariance);
     let names = variable_names(fitter, scene);
     let undetermined = dirs
         .iter()
         .map(|d| d.iter().map(|&a| names[a].clone()).collect())
         .collect();
-    let ns = fitter.state_len();
-    let states = (0..fitter.takes.len())
-        .map(|k| q[dim + k * ns..dim + (k + 1) * ns].to_vec())
-        .collect();
+    let states = take_states(fitter, &q);
     Estimate {
         genome: q[..dim].to_vec(),
         params,
@@ -332,16 +323,46 @@ fn summarise(
         correlation,
         undetermined,
         converged: end == StageEnd::Converged,
-        end: match end {
-            StageEnd::Converged => "converged",
-            StageEnd::Budget => "budget",
-            StageEnd::Stalled | StageEnd::Diverged => "stalled",
-        },
+        end: end_text(end),
         iterations: counts.iterations,
         evaluations: counts.evaluations,
         windows,
         start,
     }
+}
+
+/// How the last window ended, as reported.
+pub(crate) fn end_text(end: StageEnd) -> &'static str {
+    match end {
+        StageEnd::Converged => "converged",
+        StageEnd::Budget => "budget",
+        StageEnd::Stalled | StageEnd::Diverged => "stalled",
+    }
+}
+
+/// Standard errors (the covariance's diagonal) and 95 % intervals `θ̂ ± 1.96 se`.
+pub(crate) fn spread(
+    fitter: &Fitter<'_>,
+    params: &[f64],
+    covariance: &DMatrix<f64>,
+) -> (Vec<f64>, Vec<(f64, f64)>) {
+    let stderr: Vec<f64> = (0..fitter.theta())
+        .map(|a| covariance[(a, a)].sqrt())
+        .collect();
+    let intervals = stderr
+        .iter()
+        .zip(fitter.unknowns)
+        .map(|(se, u)| (params[u.slot] - 1.96 * se, params[u.slot] + 1.96 * se))
+        .collect();
+    (stderr, intervals)
+}
+
+/// Each take's `[x0, v0]` block of the fit's variables.
+pub(crate) fn take_states(fitter: &Fitter<'_>, q: &[f64]) -> Vec<Vec<f64>> {
+    let (dim, ns) = (fitter.theta(), fitter.state_len());
+    (0..fitter.takes.len())
+        .map(|k| q[dim + k * ns..dim + (k + 1) * ns].to_vec())
+        .collect()
 }
 
 /// Names of the fit's variables: the unknowns', then `take K: particles[i].x0.x` etc.
