@@ -12,5 +12,13 @@ echo "== cargo test --release"
 cargo test --release
 echo "== python package + pytest"
 bash scripts/python-test.sh
-echo "== HTML viewer in headless Chromium (skipped without chromium)"
+echo "== HTML viewer in headless Chromium"
+# The viewer test needs a browser: Debian's chromium package, installed here when missing and
+# the script may (root with apt-get, as in CI), so that CI never skips it.
+if ! command -v chromium >/dev/null 2>&1 && command -v apt-get >/dev/null 2>&1 \
+    && [ "$(id -u)" = 0 ]; then
+    echo "installing chromium (Debian package) for the viewer test"
+    apt-get update -qq >/dev/null
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null
+fi
 bash tests/viewer/screenshot.sh
