@@ -337,3 +337,24 @@ fn usage_errors_are_one_line() {
     );
     fails(dir.path(), &["no-such-command"], 2, &["no-such-command"]);
 }
+
+/// `discover --dt 5e-324` never returned (dt² underflowed to 0, every acceleration infinite):
+/// the property test above can draw it, so a hang there would hang CI.
+#[test]
+fn discover_with_a_dt_whose_square_underflows_is_refused_not_a_hang() {
+    let dir = rigid_dir();
+    let out = cordis(
+        dir.path(),
+        &[
+            "discover",
+            "-t",
+            "r.csv",
+            "--dt=5e-324",
+            "--total-mass=1",
+            "-q",
+        ],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    let err = stderr(&out);
+    assert!(err.contains("dt² underflows"), "{err}");
+}

@@ -129,6 +129,14 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
             format!("must be a positive number of seconds, got {dt}"),
         ));
     }
+    // Accelerations divide by dt²: a dt whose square underflows (5e-324 s) made every one
+    // infinite and the selection loop never ended.
+    if !(dt * dt).is_normal() {
+        return Err(bad(
+            "dt",
+            format!("{dt} s is too small: dt² underflows to {}", dt * dt),
+        ));
+    }
     if frames < 8 {
         return Err(bad(
             "trajectory",
