@@ -1,16 +1,12 @@
 //! `cordis identify` on tracked motion: gaps in the file, several takes, the uncertainty in
 //! the report, the estimated initial state in the identified scene, refusals by name.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn cordis(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_cordis"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("cordis runs")
-}
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+use common::cordis;
 
 fn summary(out: &Output) -> serde_json::Value {
     assert!(
@@ -117,18 +113,12 @@ fn two_takes_share_one_parameter_set() {
     .status
     .success());
     let (guess, markers) = (sb.join("guess.json"), sb.join("markers.csv"));
+    let (guess, markers) = (guess.to_str().unwrap(), markers.to_str().unwrap());
+    let both = ["identify", guess, "-t", markers, "-t", "b.csv"];
+    let truth = sb.join("truth.json");
     let out = cordis(
         d,
-        &[
-            "identify",
-            guess.to_str().unwrap(),
-            "-t",
-            markers.to_str().unwrap(),
-            "-t",
-            "b.csv",
-            "--truth",
-            sb.join("truth.json").to_str().unwrap(),
-        ],
+        &[&both[..], &["--truth", truth.to_str().unwrap()]].concat(),
     );
     let s = summary(&out);
     assert_eq!(s["strategy"], "output-error", "{s}");
@@ -140,19 +130,7 @@ fn two_takes_share_one_parameter_set() {
     // One initial state per take: 6 values for each of the 18 free particles, twice.
     assert_eq!(s["solver"]["variables"], 9 + 2 * 6 * 18);
     // Another strategy cannot combine takes, and says so before any work.
-    let out = cordis(
-        d,
-        &[
-            "identify",
-            guess.to_str().unwrap(),
-            "-t",
-            markers.to_str().unwrap(),
-            "-t",
-            "b.csv",
-            "--strategy",
-            "least-squares",
-        ],
-    );
+    let out = cordis(d, &[&both[..], &["--strategy", "least-squares"]].concat());
     assert_eq!(out.status.code(), Some(2));
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(e.contains("2 takes: `least-squares` reads one"), "{e}");

@@ -96,9 +96,9 @@ pub fn make_strategy(
     problem: &Problem,
     options: &StrategyOptions,
 ) -> (Box<dyn Strategy>, &'static str) {
-    let auto_reason = match name {
-        StrategyName::Auto => output_error_reason(problem),
-        _ => None,
+    let (auto_reason, solved) = match name {
+        StrategyName::Auto => auto_probe(problem),
+        _ => (None, None),
     };
     let name = match name {
         StrategyName::Auto if auto_reason.is_some() => StrategyName::OutputError,
@@ -111,7 +111,13 @@ pub fn make_strategy(
         other => other,
     };
     match name {
-        StrategyName::LeastSquares => (Box::new(least_squares::strategy()), "least-squares"),
+        StrategyName::LeastSquares => {
+            let strategy = match solved {
+                Some((s, evals)) => least_squares::strategy().with_solution(s, evals),
+                None => least_squares::strategy(),
+            };
+            (Box::new(strategy), "least-squares")
+        }
         StrategyName::Hybrid => (Box::new(hybrid::strategy()), "hybrid"),
         StrategyName::Auto | StrategyName::Thesis => {
             let mut c = ThesisConfig {
@@ -182,30 +188,45 @@ pub const NOISY: f64 = 1e-6;
 /// noise), and every kind has exact sensitivities. The short cost differentiates noise twice;
 /// the output-error fit does not.
 pub fn output_error_reason(problem: &Problem) -> Option<String> {
+    auto_probe(problem).0
+}
+
+/// [`output_error_reason`], and the short cost's exact solution when it was computed to judge
+/// the noise (the `least-squares` that `auto` then runs takes it instead of solving again).
+fn auto_probe(problem: &Problem) -> (Option<String>, Option<(exact::Solution, u64)>) {
     if strategies::output_error::supported(problem).is_err() || problem.space.dim() == 0 {
-        return None;
+        return (None, None);
     }
     if problem.has_missing() {
-        return Some("observations are missing (gaps or hidden particles)".into());
+        return (
+            Some("observations are missing (gaps or hidden particles)".into()),
+            None,
+        );
     }
     if problem.take_count() > 1 {
-        return Some(format!(
-            "{} takes share one parameter set",
-            problem.take_count()
-        ));
+        let why = format!("{} takes share one parameter set", problem.take_count());
+        return (Some(why), None);
     }
     if !matches!(problem.objective.kind(), crate::cost::CostKind::Short) {
-        return None;
+        return (None, None);
     }
-    let solution = least_squares::solve(problem).ok()?;
+    let before = problem.evals();
+    let Ok(solution) = least_squares::solve(problem) else {
+        return (None, None);
+    };
+    let evals = problem.evals() - before;
     let motion = problem.objective.acceleration_cost();
     let residual = (solution.cost / motion.max(f64::MIN_POSITIVE)).sqrt();
-    (residual > NOISY).then(|| {
-        format!(
-            "the data look noisy: the short cost's exact minimum leaves {residual:.1e} of the \
-             motion's acceleration (noise, not a network's motion)"
-        )
-    })
+    match residual > NOISY {
+        true => (
+            Some(format!(
+                "the data look noisy: the short cost's exact minimum leaves {residual:.1e} of \
+                 the motion's acceleration (noise, not a network's motion)"
+            )),
+            None,
+        ),
+        false => (None, Some((solution, evals))),
+    }
 }
 
 /// Whether `levenberg-marquardt` suits a problem the exact solvers refuse: the short cost, and

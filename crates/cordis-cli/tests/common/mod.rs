@@ -1,4 +1,4 @@
-//! Helpers shared by the issue-17 CLI tests (`output_safety_cli`, `robustness_cli`).
+//! Helpers shared by the CLI tests (`output_safety_cli`, `robustness_cli`, `identify_tracked`).
 #![allow(dead_code)] // each test crate uses its own part
 
 use std::path::Path;

@@ -1156,6 +1156,9 @@ pub struct OneShot {
     name: &'static str,
     solve: fn(&Problem) -> Result<Solution, String>,
     state: OneShotState,
+    /// A solve already made on the same problem (`auto` solves to judge the noise) and the
+    /// evaluations it counted, used by `init` instead of solving again.
+    solved: Option<(Solution, u64)>,
 }
 
 impl OneShot {
@@ -1164,7 +1167,15 @@ impl OneShot {
             name,
             solve,
             state: OneShotState::default(),
+            solved: None,
         }
+    }
+
+    /// The strategy with `solution`, the result of `solve` on the problem it will run on, made
+    /// with `evals` cost evaluations (counted again by `init`, as if it had solved there).
+    pub fn with_solution(mut self, solution: Solution, evals: u64) -> Self {
+        self.solved = Some((solution, evals));
+        self
     }
 
     /// Condition number, undetermined and clamped unknowns, notes, error.
@@ -1193,7 +1204,14 @@ impl Strategy for OneShot {
     }
 
     fn init(&mut self, problem: &Problem, _seed: u64) {
-        self.state = match (self.solve)(problem) {
+        let solution = match self.solved.take() {
+            Some((s, evals)) => {
+                problem.set_evals(problem.evals() + evals);
+                Ok(s)
+            }
+            None => (self.solve)(problem),
+        };
+        self.state = match solution {
             Ok(s) => OneShotState {
                 genome: s.genome,
                 cost: s.cost,

@@ -121,10 +121,17 @@ impl Fitter<'_> {
                         }
                         let e = xi[c] - obs;
                         cost += w * w * e * e;
+                        // θ columns in internal coordinates (times dp/dz), state columns as
+                        // they are: two loops, no branch per column.
                         let src = &s[(3 * i + c) * width..][..width];
+                        let (theta, state) = src.split_at(nt);
+                        for (q, (d, dz)) in theta.iter().zip(&chain).enumerate() {
+                            rows[(m, q)] = w * (d * dz);
+                        }
+                        for (q, d) in state.iter().enumerate() {
+                            rows[(m, nt + q)] = w * d;
+                        }
                         for q in 0..width {
-                            let d = if q < nt { src[q] * chain[q] } else { src[q] };
-                            rows[(m, q)] = w * d;
                             local_g[q] += w * e * rows[(m, q)];
                         }
                         m += 1;

@@ -1574,8 +1574,7 @@ pub(crate) fn fit(
 mod tests {
     //! The matrix-free products against the dense sensitivities of [`super::super::tangent`].
 
-    use cordis_core::examples::random_network;
-    use cordis_core::{Bounds, LinkKind, LinkType, Param, Scene, Vec3};
+    use cordis_core::{Bounds, Param, Scene, Vec3};
 
     use super::super::fit::{self, Counts, Fitter, LmSettings};
     use super::super::observations::Take;
@@ -1587,23 +1586,7 @@ mod tests {
     /// Damped springs (A not symmetric), a damper, an anchor, a drag, an unknown mass, a fixed
     /// particle: every term of the recursion.
     fn truth() -> Scene {
-        let mut s = random_network(7, 6, 2);
-        for t in &mut s.types {
-            t.params[2] = Param::Known(0.2);
-        }
-        s.add_type(LinkType::new("d", LinkKind::Damper).with("damping", 0.3));
-        s.add_type(
-            LinkType::new("a", LinkKind::Anchor)
-                .with("stiffness", 30.0)
-                .with("rest_length", 0.1)
-                .with("damping", 0.1),
-        );
-        s.add_type(LinkType::new("air", LinkKind::Drag).with("damping", 0.05));
-        s.add_link("d", &[1, 2]);
-        let a = s.add_link("a", &[3]);
-        let x = s.particles[3].pos;
-        s.links[a].point = Some([x[0] + 0.2, x[1] - 0.1, x[2] + 0.05]);
-        s.add_link("air", &[4]);
+        let mut s = super::super::tests::every_term_scene(7);
         s.particles[5].fixed = true;
         s
     }

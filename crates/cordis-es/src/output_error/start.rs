@@ -68,7 +68,8 @@ pub fn start_genome(
     // A hidden particle's positions are unknown, so the short cost cannot use the rows of its
     // neighbours either: the start solves on the scene with the hidden particles and their
     // neighbours held (a fixed particle has no row), so every row left reads observed
-    // positions only. Types no remaining row sees keep the heuristic start.
+    // positions only. An unknown no remaining row sees is one the solve reports undetermined
+    // and holds at its starting value.
     let hidden: Vec<usize> = (0..take.particles())
         .filter(|&i| !take.tracks(i) && !scene.particles[i].fixed)
         .collect();

@@ -82,6 +82,15 @@ pub(crate) struct Sens {
 impl Tangent {
     /// Compiles `scene`; refuses the kinds this module has no tangent for, by name.
     pub fn new(scene: &Scene) -> Result<Self, CostError> {
+        Self::supports(scene)?;
+        let plan = Plan::compile(scene)?;
+        let free: Vec<usize> = (0..plan.n).filter(|&i| plan.free[i]).collect();
+        Ok(Tangent { plan, free })
+    }
+
+    /// Whether every kind `scene` uses has a tangent here (an error naming the first that has
+    /// none), without compiling the scene.
+    pub fn supports(scene: &Scene) -> Result<(), CostError> {
         for (t, ty) in scene.types.iter().enumerate() {
             let used = scene.links.iter().any(|l| l.type_index == t)
                 || scene.couplings.iter().any(|c| c.type_index == t)
@@ -107,15 +116,13 @@ impl Tangent {
                 ));
             }
         }
-        let plan = Plan::compile(scene)?;
-        if plan.worlds.is_some() {
+        if scene.has_worlds() {
             return Err(CostError::mismatch(
                 "worlds",
                 "several worlds have no exact sensitivities yet (output-error)",
             ));
         }
-        let free: Vec<usize> = (0..plan.n).filter(|&i| plan.free[i]).collect();
-        Ok(Tangent { plan, free })
+        Ok(())
     }
 
     /// Columns for the parameter slots `slots` (in order), then the free particles' states.

@@ -5,9 +5,10 @@ use cordis_core::{Bounds, LinkKind, LinkType, Param, Scene, Vec3};
 
 use super::tangent::{Sens, Tangent};
 
-/// A random network with every damping non-zero, a damper, an anchor and a drag.
-fn scene() -> Scene {
-    let mut s = random_network(3, 6, 2);
+/// A random network with every damping non-zero, a damper, an anchor and a drag: every term
+/// of the tangent recursion (also the matrix-free path's test scene).
+pub(super) fn every_term_scene(seed: u64) -> Scene {
+    let mut s = random_network(seed, 6, 2);
     for t in &mut s.types {
         t.params[2] = Param::Known(0.2);
     }
@@ -26,6 +27,10 @@ fn scene() -> Scene {
     s.links[a].point = Some([x[0] + 0.2, x[1] - 0.1, x[2] + 0.05]);
     s.add_link("air", &[4]);
     s
+}
+
+fn scene() -> Scene {
+    every_term_scene(3)
 }
 
 fn state_of(s: &Scene, t: &Tangent) -> Vec<f64> {

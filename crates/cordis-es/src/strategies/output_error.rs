@@ -34,7 +34,6 @@ struct State {
     error: Option<String>,
     /// Per take: `[x0, v0]` per free particle.
     states: Vec<Vec<f64>>,
-    converged: bool,
 }
 
 impl OutputError {
@@ -52,28 +51,11 @@ impl OutputError {
         self.chosen_because = why;
         self
     }
-
-    /// Why the fit could not produce an estimate, if it could not.
-    pub fn error(&self) -> Option<&str> {
-        self.state.error.as_deref()
-    }
-
-    /// Whether the last window met the solver's own criterion.
-    pub fn converged(&self) -> bool {
-        self.state.converged
-    }
-
-    /// The estimated initial states, per take (`[x0, v0]` per free particle, m and m/s).
-    pub fn states(&self) -> &[Vec<f64>] {
-        &self.state.states
-    }
 }
 
 /// Whether `output-error` can run on `problem` (its kinds have exact sensitivities).
 pub fn supported(problem: &Problem) -> Result<(), String> {
-    output_error::tangent::Tangent::new(&problem.scene)
-        .map(|_| ())
-        .map_err(|e| e.to_string())
+    output_error::tangent::Tangent::supports(&problem.scene).map_err(|e| e.to_string())
 }
 
 /// What `output-error` reports beside the estimate (see [`crate::output_error::Estimate`]).
@@ -223,7 +205,6 @@ impl Strategy for OutputError {
                     genome: e.genome,
                     cost,
                     error: None,
-                    converged: e.converged,
                     states: e.states,
                 }
             }
@@ -234,7 +215,6 @@ impl Strategy for OutputError {
                 uncertainty: None,
                 error: Some(err.to_string()),
                 states: Vec::new(),
-                converged: false,
             },
         };
     }
