@@ -168,3 +168,79 @@ fn gaps_are_refused_by_name_where_they_cannot_be_read() {
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(e.contains("41 particles but the scene has 27"), "{e}");
 }
+
+#[test]
+fn output_error_stopped_by_the_time_limit_prints_its_best_so_far_and_resumes_to_the_uninterrupted_model(
+) {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let sb = soft_block();
+    let (guess, markers) = (sb.join("guess.json"), sb.join("markers.csv"));
+    let (guess, markers) = (guess.to_str().unwrap(), markers.to_str().unwrap());
+    let base = [
+        "identify",
+        guess,
+        "--trajectory",
+        markers,
+        "--json",
+        "--quiet",
+    ];
+    let whole = cordis(d, &[&base[..], &["--out", "whole.json"]].concat());
+    let whole_line = summary(&whole);
+    assert_eq!(whole_line["stopped_by"], "converged");
+
+    // The whole fit takes ~1 s of CPU: 0.05 s stops it inside its first windows.
+    let stopped = cordis(
+        d,
+        &[
+            &base[..],
+            &[
+                "--time-limit",
+                "0.05",
+                "--checkpoint",
+                "fit.ckpt",
+                "--out",
+                "stopped.json",
+            ],
+        ]
+        .concat(),
+    );
+    let line = summary(&stopped);
+    assert_eq!(line["stopped_by"], "time_limit");
+    // Inside a window (or, on a machine slow enough, before the first one began).
+    let end = line["solver"]["end"].as_str().unwrap();
+    assert!(end == "interrupted" || end == "running", "{line}");
+    assert!(line["cost"].as_f64().unwrap().is_finite());
+    assert!(
+        line.get("uncertainty").is_none(),
+        "no interval from a fit not finished"
+    );
+    let warned = String::from_utf8_lossy(&stopped.stderr);
+    assert!(
+        warned.contains("before reaching the whole take"),
+        "{warned}"
+    );
+    assert!(
+        d.join("stopped.json").exists(),
+        "the best so far is written"
+    );
+
+    let resumed = cordis(
+        d,
+        &[
+            &base[..],
+            &["--resume", "fit.ckpt", "--out", "resumed.json"],
+        ]
+        .concat(),
+    );
+    let resumed_line = summary(&resumed);
+    assert_eq!(resumed_line["stopped_by"], "converged");
+    assert_eq!(resumed_line["cost"], whole_line["cost"]);
+    assert_eq!(resumed_line["uncertainty"], whole_line["uncertainty"]);
+    let read = |f: &str| std::fs::read_to_string(d.join(f)).unwrap();
+    assert_eq!(
+        read("resumed.json"),
+        read("whole.json"),
+        "the same identified scene"
+    );
+}

@@ -274,7 +274,16 @@ pub fn run_typed(
         if problem.objective.window() != window {
             strategy.reevaluate(problem);
         }
-        strategy.next_generation(problem, config.seed, generation);
+        let halt = || {
+            interrupt.is_some_and(|f| f.load(Ordering::Relaxed))
+                || stop
+                    .time_limit
+                    .is_some_and(|t| elapsed(&start) >= t.as_secs_f64())
+        };
+        strategy.next_generation_until(problem, config.seed, generation, &halt);
+        if let Some(e) = strategy.failure() {
+            return Err(CostError::run(strategy.name(), e));
+        }
         // A failed evaluation left +inf costs in the strategy's state: stop before that state
         // reaches a checkpoint, which keeps the last good generation.
         if let Some(e) = problem.take_eval_error() {

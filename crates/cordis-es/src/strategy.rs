@@ -24,6 +24,21 @@ pub trait Strategy: Send {
     /// [`crate::rng::stream`]`(seed, generation, …)` so that a run depends on its seed only.
     fn next_generation(&mut self, problem: &Problem, seed: u64, generation: u64);
 
+    /// [`Strategy::next_generation`] for strategies whose one generation can take long (a
+    /// window of the output-error fit): `halt()` turns true when the run must stop (Ctrl-C,
+    /// the time limit), and the strategy then ends the generation early, its best so far kept
+    /// and its state still resumable. The run loop calls this one; the default ignores `halt`.
+    fn next_generation_until(
+        &mut self,
+        problem: &Problem,
+        seed: u64,
+        generation: u64,
+        halt: &dyn Fn() -> bool,
+    ) {
+        let _ = halt;
+        self.next_generation(problem, seed, generation);
+    }
+
     /// True when the strategy has nothing left to do (an exact solver after its solve): the
     /// run loop then stops, as [`crate::executor::StopReason::Converged`] only when
     /// [`Strategy::report`] says its criterion was met and every unknown determined.
@@ -31,9 +46,9 @@ pub trait Strategy: Send {
         false
     }
 
-    /// Why the strategy could not produce an estimate at all (an exact solve that failed):
-    /// the run is then an error, never its starting point handed back as a result. Read after
-    /// [`Strategy::init`].
+    /// Why the strategy could not produce an estimate at all (an exact solve that failed, a
+    /// fit that diverged): the run is then an error, never its starting point handed back as a
+    /// result. Read after [`Strategy::init`] and after every generation.
     fn failure(&self) -> Option<String> {
         None
     }

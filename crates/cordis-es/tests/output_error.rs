@@ -7,7 +7,8 @@ use cordis_core::io::read_trajectory;
 use cordis_core::{LinkKind, LinkType, Param, Scene, Trajectory};
 use cordis_es::identify::{add_noise, with_unknown_boxes};
 use cordis_es::output_error::{
-    cramer_rao, estimate, expected_error_pct, identified_scene, Config, Estimate, Take,
+    cramer_rao, estimate, expected_error_pct, identified_scene, Config, Estimate, Prepared,
+    Progress, Step, Take,
 };
 use cordis_es::space::ParameterSpace;
 
@@ -290,4 +291,49 @@ fn cramer_rao_two(
     sigma: f64,
 ) -> Vec<f64> {
     cordis_es::output_error::cramer_rao_takes(&[first, second], space, takes, sigma).unwrap()
+}
+
+#[test]
+fn a_fit_stopped_midway_and_resumed_from_its_saved_progress_ends_bit_for_bit_where_an_uninterrupted_fit_ends(
+) {
+    let (truth, guess) = network(2, 12, 7);
+    let traj = truth.simulate(200).unwrap();
+    let noisy = add_noise(&traj, 1e-3 * traj.scale(), 2);
+    let take = Take::complete(&noisy);
+    let space = ParameterSpace::from_scene(&guess);
+    let config = Config::default();
+    let whole = estimate(&guess, &space, std::slice::from_ref(&take), &config).unwrap();
+
+    // Stopped at the 3rd and the 20th iteration (inside windows), each time saved to JSON and
+    // read back as a checkpoint would be, then resumed.
+    let prepared = Prepared::new(&guess, &space, vec![take], &config).unwrap();
+    let mut progress = prepared.start(&guess, &space, &config).unwrap();
+    let asked = std::cell::Cell::new(0usize);
+    let halt = || {
+        asked.set(asked.get() + 1);
+        [3, 20].contains(&asked.get())
+    };
+    let mut stops = 0;
+    loop {
+        match prepared.stage(&space, &mut progress, &halt).unwrap() {
+            Step::Done => break,
+            Step::More => {}
+            Step::Stopped => {
+                stops += 1;
+                let (cost_best, ..) = prepared.measure(&space, progress.best());
+                assert!(cost_best.is_finite(), "the best point so far diverges");
+                let saved = serde_json::to_string(&progress).unwrap();
+                progress = serde_json::from_str::<Progress>(&saved).unwrap();
+                prepared.check(&space, &progress).unwrap();
+                progress.rerun_stopped_stage();
+            }
+        }
+    }
+    assert_eq!(stops, 2, "both stops fell inside a window");
+    let resumed = prepared.finish(&guess, &space, &progress).unwrap();
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&resumed.genome), bits(&whole.genome));
+    assert_eq!(bits(&resumed.states[0]), bits(&whole.states[0]));
+    assert_eq!(bits(&resumed.stderr), bits(&whole.stderr));
+    assert_eq!(resumed.windows, whole.windows);
 }

@@ -245,7 +245,7 @@ pub(crate) struct LmSettings {
 }
 
 /// How one LM stage ended.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub(crate) enum StageEnd {
     /// ftol, xtol or gtol held (or the cost is 0).
     Converged,
@@ -255,16 +255,20 @@ pub(crate) enum StageEnd {
     Stalled,
     /// The start of the stage diverged.
     Diverged,
+    /// The run was told to stop (Ctrl-C, a time limit) before the stage ended: `q` holds the
+    /// best point so far.
+    Interrupted,
 }
 
 /// Counters of a fit.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub(crate) struct Counts {
     pub iterations: usize,
     pub evaluations: usize,
 }
 
-/// Minimises the cost over `window` frames from `q` (changed in place).
+/// Minimises the cost over `window` frames from `q` (changed in place; only accepted steps
+/// move it, so it is always the best point so far). `halt()` is asked before every iteration.
 pub(crate) fn lm_stage(
     fit: &Fitter<'_>,
     q: &mut [f64],
@@ -272,6 +276,7 @@ pub(crate) fn lm_stage(
     set: LmSettings,
     counts: &mut Counts,
     buf: &mut Sens,
+    halt: &dyn Fn() -> bool,
 ) -> StageEnd {
     let len = fit.len();
     counts.evaluations += 1;
@@ -283,6 +288,9 @@ pub(crate) fn lm_stage(
     let mut nu = 2.0;
     let floor = fit.rounding_floor(window);
     for _ in 0..set.max_iterations {
+        if halt() {
+            return StageEnd::Interrupted;
+        }
         counts.iterations += 1;
         if ne.cost <= floor {
             return StageEnd::Converged;

@@ -1172,7 +1172,7 @@ fn approx_diag(mf: &Mf<'_, '_>, cols: &DMatrix<f64>) -> Vec<f64> {
 }
 
 /// Statistics of the matrix-free fit, for the estimate's note.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub(crate) struct CgCounts {
     pub solves: usize,
     pub iterations: usize,
@@ -1193,6 +1193,7 @@ pub(crate) fn lm_stage(
     counts: &mut Counts,
     cgc: &mut CgCounts,
     work: &mut Work,
+    halt: &dyn Fn() -> bool,
 ) -> StageEnd {
     let fit = mf.fit;
     let len = fit.len();
@@ -1216,6 +1217,9 @@ pub(crate) fn lm_stage(
     let mut g0norm: Option<f64> = None;
     let mut accepted = 0usize;
     for _ in 0..set.max_iterations {
+        if halt() {
+            return StageEnd::Interrupted;
+        }
         counts.iterations += 1;
         if cost <= floor {
             return StageEnd::Converged;
@@ -1445,61 +1449,60 @@ pub(crate) fn theta_inverse(
     out
 }
 
-/// The whole matrix-free fit from the start `q` (growing windows, as the dense path), and the
-/// estimate with its standard errors (module docs).
+/// One window's stage of the matrix-free fit: the last window (the whole take) to the final
+/// tolerances, earlier ones looser and shorter ([`WINDOW_CHI2`], [`WINDOW_ITERATIONS`]).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn fit(
+pub(crate) fn stage(
     fitter: &Fitter<'_>,
-    mut q: Vec<f64>,
-    config: &super::Config,
+    q: &mut [f64],
+    w: usize,
+    longest: usize,
     set: LmSettings,
-    noise: f64,
-    noise_level: Vec<f64>,
-    start: String,
-) -> Result<super::Estimate, crate::error::CostError> {
-    let cgset = CgSettings::default();
+    counts: &mut Counts,
+    cgc: &mut CgCounts,
+    halt: &dyn Fn() -> bool,
+) -> StageEnd {
     let step_cg = CgSettings {
         tol: STEP_CG_TOL,
         max_iterations: STEP_CG_ITERATIONS,
     };
     let mut mf = Mf::new(fitter);
     let mut work = Work::default();
-    let mut counts = Counts::default();
-    let mut cgc = CgCounts::default();
-    let longest = fitter
-        .takes
-        .iter()
-        .map(super::Take::frames)
-        .max()
-        .unwrap_or(0);
-    let (end, windows) = super::grow_windows(fitter, &mut q, config, noise, &mut |q, w| {
-        let last = w >= longest;
-        let (chi2, wftol) = if last {
-            (FINAL_CHI2, 0.0)
-        } else {
-            (WINDOW_CHI2, WINDOW_FTOL)
-        };
-        let set = if last {
-            set
-        } else {
-            LmSettings {
-                max_iterations: set.max_iterations.min(WINDOW_ITERATIONS),
-                ..set
-            }
-        };
-        lm_stage(
-            &mut mf,
-            q,
-            w,
-            set,
-            step_cg,
-            chi2,
-            wftol,
-            &mut counts,
-            &mut cgc,
-            &mut work,
-        )
-    })?;
+    let last = w >= longest;
+    let (chi2, wftol) = if last {
+        (FINAL_CHI2, 0.0)
+    } else {
+        (WINDOW_CHI2, WINDOW_FTOL)
+    };
+    let set = if last {
+        set
+    } else {
+        LmSettings {
+            max_iterations: set.max_iterations.min(WINDOW_ITERATIONS),
+            ..set
+        }
+    };
+    lm_stage(
+        &mut mf, q, w, set, step_cg, chi2, wftol, counts, cgc, &mut work, halt,
+    )
+}
+
+/// The estimate at the end of the matrix-free fit, its standard errors by CG solves of H.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn finish(
+    fitter: &Fitter<'_>,
+    q: Vec<f64>,
+    mut counts: Counts,
+    mut cgc: CgCounts,
+    end: StageEnd,
+    windows: Vec<usize>,
+    noise_level: Vec<f64>,
+    start: String,
+) -> Result<super::Estimate, crate::error::CostError> {
+    let cgset = CgSettings::default();
+    let mut mf = Mf::new(fitter);
+    let mut work = Work::default();
+    let longest = windows.iter().copied().max().unwrap_or(0);
     counts.evaluations += 1;
     if !mf.linearise(&q, longest, &mut work) {
         return Err(crate::error::CostError::mismatch(
@@ -1801,16 +1804,26 @@ mod tests {
         let mut qd = s.q.clone();
         let mut counts = Counts::default();
         let mut buf = Sens::default();
+        let never = || false;
         super::super::grow_windows(&fit, &mut qd, &config, noise, &mut |q, w| {
-            fit::lm_stage(&fit, q, w, set, &mut counts, &mut buf)
+            fit::lm_stage(&fit, q, w, set, &mut counts, &mut buf, &never)
         })
         .unwrap();
-        let e = super::fit(
+        let mut qm = s.q.clone();
+        let (mut mcounts, mut cgc) = (Counts::default(), CgCounts::default());
+        let longest = fit.takes.iter().map(Take::frames).max().unwrap();
+        let (end, windows) =
+            super::super::grow_windows(&fit, &mut qm, &config, noise, &mut |q, w| {
+                super::stage(&fit, q, w, longest, set, &mut mcounts, &mut cgc, &never)
+            })
+            .unwrap();
+        let e = super::finish(
             &fit,
-            s.q.clone(),
-            &config,
-            set,
-            noise,
+            qm,
+            mcounts,
+            cgc,
+            end,
+            windows,
             vec![noise; 2],
             "test".into(),
         )

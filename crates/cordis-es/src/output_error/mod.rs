@@ -44,9 +44,11 @@
 pub mod fit;
 pub mod matrix_free;
 pub mod observations;
+pub mod run;
 pub mod start;
 pub mod tangent;
 pub mod uncertainty;
+mod windows;
 
 use std::collections::VecDeque;
 
@@ -54,10 +56,11 @@ use cordis_core::Scene;
 use nalgebra::DMatrix;
 
 pub use observations::Take;
+pub use run::{Prepared, Progress, Step};
 
 use crate::error::CostError;
 use crate::space::ParameterSpace;
-use fit::{Counts, Fitter, LmSettings, StageEnd};
+use fit::{Counts, Fitter, StageEnd};
 use tangent::{Sens, Tangent};
 
 /// Options of the output-error fit.
@@ -132,95 +135,23 @@ pub struct Estimate {
     pub start: String,
 }
 
-/// The maximum-likelihood estimate of `space`'s unknowns from `takes` (module docs).
+/// The maximum-likelihood estimate of `space`'s unknowns from `takes` (module docs), in one
+/// call: [`run`] gives the same fit as steps a run loop can stop between and resume.
 pub fn estimate(
     scene: &Scene,
     space: &ParameterSpace,
     takes: &[Take],
     config: &Config,
 ) -> Result<Estimate, CostError> {
-    let tangent = Tangent::new(scene)?;
-    check_takes(scene, &tangent, takes)?;
-    check_config(config)?;
-    let slots: Vec<usize> = space.unknowns.iter().map(|u| u.slot).collect();
-    let cols = tangent.columns(&slots);
-    let large = cols.len > matrix_free::DENSE_MAX_COLUMNS;
-    if large {
-        matrix_free::check_memory(&tangent, takes)?;
-    } else {
-        check_memory(&tangent, &cols, takes.len())?;
-    }
-    let noise_level: Vec<f64> = takes.iter().map(start::noise_level).collect();
-    let (genome, start_note) = match &config.start {
-        Some(g) if g.len() == space.dim() => (g.clone(), "given start".to_string()),
-        Some(g) => return Err(CostError::length("start", space.dim(), g.len())),
-        None => start::start_genome(scene, space, &takes[0], noise_level[0]),
-    };
-    let fitter = Fitter {
-        tangent: &tangent,
-        unknowns: &space.unknowns,
-        base: &space.base,
-        takes,
-        cols,
-    };
-    let mut q = genome;
-    for (k, take) in takes.iter().enumerate() {
-        match config.start_states.as_ref().and_then(|s| s.get(k)) {
-            Some(s) if s.len() == fitter.state_len() => q.extend_from_slice(s),
-            Some(s) => {
-                return Err(CostError::length(
-                    format!("start_states[{k}]"),
-                    fitter.state_len(),
-                    s.len(),
-                ))
-            }
-            None => q.extend(start::initial_state(scene, &tangent.free, take)),
-        }
-    }
-    fitter.project(&mut q);
-    let longest = takes.iter().map(Take::frames).max().unwrap_or(0);
-    let set = LmSettings {
-        max_iterations: config.max_iterations,
-        ftol: config.ftol,
-        xtol: config.xtol,
-        gtol: config.gtol,
-    };
-    let noise = noise_level.iter().cloned().fold(0.0, f64::max);
-    if large {
-        // Above the threshold the dense normal equations cost more than the whole
-        // matrix-free fit (matrix_free::DENSE_MAX_COLUMNS).
-        return matrix_free::fit(&fitter, q, config, set, noise, noise_level, start_note);
-    }
-    let mut counts = Counts::default();
-    let mut buf = Sens::default();
-    let (end, windows) = grow_windows(&fitter, &mut q, config, noise, &mut |q, w| {
-        fit::lm_stage(&fitter, q, w, set, &mut counts, &mut buf)
-    })?;
-    counts.evaluations += 1;
-    let ne = fitter
-        .normal(&q, longest, &mut buf)
-        .ok_or_else(|| CostError::mismatch("fit", "the model diverged at its estimate"))?;
-    Ok(summarise(
-        &fitter,
-        scene,
-        q,
-        ne,
-        noise_level,
-        counts,
-        end,
-        windows,
-        start_note,
-    ))
+    let prepared = Prepared::new(scene, space, takes.to_vec(), config)?;
+    let mut progress = prepared.start(scene, space, config)?;
+    while prepared.stage(space, &mut progress, &|| false)? != Step::Done {}
+    prepared.finish(scene, space, &progress)
 }
 
-/// Fits on windows growing from `config.first_window` to the longest take (module docs). A
-/// window whose fit leaves residuals well above the noise read from the data (rms > 1.5 × the
-/// third-difference level, or beyond rounding on noiseless data) is a wrong basin reached by
-/// growing too fast: the fit goes back to the last good window's optimum and grows by a
-/// smaller factor (1.5, 1.25, 1.125 of the last clean window); a window that cannot be grown
-/// into cleanly even so is kept as it ended and the doubling resumes from it.
-/// `stage(q, w)` minimises over the first w frames from q: the dense [`fit::lm_stage`] or the
-/// matrix-free one, so both paths grow the same windows.
+/// Drives `stage(q, w)` (the dense [`fit::lm_stage`] or the matrix-free one) over the growing
+/// windows ([`windows`]) to the whole take.
+#[cfg(test)]
 pub(crate) fn grow_windows(
     fitter: &Fitter<'_>,
     q: &mut Vec<f64>,
@@ -228,59 +159,18 @@ pub(crate) fn grow_windows(
     noise: f64,
     stage: &mut dyn FnMut(&mut Vec<f64>, usize) -> StageEnd,
 ) -> Result<(StageEnd, Vec<usize>), CostError> {
-    let buf = &mut Sens::default();
-    let longest = fitter.takes.iter().map(Take::frames).max().unwrap_or(0);
-    let tolerance = (1.5 * noise).max(1e-9 * fitter.observed_size());
-    let mut windows = Vec::new();
-    let mut good: Option<(Vec<f64>, usize)> = None;
-    let mut growth = 2.0;
-    let mut w = config.first_window.min(longest);
+    let mut schedule = windows::Schedule::new(fitter, config.first_window, noise);
     loop {
-        windows.push(w);
-        let end = stage(q, w);
-        let diverged = end == StageEnd::Diverged;
-        if diverged && good.is_none() {
-            return Err(CostError::mismatch(
-                "fit",
-                format!(
-                    "the model diverged from its start within {w} frames: \
-                     narrow the boxes or check dt"
-                ),
-            ));
+        let end = stage(q, schedule.next);
+        let after = schedule.after(fitter, q, end, &mut Sens::default())?;
+        if let windows::After::Done(end) = after {
+            return Ok((end, schedule.windows));
         }
-        if w >= longest && !diverged {
-            return Ok((end, windows));
-        }
-        // A window the last optimum cannot even simulate is a window grown too far.
-        let clean = !diverged && fitter.rms(q, w, buf) <= tolerance;
-        if let (Some((back, from)), false) = (&good, clean) {
-            if growth > 1.1 {
-                // Too far in one step: back to the last clean optimum, a smaller step.
-                let from = *from;
-                q.clone_from(back);
-                growth = 1.0 + (growth - 1.0) / 2.0;
-                w = ((from as f64 * growth).ceil() as usize).clamp(from + 1, longest);
-                continue;
-            }
-            if diverged {
-                return Err(CostError::mismatch(
-                    "fit",
-                    format!(
-                        "the model fitted to {from} frames diverges within {w}: \
-                         narrow the boxes or check dt"
-                    ),
-                ));
-            }
-        }
-        // Clean, the first window, or no smaller step left: go on from here.
-        good = Some((q.clone(), w));
-        growth = 2.0;
-        w = (2 * w).min(longest);
     }
 }
 
 #[allow(clippy::too_many_arguments)]
-fn summarise(
+pub(crate) fn summarise(
     fitter: &Fitter<'_>,
     scene: &Scene,
     q: Vec<f64>,
@@ -337,6 +227,7 @@ pub(crate) fn end_text(end: StageEnd) -> &'static str {
         StageEnd::Converged => "converged",
         StageEnd::Budget => "budget",
         StageEnd::Stalled | StageEnd::Diverged => "stalled",
+        StageEnd::Interrupted => "interrupted",
     }
 }
 
@@ -468,7 +359,7 @@ pub fn identified_scene(scene: &Scene, estimate: &Estimate, take: usize) -> Scen
     out
 }
 
-fn check_config(c: &Config) -> Result<(), CostError> {
+pub(crate) fn check_config(c: &Config) -> Result<(), CostError> {
     if c.first_window < 3 {
         return Err(CostError::mismatch(
             "first_window",
@@ -492,7 +383,11 @@ fn check_config(c: &Config) -> Result<(), CostError> {
 /// Every take fits the scene, has 3 frames, and every free particle it does not observe is
 /// tied by links to one it observes (or to a fixed one): otherwise nothing can estimate that
 /// particle's initial state.
-fn check_takes(scene: &Scene, tangent: &Tangent, takes: &[Take]) -> Result<(), CostError> {
+pub(crate) fn check_takes(
+    scene: &Scene,
+    tangent: &Tangent,
+    takes: &[Take],
+) -> Result<(), CostError> {
     if takes.is_empty() {
         return Err(CostError::mismatch("trajectory", "no take given"));
     }
@@ -539,7 +434,11 @@ fn check_takes(scene: &Scene, tangent: &Tangent, takes: &[Take]) -> Result<(), C
 }
 
 /// Refuses fits whose sensitivity matrices and normal equations would not fit in memory.
-fn check_memory(tangent: &Tangent, cols: &tangent::Columns, takes: usize) -> Result<(), CostError> {
+pub(crate) fn check_memory(
+    tangent: &Tangent,
+    cols: &tangent::Columns,
+    takes: usize,
+) -> Result<(), CostError> {
     const LIMIT: f64 = 8.0 * (1u64 << 30) as f64;
     let rows = 3.0 * tangent.plan.n as f64;
     let width = cols.len as f64;

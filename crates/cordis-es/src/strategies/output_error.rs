@@ -1,15 +1,19 @@
 //! `output-error`: the maximum-likelihood estimate of [`crate::output_error`] as a strategy.
 //!
-//! `init` runs the whole fit (growing windows of Levenberg–Marquardt on exact sensitivities)
-//! on the problem's recorded takes ([`Problem::takes`]: gaps and hidden particles included);
-//! later generations change nothing. The best genome's cost is the problem's own cost (the
-//! short cost unless `--cost` says otherwise), so it compares with every other strategy's; the
-//! fit's position cost, σ̂, standard errors, intervals, correlations, undetermined directions
-//! and the estimated initial state are in the report.
+//! `init` checks the problem's recorded takes ([`Problem::takes`]: gaps and hidden particles
+//! included) and computes the start; each generation then fits one growing window
+//! ([`crate::output_error::run`]), and the one that reaches the whole take computes the
+//! uncertainty and finishes. Ctrl-C or a time limit stops a window within one
+//! Levenberg–Marquardt iteration, with the best point so far as the result; a checkpoint holds
+//! the fit's progress and a resume reruns the stopped window, so it ends exactly where an
+//! uninterrupted run ends. The best genome's cost is the problem's own cost (the short cost
+//! unless `--cost` says otherwise), so it compares with every other strategy's; the fit's
+//! position cost, σ̂, standard errors, intervals, correlations, undetermined directions and
+//! the estimated initial state are in the report.
 
 use serde::{Deserialize, Serialize};
 
-use crate::output_error::{self, Config, Estimate};
+use crate::output_error::{self, Config, Estimate, Prepared, Progress, Step};
 use crate::problem::Problem;
 use crate::report::{InitialState, ParamUncertainty, Report, SolverReport};
 use crate::strategy::{GenerationStats, Strategy};
@@ -18,6 +22,8 @@ use crate::strategy::{GenerationStats, Strategy};
 pub struct OutputError {
     config: Config,
     state: State,
+    /// What the fit reads, from `init` (or `load_state`) on.
+    prepared: Option<Prepared>,
     /// Which particles are free (their initial state is estimated), set by `init`.
     free: Vec<bool>,
     /// Why `auto` chose it, for the report.
@@ -34,6 +40,8 @@ struct State {
     error: Option<String>,
     /// Per take: `[x0, v0]` per free particle.
     states: Vec<Vec<f64>>,
+    /// The fit while it runs (`None` once finished or failed).
+    progress: Option<Progress>,
 }
 
 impl OutputError {
@@ -41,6 +49,7 @@ impl OutputError {
         OutputError {
             config,
             state: State::default(),
+            prepared: None,
             free: Vec::new(),
             chosen_because: None,
         }
@@ -50,6 +59,87 @@ impl OutputError {
     pub fn chosen_because(mut self, why: Option<String>) -> Self {
         self.chosen_because = why;
         self
+    }
+
+    /// The fit runs on: its best point so far is the strategy's best, and the report says the
+    /// fit has not finished (no uncertainty yet).
+    fn show(&mut self, problem: &Problem, progress: Progress) {
+        let Some(prepared) = &self.prepared else {
+            return;
+        };
+        let q = progress.best();
+        let genome = prepared.genome(&problem.space, q).to_vec();
+        let mut s = problem.scratch();
+        let mut local = vec![0.0; problem.num_particles];
+        let cost = problem.evaluate(&genome, &mut s, &mut local);
+        let (iterations, rollouts) = progress.counts();
+        let where_ = if progress.stopped() { "in" } else { "before" };
+        let (position_cost, observed, variables) = prepared.measure(&problem.space, q);
+        let dof = observed.saturating_sub(variables).max(1);
+        self.state.report = OutputErrorReport {
+            estimator: "output-error".into(),
+            start: progress.start_note().to_string(),
+            windows: progress.windows().to_vec(),
+            end: if progress.stopped() {
+                "interrupted"
+            } else {
+                "running"
+            }
+            .into(),
+            iterations,
+            rollouts,
+            position_cost,
+            sigma: (position_cost / dof as f64).sqrt(),
+            noise_level: prepared.noise_level().to_vec(),
+            observed,
+            variables,
+            unconverged: Some(format!(
+                "output-error: the fit stopped {where_} window {} (windows done: {:?}) before \
+                 reaching the whole take: the best point so far, no uncertainty",
+                progress.next_window(),
+                progress.windows()
+            )),
+            uncertainty_computed: false,
+            ..OutputErrorReport::default()
+        };
+        self.state.states = prepared.states(&problem.space, q);
+        self.state.genome = genome;
+        self.state.cost = cost;
+        self.state.uncertainty = None;
+        self.state.progress = Some(progress);
+    }
+
+    /// The fit reached the whole take: `e` is the estimate, `staged` the rollouts of its
+    /// stages (already counted on the problem).
+    fn finished_with(&mut self, problem: &Problem, e: Estimate, staged: usize) {
+        let mut s = problem.scratch();
+        let mut local = vec![0.0; problem.num_particles];
+        let cost = problem.evaluate(&e.genome, &mut s, &mut local);
+        // The final evaluations (the whole take with sensitivities) beyond the stages'.
+        problem.set_evals(problem.evals() + e.evaluations.saturating_sub(staged) as u64);
+        self.state = State {
+            report: OutputErrorReport::new(problem, &e),
+            uncertainty: uncertainty(problem, &e),
+            genome: e.genome,
+            cost,
+            error: None,
+            states: e.states,
+            progress: None,
+        };
+        self.prepared = None;
+    }
+
+    fn fail(&mut self, problem: &Problem, err: String) {
+        self.state = State {
+            genome: problem.space.genome_of(&problem.space.base),
+            cost: f64::INFINITY,
+            report: OutputErrorReport::default(),
+            uncertainty: None,
+            error: Some(err),
+            states: Vec::new(),
+            progress: None,
+        };
+        self.prepared = None;
     }
 }
 
@@ -66,14 +156,19 @@ pub struct OutputErrorReport {
     pub start: String,
     /// The growing windows, frames.
     pub windows: Vec<usize>,
-    /// How the last window ended: converged, budget or stalled.
+    /// How the last window ended: converged, budget or stalled; `running` or `interrupted`
+    /// when the run stopped before the fit reached the whole take.
     pub end: String,
     pub iterations: usize,
     /// Rollouts (with or without sensitivities).
     pub rollouts: usize,
     /// Weighted sum of squared position residuals at the estimate, m².
+    /// (At the best point so far while the fit runs or once it was stopped; "inf" when that
+    /// point diverges over the whole take.)
+    #[serde(with = "crate::strategy::lossless")]
     pub position_cost: f64,
     /// σ̂, m (unit-weight noise from the residuals).
+    #[serde(with = "crate::strategy::lossless")]
     pub sigma: f64,
     /// Noise level of each take from its third differences before the fit, m.
     pub noise_level: Vec<f64>,
@@ -146,7 +241,8 @@ impl OutputErrorReport {
     /// What a user must read before trusting the estimate.
     pub fn warnings(&self) -> Vec<String> {
         let mut w: Vec<String> = self.unconverged.iter().cloned().collect();
-        if !self.uncertainty_computed {
+        let finished = self.end != "running" && self.end != "interrupted";
+        if finished && !self.uncertainty_computed {
             w.push(
                 "output-error: standard errors not computed (the matrix-free solves for them \
                  did not converge)"
@@ -190,39 +286,51 @@ impl Strategy for OutputError {
     }
 
     fn init(&mut self, problem: &Problem, _seed: u64) {
-        let takes = problem.takes();
         self.free = problem.scene.particles.iter().map(|p| !p.fixed).collect();
-        let fit = output_error::estimate(&problem.scene, &problem.space, &takes, &self.config);
-        self.state = match fit {
-            Ok(e) => {
-                let mut s = problem.scratch();
-                let mut local = vec![0.0; problem.num_particles];
-                let cost = problem.evaluate(&e.genome, &mut s, &mut local);
-                problem.set_evals(problem.evals() + e.evaluations as u64);
-                State {
-                    report: OutputErrorReport::new(problem, &e),
-                    uncertainty: uncertainty(problem, &e),
-                    genome: e.genome,
-                    cost,
-                    error: None,
-                    states: e.states,
-                }
+        let scene = &problem.scene;
+        let started = Prepared::new(scene, &problem.space, problem.takes(), &self.config)
+            .and_then(|p| Ok((p.start(scene, &problem.space, &self.config)?, p)));
+        match started {
+            Ok((progress, prepared)) => {
+                self.prepared = Some(prepared);
+                self.state = State::default();
+                self.show(problem, progress);
             }
-            Err(err) => State {
-                genome: problem.space.genome_of(&problem.space.base),
-                cost: f64::INFINITY,
-                report: OutputErrorReport::default(),
-                uncertainty: None,
-                error: Some(err.to_string()),
-                states: Vec::new(),
-            },
-        };
+            Err(err) => self.fail(problem, err.to_string()),
+        }
     }
 
-    fn next_generation(&mut self, _problem: &Problem, _seed: u64, _generation: u64) {}
+    fn next_generation(&mut self, problem: &Problem, seed: u64, generation: u64) {
+        self.next_generation_until(problem, seed, generation, &|| false);
+    }
+
+    fn next_generation_until(
+        &mut self,
+        problem: &Problem,
+        _seed: u64,
+        _generation: u64,
+        halt: &dyn Fn() -> bool,
+    ) {
+        let (Some(prepared), Some(mut progress)) = (&self.prepared, self.state.progress.take())
+        else {
+            return;
+        };
+        let space = &problem.space;
+        let rollouts = progress.counts().1;
+        let step = prepared.stage(space, &mut progress, halt);
+        problem.set_evals(problem.evals() + (progress.counts().1 - rollouts) as u64);
+        match step {
+            Ok(Step::Done) => match prepared.finish(&problem.scene, space, &progress) {
+                Ok(e) => self.finished_with(problem, e, progress.counts().1),
+                Err(err) => self.fail(problem, err.to_string()),
+            },
+            Ok(Step::More | Step::Stopped) => self.show(problem, progress),
+            Err(err) => self.fail(problem, err.to_string()),
+        }
+    }
 
     fn finished(&self) -> bool {
-        true
+        self.state.progress.is_none()
     }
 
     fn best(&self) -> (&[f64], f64) {
@@ -242,7 +350,7 @@ impl Strategy for OutputError {
     }
 
     fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String> {
-        let s: State = serde_json::from_value(state.clone()).map_err(|e| e.to_string())?;
+        let mut s: State = serde_json::from_value(state.clone()).map_err(|e| e.to_string())?;
         if s.genome.len() != problem.dim() {
             return Err(format!(
                 "output-error state has {} unknowns, the problem {}",
@@ -257,6 +365,20 @@ impl Strategy for OutputError {
                 "output-error state holds initial states of another length than the {width} \
                  values of this scene's free particles"
             ));
+        }
+        if let Some(progress) = &mut s.progress {
+            let prepared = Prepared::new(
+                &problem.scene,
+                &problem.space,
+                problem.takes(),
+                &self.config,
+            )
+            .map_err(|e| e.to_string())?;
+            prepared.check(&problem.space, progress)?;
+            // A window stopped midway reruns from its start: the same steps as an
+            // uninterrupted fit.
+            progress.rerun_stopped_stage();
+            self.prepared = Some(prepared);
         }
         self.state = s;
         Ok(())

@@ -1,0 +1,337 @@
+//! One output-error fit as steps a run loop can stop between: [`Prepared`] holds what the fit
+//! reads (the sensitivity recursion, the takes) and is rebuilt from the problem on resume;
+//! [`Progress`] holds where the fit stands and is what a checkpoint saves.
+//!
+//! One step is one window's Levenberg–Marquardt stage ([`super::windows`]). A stage told to
+//! stop (`halt()`, asked before every iteration: Ctrl-C, a time limit) keeps its best point so
+//! far in [`Progress::best`] while `Progress` itself stays at the stage's start: resuming
+//! from a checkpoint reruns that stage from the same point and so takes exactly the steps an
+//! uninterrupted fit takes.
+
+use cordis_core::Scene;
+use serde::{Deserialize, Serialize};
+
+use super::fit::{self, Counts, Fitter, LmSettings, StageEnd};
+use super::matrix_free::{self, CgCounts};
+use super::observations::Take;
+use super::tangent::{Columns, Sens, Tangent};
+use super::windows::{After, Schedule};
+use super::{start, Config, Estimate};
+use crate::error::CostError;
+use crate::space::ParameterSpace;
+use crate::strategy::bits;
+
+/// What a fit reads and never changes.
+pub struct Prepared {
+    tangent: Tangent,
+    takes: Vec<Take>,
+    cols: Columns,
+    /// Above [`matrix_free::DENSE_MAX_COLUMNS`] the dense normal equations cost more than the
+    /// whole matrix-free fit.
+    large: bool,
+    /// Noise level of each take read from its third differences, m.
+    noise_level: Vec<f64>,
+    set: LmSettings,
+    first_window: usize,
+}
+
+/// Where a fit stands between two stages.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Progress {
+    /// The fit's variables at the start of the next stage: the unknowns' internal
+    /// coordinates, then `[x0, v0]` per free particle and take.
+    #[serde(with = "bits")]
+    q: Vec<f64>,
+    schedule: Schedule,
+    counts: Counts,
+    cg: CgCounts,
+    /// Where the fit started (short-cost solve or heuristic, and why).
+    start: String,
+    /// The best point of a stage stopped before it ended.
+    partial: Option<Partial>,
+    /// How the last window's stage ended, once the whole take is fitted.
+    last_end: Option<StageEnd>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+struct Partial {
+    #[serde(with = "bits")]
+    q: Vec<f64>,
+    counts: Counts,
+}
+
+/// What one [`Prepared::stage`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Step {
+    /// A window is fitted; more follow.
+    More,
+    /// Told to stop within the stage: [`Progress::best`] is the best point so far.
+    Stopped,
+    /// The whole take is fitted ([`Prepared::finish`] gives the estimate).
+    Done,
+}
+
+impl Prepared {
+    /// Checks the takes, the options and the memory the fit needs.
+    pub fn new(
+        scene: &Scene,
+        space: &ParameterSpace,
+        takes: Vec<Take>,
+        config: &Config,
+    ) -> Result<Self, CostError> {
+        let tangent = Tangent::new(scene)?;
+        super::check_takes(scene, &tangent, &takes)?;
+        super::check_config(config)?;
+        let slots: Vec<usize> = space.unknowns.iter().map(|u| u.slot).collect();
+        let cols = tangent.columns(&slots);
+        let large = cols.len > matrix_free::DENSE_MAX_COLUMNS;
+        if large {
+            matrix_free::check_memory(&tangent, &takes)?;
+        } else {
+            super::check_memory(&tangent, &cols, takes.len())?;
+        }
+        let noise_level = takes.iter().map(start::noise_level).collect();
+        Ok(Prepared {
+            tangent,
+            takes,
+            cols,
+            large,
+            noise_level,
+            set: LmSettings {
+                max_iterations: config.max_iterations,
+                ftol: config.ftol,
+                xtol: config.xtol,
+                gtol: config.gtol,
+            },
+            first_window: config.first_window,
+        })
+    }
+
+    fn fitter<'a>(&'a self, space: &'a ParameterSpace) -> Fitter<'a> {
+        Fitter {
+            tangent: &self.tangent,
+            unknowns: &space.unknowns,
+            base: &space.base,
+            takes: &self.takes,
+            cols: self.cols.clone(),
+        }
+    }
+
+    /// The largest take's noise level, m.
+    fn noise(&self) -> f64 {
+        self.noise_level.iter().cloned().fold(0.0, f64::max)
+    }
+
+    /// The fit's start: `config.start` (and `config.start_states`) or the short-cost start
+    /// ([`start`]) and each take's initial state from its first frames.
+    pub fn start(
+        &self,
+        scene: &Scene,
+        space: &ParameterSpace,
+        config: &Config,
+    ) -> Result<Progress, CostError> {
+        let (mut q, start_note) = match &config.start {
+            Some(g) if g.len() == space.dim() => (g.clone(), "given start".to_string()),
+            Some(g) => return Err(CostError::length("start", space.dim(), g.len())),
+            None => start::start_genome(scene, space, &self.takes[0], self.noise_level[0]),
+        };
+        let fitter = self.fitter(space);
+        for (k, take) in self.takes.iter().enumerate() {
+            match config.start_states.as_ref().and_then(|s| s.get(k)) {
+                Some(s) if s.len() == fitter.state_len() => q.extend_from_slice(s),
+                Some(s) => {
+                    return Err(CostError::length(
+                        format!("start_states[{k}]"),
+                        fitter.state_len(),
+                        s.len(),
+                    ))
+                }
+                None => q.extend(start::initial_state(scene, &self.tangent.free, take)),
+            }
+        }
+        fitter.project(&mut q);
+        Ok(Progress {
+            q,
+            schedule: Schedule::new(&fitter, self.first_window, self.noise()),
+            counts: Counts::default(),
+            cg: CgCounts::default(),
+            start: start_note,
+            partial: None,
+            last_end: None,
+        })
+    }
+
+    /// Fits the next window (or reruns a stopped one) from where `progress` stands.
+    pub fn stage(
+        &self,
+        space: &ParameterSpace,
+        progress: &mut Progress,
+        halt: &dyn Fn() -> bool,
+    ) -> Result<Step, CostError> {
+        let fitter = self.fitter(space);
+        let w = progress.schedule.next;
+        let mut q = progress.q.clone();
+        let mut counts = progress.counts;
+        let mut cg = progress.cg;
+        let end = if self.large {
+            let longest = progress.schedule.longest();
+            matrix_free::stage(
+                &fitter,
+                &mut q,
+                w,
+                longest,
+                self.set,
+                &mut counts,
+                &mut cg,
+                halt,
+            )
+        } else {
+            let buf = &mut Sens::default();
+            fit::lm_stage(&fitter, &mut q, w, self.set, &mut counts, buf, halt)
+        };
+        if end == StageEnd::Interrupted {
+            progress.partial = Some(Partial { q, counts });
+            return Ok(Step::Stopped);
+        }
+        progress.partial = None;
+        progress.counts = counts;
+        progress.cg = cg;
+        let after = progress
+            .schedule
+            .after(&fitter, &mut q, end, &mut Sens::default())?;
+        progress.q = q;
+        Ok(match after {
+            After::Stage => Step::More,
+            After::Done(end) => {
+                progress.last_end = Some(end);
+                Step::Done
+            }
+        })
+    }
+
+    /// The estimate at the end of a fit whose last [`Prepared::stage`] was [`Step::Done`]:
+    /// σ̂, standard errors, intervals, correlations and undetermined directions.
+    pub fn finish(
+        &self,
+        scene: &Scene,
+        space: &ParameterSpace,
+        progress: &Progress,
+    ) -> Result<Estimate, CostError> {
+        let end = progress.last_end.ok_or_else(|| {
+            CostError::mismatch("output-error", "the fit has not reached the whole take")
+        })?;
+        let fitter = self.fitter(space);
+        let p = progress;
+        let windows = p.schedule.windows.clone();
+        if self.large {
+            return matrix_free::finish(
+                &fitter,
+                p.q.clone(),
+                p.counts,
+                p.cg,
+                end,
+                windows,
+                self.noise_level.clone(),
+                p.start.clone(),
+            );
+        }
+        let mut counts = p.counts;
+        counts.evaluations += 1;
+        let ne = fitter
+            .normal(&p.q, p.schedule.longest(), &mut Sens::default())
+            .ok_or_else(|| CostError::mismatch("fit", "the model diverged at its estimate"))?;
+        Ok(super::summarise(
+            &fitter,
+            scene,
+            p.q.clone(),
+            ne,
+            self.noise_level.clone(),
+            counts,
+            end,
+            windows,
+            p.start.clone(),
+        ))
+    }
+
+    /// Whether `progress` (read from a checkpoint) belongs to this fit.
+    pub fn check(&self, space: &ParameterSpace, progress: &Progress) -> Result<(), String> {
+        let len = self.fitter(space).len();
+        let longest = self.takes.iter().map(Take::frames).max().unwrap_or(0);
+        let partial = progress.partial.as_ref().map_or(len, |p| p.q.len());
+        if progress.q.len() != len || partial != len {
+            return Err(format!(
+                "output-error state holds {} fit variables, this problem has {len}",
+                progress.q.len()
+            ));
+        }
+        if progress.schedule.longest() != longest || progress.schedule.next > longest {
+            return Err(format!(
+                "output-error state was made on takes of {} frames, these have {longest}",
+                progress.schedule.longest()
+            ));
+        }
+        Ok(())
+    }
+
+    /// The fit's variables of the unknowns (the genome, internal coordinates) in `q`.
+    pub fn genome<'q>(&self, space: &ParameterSpace, q: &'q [f64]) -> &'q [f64] {
+        &q[..space.dim()]
+    }
+
+    /// At `q`: the weighted squared position residuals over the whole takes (m², +inf when
+    /// the model diverges), the observed coordinates and the fit variables.
+    pub fn measure(&self, space: &ParameterSpace, q: &[f64]) -> (f64, usize, usize) {
+        let fitter = self.fitter(space);
+        let longest = self.takes.iter().map(Take::frames).max().unwrap_or(0);
+        let observed = self.takes.iter().map(Take::observed).sum();
+        let cost = fitter.cost(q, longest, &mut Sens::default());
+        (cost, observed, fitter.len())
+    }
+
+    /// Each take's noise level read from its third differences, m.
+    pub fn noise_level(&self) -> &[f64] {
+        &self.noise_level
+    }
+
+    /// Each take's `[x0, v0]` per free particle at `q`.
+    pub fn states(&self, space: &ParameterSpace, q: &[f64]) -> Vec<Vec<f64>> {
+        super::take_states(&self.fitter(space), q)
+    }
+}
+
+impl Progress {
+    /// The best point so far: a stopped stage's, else the last finished stage's.
+    pub fn best(&self) -> &[f64] {
+        self.partial.as_ref().map_or(&self.q, |p| &p.q)
+    }
+
+    /// Forgets a stopped stage's partial result, so the next [`Prepared::stage`] reruns it
+    /// from its start (what a resumed run does: the same steps as an uninterrupted one).
+    pub fn rerun_stopped_stage(&mut self) {
+        self.partial = None;
+    }
+
+    /// Whether the last stage was stopped before it ended.
+    pub fn stopped(&self) -> bool {
+        self.partial.is_some()
+    }
+
+    /// The windows fitted so far, frames, and the one being fitted.
+    pub fn windows(&self) -> &[usize] {
+        &self.schedule.windows
+    }
+
+    pub fn next_window(&self) -> usize {
+        self.schedule.next
+    }
+
+    /// Levenberg–Marquardt iterations and rollouts so far (a stopped stage's included).
+    pub fn counts(&self) -> (usize, usize) {
+        let c = self.partial.as_ref().map_or(self.counts, |p| p.counts);
+        (c.iterations, c.evaluations)
+    }
+
+    pub fn start_note(&self) -> &str {
+        &self.start
+    }
+}
