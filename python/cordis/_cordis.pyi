@@ -588,13 +588,18 @@ def identify(
     descent_start: int = 400,
     descent_every: int = 100,
     visible: Optional[Union[_ArrayLike, Sequence[_ArrayLike]]] = None,
+    markers: Optional[Sequence[int]] = None,
+    weights: Optional[Sequence[float]] = None,
 ) -> IdentifyResult:
     """Identifies the unknowns of ``scene`` from the observed positions ``traj`` (GIL released).
 
     Tracked motion: ``traj`` may hold NaN (a missing coordinate), have fewer particles than
     the scene (the rest are hidden, simulated), or be a list of arrays (several takes of the
     same object: one parameter set, each take its own initial state); ``visible`` (boolean
-    ``(T, N)``, or one per take) hides a particle where it is False. Only ``output-error``
+    ``(T, N)``, or one per take) hides a particle where it is False; ``markers[j]`` is the
+    scene particle the data's particle j tracks (the rest hidden; fixed particles need not be
+    tracked); ``weights``: each marker's weight, 1/σ relative (one per marker or three: x, y,
+    z; read by ``output-error`` only). Only ``output-error``
     reads gaps and takes, and ``auto`` picks it for them and for noisy data; its result has
     ``stderr``, ``intervals``, ``covariance`` and ``sigma``, and its ``scene`` carries the
     estimated initial state (``res.scene.simulate(T)`` replays the take).

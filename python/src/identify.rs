@@ -250,6 +250,8 @@ struct PyArgs<'py> {
     descent_start: i64,
     descent_every: i64,
     visible: Option<Bound<'py, PyAny>>,
+    markers: Option<Vec<i64>>,
+    weights: Option<Vec<f64>>,
 }
 
 /// The arguments as a session request: integer conversions and Python's types here, every
@@ -269,6 +271,16 @@ fn request(
     }
     let mut r = IdentifyRequest::with_takes(scene.clone(), takes);
     r.style = Style::Python;
+    r.markers = a
+        .markers
+        .map(|m| {
+            m.iter()
+                .enumerate()
+                .map(|(k, &p)| count(p, &format!("markers[{k}]")))
+                .collect::<PyResult<Vec<usize>>>()
+        })
+        .transpose()?;
+    r.weights = a.weights;
     r.strategy = a.strategy.parse().map_err(|e| bad("strategy", e))?;
     r.generations = match a.generations {
         Some(g) => Generations::Limit(count(g, "generations")?),
@@ -403,7 +415,10 @@ fn session_to_py(err: CostError) -> PyErr {
 /// - Tracked motion: `traj` may hold NaN (a missing coordinate), have fewer particles than
 ///   the scene (the rest are hidden and simulated), or be a list of arrays (several takes of
 ///   the same object: one parameter set, each take its own initial state); `visible`
-///   (boolean `(T, N)`, or one per take) hides a particle where it is False. Only
+///   (boolean `(T, N)`, or one per take) hides a particle where it is False; `markers[j]` is
+///   the scene particle that the data's particle j tracks (the rest hidden; fixed particles
+///   need not be tracked); `weights`: each marker's weight, 1/σ relative (one per marker, or
+///   three: x, y, z; read by `output-error` only). Only
 ///   `output-error` reads gaps and takes; `auto` picks it for them and for noisy data, and its
 ///   result has `stderr`, `intervals`, `covariance` and `sigma` (None for other strategies);
 ///   its `scene` carries the estimated initial state, so `res.scene.simulate(T)` replays
@@ -429,7 +444,8 @@ fn session_to_py(err: CostError) -> PyErr {
     max_evals = None, threads = None, truth = None, checkpoint = None, resume = None, dt = None,
     stable_horizon = None, stable_spread = cordis_es::stable::DEFAULT_SPREAD,
     executor = None, islands = None, migrate_every = 10, migrants = 2, total_mass = None,
-    lock = None, param_gene = None, descent_start = 400, descent_every = 100, visible = None
+    lock = None, param_gene = None, descent_start = 400, descent_every = 100, visible = None,
+    markers = None, weights = None
 ))]
 #[pyo3(
     text_signature = "(scene, traj, strategy='auto', generations=1000, population=None, \
@@ -437,7 +453,8 @@ fn session_to_py(err: CostError) -> PyErr {
     max_evals=None, threads=None, truth=None, checkpoint=None, resume=None, dt=None, \
     stable_horizon=None, stable_spread=2.0, \
     executor=None, islands=None, migrate_every=10, migrants=2, total_mass=None, lock=None, \
-    param_gene=None, descent_start=400, descent_every=100, visible=None)"
+    param_gene=None, descent_start=400, descent_every=100, visible=None, markers=None, \
+    weights=None)"
 )]
 #[allow(clippy::too_many_arguments)]
 pub fn identify(
@@ -471,6 +488,8 @@ pub fn identify(
     descent_start: i64,
     descent_every: i64,
     visible: Option<Bound<'_, PyAny>>,
+    markers: Option<Vec<i64>>,
+    weights: Option<Vec<f64>>,
 ) -> PyResult<IdentifyResult> {
     let args = PyArgs {
         strategy,
@@ -497,6 +516,8 @@ pub fn identify(
         descent_start,
         descent_every,
         visible,
+        markers,
+        weights,
     };
     let req = request(&scene.core(), traj, truth, args)?;
     let executor = executor_object(py, executor)?;

@@ -135,3 +135,43 @@ def test_the_cli_gives_the_same_estimate_and_intervals(tmp_path):
     assert line["cost"] == res.cost
     cli = {u["name"]: (u["std_error"], tuple(u["interval"])) for u in line["solver"]["uncertainty"]}
     assert cli == {n: (res.stderr[n], res.intervals[n]) for n in res.params}
+
+
+def test_markers_map_data_in_its_own_order_and_weights_match_the_cli(tmp_path):
+    guess, truth, traj = load()
+    order = list(range(26, 8, -1))  # the free particles, reversed; the clamped ones untracked
+    data = traj[:, order]
+    res = cordis.identify(guess, data, markers=order, truth=truth)
+    assert res.strategy == "output-error" and res.stopped_by == "converged"
+    assert res.param_error_pct < 5.0
+    assert res.report["observed"] == 18 * 200 * 3
+    weights = [0.5] * 2 + [1.0] * 16
+    w = cordis.identify(guess, data, markers=order, weights=weights, truth=truth)
+    assert w.cost != res.cost and w.param_error_pct < 5.0
+    np.save(tmp_path / "m.npy", data)
+    exe = shutil.which("cordis", path=os.path.dirname(sys.executable))
+    out = subprocess.run(
+        [exe, "identify", str(SOFT / "guess.json"), "-t", str(tmp_path / "m.npy"), "-q",
+         "--markers", ",".join(map(str, order)), "--weights", ",".join(map(str, weights))],
+        capture_output=True, text=True, timeout=120,
+    )
+    assert out.returncode == 0, out.stderr
+    line = json.loads(out.stdout.strip().splitlines()[-1])
+    assert line["cost"] == w.cost
+    cli = {u["name"]: (u["std_error"], tuple(u["interval"])) for u in line["solver"]["uncertainty"]}
+    assert cli == {n: (w.stderr[n], w.intervals[n]) for n in w.params}
+
+
+@pytest.mark.parametrize("kw, says", [
+    ({"markers": [0, 0]}, r"markers\[1\]: particle 0 is already tracked by marker 0"),
+    ({"markers": [0, 99]}, r"markers\[1\]: particle 99 does not exist"),
+    ({"markers": [0, -1]}, r"markers\[1\]: must be a non-negative integer"),
+    ({"weights": [1.0] * 26 + [float("nan")]}, r"weights\[26\]: must be a positive finite"),
+    ({"weights": [1.0, 0.0]}, r"weights\[1\]: must be a positive finite"),
+    ({"weights": [1.0, 2.0]}, r"weights: holds 2 values for 27 markers"),
+    ({"weights": [2.0] * 27, "strategy": "least-squares"}, r"per-marker weights"),
+])
+def test_bad_markers_and_weights_are_refused_by_name(kw, says):
+    guess, _, traj = load()
+    with pytest.raises(ValueError, match=says):
+        cordis.identify(guess, traj, **kw)

@@ -244,3 +244,117 @@ fn output_error_stopped_by_the_time_limit_prints_its_best_so_far_and_resumes_to_
         "the same identified scene"
     );
 }
+
+/// The soft block's markers in another order and without the clamped particles (0–8): file
+/// particle j is scene particle `order[j]`.
+fn reordered_markers(dir: &Path) -> (PathBuf, Vec<usize>) {
+    let order: Vec<usize> = (9..27).rev().collect();
+    let text = std::fs::read_to_string(soft_block().join("markers.csv")).unwrap();
+    let mut lines = text.lines();
+    let mut out = format!("{}\n", lines.next().unwrap());
+    for line in lines {
+        let f: Vec<&str> = line.split(',').collect();
+        let p: usize = f[1].parse().unwrap();
+        if let Some(j) = order.iter().position(|&q| q == p) {
+            out.push_str(&format!("{},{j},{},{},{}\n", f[0], f[2], f[3], f[4]));
+        }
+    }
+    let path = dir.join("reordered.csv");
+    std::fs::write(&path, out).unwrap();
+    (path, order)
+}
+
+#[test]
+fn markers_map_a_file_in_its_own_order_without_the_fixed_particles() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (file, order) = reordered_markers(d);
+    let sb = soft_block();
+    let (guess, truth) = (sb.join("guess.json"), sb.join("truth.json"));
+    let map = order
+        .iter()
+        .map(|p| p.to_string())
+        .collect::<Vec<_>>()
+        .join(",");
+    let args = [
+        "identify",
+        guess.to_str().unwrap(),
+        "-t",
+        file.to_str().unwrap(),
+        "--markers",
+        &map,
+        "--truth",
+        truth.to_str().unwrap(),
+        "--json",
+        "--quiet",
+    ];
+    let s = summary(&cordis(d, &args));
+    assert_eq!(s["strategy"], "output-error", "{s}");
+    assert_eq!(s["stopped_by"], "converged", "{s}");
+    assert!(s["param_error_pct"].as_f64().unwrap() < 5.0, "{s}");
+    // 18 tracked markers × 200 frames × 3 coordinates: the clamped particles are not data.
+    assert_eq!(s["solver"]["observed"], 18 * 200 * 3);
+
+    // Down-weighting two markers (three weights each) changes the estimate, not its quality.
+    let mut weights = vec!["1"; 3 * order.len()];
+    weights[..6].fill("0.25");
+    let weights = weights.join(",");
+    let w = summary(&cordis(d, &[&args[..], &["--weights", &weights]].concat()));
+    assert_eq!(w["stopped_by"], "converged", "{w}");
+    assert_ne!(w["cost"], s["cost"]);
+    assert!(w["param_error_pct"].as_f64().unwrap() < 5.0, "{w}");
+}
+
+#[test]
+fn bad_markers_and_weights_are_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let sb = soft_block();
+    let (guess, markers) = (sb.join("guess.json"), sb.join("markers.csv"));
+    let base = [
+        "identify",
+        guess.to_str().unwrap(),
+        "-t",
+        markers.to_str().unwrap(),
+    ];
+    let all: Vec<String> = (0..27).map(|p| p.to_string()).collect();
+    let mut twice = all.clone();
+    twice[5] = "4".into();
+    let (twice, all) = (twice.join(","), all.join(","));
+    let cases: [(&[&str], &[&str]); 6] = [
+        (
+            &["--markers", &twice],
+            &["--markers[5]", "already tracked by marker 4"],
+        ),
+        (
+            &["--markers", "0,1,99"],
+            &["--markers[2]", "particle 99 does not exist"],
+        ),
+        (&["--markers", "0,1,2"], &["markers", "3 particles for 27"]),
+        (
+            &["--weights", "1,2"],
+            &["--weights", "2 values for 27 markers"],
+        ),
+        (
+            &[
+                "--markers",
+                &all,
+                "--weights",
+                &["1"; 26].join(",").replace("1,1,1", "1,nan,1"),
+            ],
+            &["--weights[1]", "positive finite"],
+        ),
+        (
+            &[
+                "--weights",
+                &["2"; 27].join(","),
+                "--strategy",
+                "least-squares",
+            ],
+            &["per-marker weights", "least-squares"],
+        ),
+    ];
+    for (extra, says) in cases {
+        common::fails(d, &[&base[..], extra].concat(), 2, says);
+    }
+}

@@ -207,6 +207,9 @@ fn auto_probe(problem: &Problem) -> (Option<String>, Option<(exact::Solution, u6
         let why = format!("{} takes share one parameter set", problem.take_count());
         return (Some(why), None);
     }
+    if problem.has_weights() {
+        return (Some("per-marker weights are given".into()), None);
+    }
     if !matches!(problem.objective.kind(), crate::cost::CostKind::Short) {
         return (None, None);
     }
@@ -281,6 +284,12 @@ pub fn check_strategy(ran: &str, problem: &Problem) -> Result<(), String> {
         return Err(format!(
             "the trajectory has missing observations: `{ran}` needs every coordinate \
              (use --strategy output-error or auto)"
+        ));
+    }
+    if problem.has_weights() {
+        return Err(format!(
+            "per-marker weights: `{ran}` weighs every coordinate alike (output-error reads \
+             them; use --strategy output-error or auto)"
         ));
     }
     if problem.take_count() > 1 {

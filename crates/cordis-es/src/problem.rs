@@ -113,6 +113,13 @@ impl Problem {
         })
     }
 
+    /// Whether the recorded takes weigh some coordinates unequally (per-marker weights).
+    pub fn has_weights(&self) -> bool {
+        self.takes
+            .as_ref()
+            .is_some_and(|ts| ts.iter().any(Take::weighted))
+    }
+
     /// Computes populations' costs with `evaluator` instead of the local rayon pool.
     pub fn with_evaluator(mut self, evaluator: Arc<dyn Evaluator>) -> Self {
         self.evaluator = evaluator;

@@ -88,6 +88,13 @@ pub struct IdentifyRequest {
     /// coordinate and particles beyond a take's are hidden (only `output-error` reads gaps
     /// and several takes; the other strategies refuse them by name).
     pub takes: Vec<Observations>,
+    /// Which scene particle each tracked marker (a take's particle index) is, the same for
+    /// every take (`None`: marker `i` is particle `i`). Particles no marker names are hidden;
+    /// fixed ones need not be tracked at all.
+    pub markers: Option<Vec<usize>>,
+    /// Each marker's weight, 1/σ relative to the others (one per marker, or three per marker:
+    /// x, y, z), read by `output-error` only (`None`: all 1).
+    pub weights: Option<Vec<f64>>,
     /// `--strategy`.
     pub strategy: StrategyName,
     /// Population (λ, chains, …); `None`: the `Param.gene` file's, else [`DEFAULT_POPULATION`].
@@ -151,6 +158,8 @@ impl IdentifyRequest {
             scene,
             scene_place: "scene".into(),
             takes,
+            markers: None,
+            weights: None,
             strategy: StrategyName::Auto,
             population: None,
             param_gene: None,
@@ -224,6 +233,7 @@ impl Session {
         let (data, takes) = prepare_takes(&req, noise)?;
         let mut problem = build_problem(&req, &data)?;
         let recorded = takes.len() > 1
+            || req.weights.is_some()
             || takes
                 .iter()
                 .any(|t| t.observed() < t.frames() * t.particles() * 3);
@@ -341,6 +351,54 @@ impl Session {
 }
 
 /// Every numeric option in range, once, for every front end.
+/// Every marker names a particle of the scene, no particle twice; every weight is a positive
+/// finite number, one (or three) per marker.
+fn validate_markers(req: &IdentifyRequest) -> Result<(), CostError> {
+    let n = req.scene.num_particles();
+    let at = |name: &str, k: usize| format!("{}[{k}]", req.opt(name));
+    if let Some(markers) = &req.markers {
+        let mut owner = vec![None; n];
+        for (m, &p) in markers.iter().enumerate() {
+            if p >= n {
+                return Err(CostError::invalid(
+                    at("markers", m),
+                    format!("particle {p} does not exist (the scene has {n}, from 0)"),
+                ));
+            }
+            if let Some(first) = owner[p] {
+                return Err(CostError::invalid(
+                    at("markers", m),
+                    format!("particle {p} is already tracked by marker {first}"),
+                ));
+            }
+            owner[p] = Some(m);
+        }
+    }
+    if let Some(weights) = &req.weights {
+        if let Some(k) = weights.iter().position(|w| !(w.is_finite() && *w > 0.0)) {
+            return Err(CostError::invalid(
+                at("weights", k),
+                format!(
+                    "must be a positive finite number (1/σ relative), got {:?}",
+                    weights[k]
+                ),
+            ));
+        }
+        let markers = req.markers.as_ref().map(Vec::len);
+        let tracked = markers.unwrap_or_else(|| req.takes.first().map_or(0, |t| t.particles()));
+        if weights.len() != tracked && weights.len() != 3 * tracked {
+            return Err(CostError::invalid(
+                req.opt("weights"),
+                format!(
+                    "holds {} values for {tracked} markers: give one per marker or three (x, y, z)",
+                    weights.len()
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 fn validate(req: &IdentifyRequest) -> Result<(), CostError> {
     let bad = |name: &str, m: String| Err(CostError::invalid(req.opt(name), m));
     if !req.scene.has_unknowns() {
@@ -367,6 +425,7 @@ fn validate(req: &IdentifyRequest) -> Result<(), CostError> {
     if req.threads == Some(0) {
         return bad("threads", "must be 1 or more (default: all cores)".into());
     }
+    validate_markers(req)?;
     if let Some(m) = req.total_mass {
         if !(m.is_finite() && m > 0.0) {
             return bad(
@@ -594,7 +653,19 @@ fn prepare_takes(req: &IdentifyRequest, noise: f64) -> Result<(Trajectory, Vec<T
                 })?,
             false => obs.clone(),
         };
-        let take = Take::from_observations(&noisy, n).map_err(|e| {
+        let mapped = req.markers.is_some() || req.weights.is_some();
+        let take = match mapped {
+            false => Take::from_observations(&noisy, n),
+            true => Take::from_markers(
+                noisy.frames(),
+                noisy.as_flat(),
+                n,
+                req.markers.as_deref(),
+                req.weights.as_deref(),
+                None,
+            ),
+        };
+        let take = take.map_err(|e| {
             let message = match e {
                 CostError::Mismatch { message, .. } => message,
                 e => e.to_string(),
@@ -608,7 +679,8 @@ fn prepare_takes(req: &IdentifyRequest, noise: f64) -> Result<(Trajectory, Vec<T
     }
     let first = first.expect("at least one take");
     let dt = first.dt;
-    let data = match first.particles() == n && first.missing() == 0 {
+    let in_scene_order = req.markers.is_none() && first.particles() == n;
+    let data = match in_scene_order && first.missing() == 0 {
         true => first.into_trajectory()?,
         false => {
             let at: Vec<cordis_core::Vec3> = req
@@ -649,6 +721,13 @@ fn fingerprint(
             .flat_map(|t| t.as_flat().iter().flat_map(|x| x.to_bits().to_le_bytes()))
             .collect();
         f.insert("takes".into(), digest(&bits));
+    }
+    if req.markers.is_some() || req.weights.is_some() {
+        let weights: Option<Vec<u64>> = req
+            .weights
+            .as_ref()
+            .map(|w| w.iter().map(|x| x.to_bits()).collect());
+        f.insert("markers".into(), format!("{:?} {:?}", req.markers, weights));
     }
     f.insert("cost".into(), req.cost.to_string());
     f.insert("noise".into(), format!("{noise:e}"));

@@ -23,6 +23,15 @@ pub struct Args {
     /// parameter set, each take its own initial state; output-error only).
     #[arg(long, short = 't', required = true)]
     trajectory: Vec<PathBuf>,
+    /// Which scene particle each of the file's markers is, comma-separated (`--markers
+    /// 4,0,7`: the file's particle 0 is the scene's particle 4, …), the same for every take.
+    /// Particles no marker names are hidden; fixed particles need not be tracked.
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    markers: Option<Vec<usize>>,
+    /// Each marker's weight, 1/σ relative to the others, comma-separated: one per marker, or
+    /// three per marker (x, y, z). Positive and finite; read by output-error only.
+    #[arg(long, value_delimiter = ',', num_args = 1.., allow_negative_numbers = true)]
+    weights: Option<Vec<f64>>,
     /// Strategy: auto | thesis | least-squares | hybrid | cmaes | self-adaptive | annealing |
     /// parisian | levenberg-marquardt | output-error. auto = output-error on noisy or gappy data
     /// (when every kind has exact sensitivities), else least-squares when every unknown enters
@@ -201,6 +210,8 @@ fn request(a: &Args) -> Result<IdentifyRequest> {
     };
     let mut r = IdentifyRequest::with_takes(scene, takes);
     r.scene_place = a.scene.display().to_string();
+    r.markers = a.markers.clone();
+    r.weights = a.weights.clone();
     r.strategy = a.strategy;
     r.population = a.population;
     r.param_gene = a.param_gene.clone();

@@ -36,7 +36,8 @@ impl Take {
     /// Builds a take from row-major `(frames, markers, 3)` data in which NaN marks a missing
     /// coordinate. `markers[m]` is the scene particle that marker `m` tracks (`None`: marker m
     /// is particle m); particles no marker tracks are hidden. `marker_weights[m]` is the
-    /// marker's weight (1/σ relative; `None`: all 1). `visible`, when given, is a
+    /// marker's weight (1/σ relative; `None`: all 1), or `marker_weights[3m + c]` its
+    /// coordinate c's when three per marker are given. `visible`, when given, is a
     /// `(frames, markers)` mask that hides a marker at a frame whatever its value.
     pub fn from_markers(
         frames: usize,
@@ -91,10 +92,21 @@ impl Take {
             }
             owner[p] = m;
         }
-        if let Some(w) = marker_weights {
-            if w.len() != count {
-                return Err(CostError::length("weights", count, w.len()));
+        let per_coordinate = match marker_weights {
+            Some(w) if w.len() == 3 * count && count > 0 && w.len() != count => true,
+            Some(w) if w.len() != count => {
+                return Err(CostError::mismatch(
+                    "weights",
+                    format!(
+                        "holds {} values for {count} markers: give one per marker or three \
+                         (x, y, z)",
+                        w.len()
+                    ),
+                ))
             }
+            _ => false,
+        };
+        if let Some(w) = marker_weights {
             if let Some(m) = w.iter().position(|w| !(w.is_finite() && *w > 0.0)) {
                 return Err(CostError::mismatch(
                     format!("weights[{m}]"),
@@ -114,8 +126,12 @@ impl Take {
                 if visible.is_some_and(|v| !v[t * count + m]) {
                     continue;
                 }
-                let w = marker_weights.map_or(1.0, |w| w[m]);
                 for c in 0..3 {
+                    let w = match (marker_weights, per_coordinate) {
+                        (None, _) => 1.0,
+                        (Some(w), false) => w[m],
+                        (Some(w), true) => w[3 * m + c],
+                    };
                     let x = data[(t * count + m) * 3 + c];
                     if x.is_nan() {
                         continue;
@@ -160,6 +176,11 @@ impl Take {
             ));
         }
         Take::from_markers(obs.frames(), obs.as_flat(), particles, None, None, None)
+    }
+
+    /// Whether some observed coordinate has a weight other than 1.
+    pub fn weighted(&self) -> bool {
+        self.weights.iter().any(|&w| w != 0.0 && w != 1.0)
     }
 
     pub fn frames(&self) -> usize {
