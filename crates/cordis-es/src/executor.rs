@@ -6,8 +6,9 @@ use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
 
+use crate::float_json::lossless;
 use crate::problem::Problem;
-use crate::strategy::{lossless, Strategy};
+use crate::strategy::Strategy;
 use crate::CostError;
 
 /// When to stop; the first rule met ends the run. `None` everywhere runs until stopped.

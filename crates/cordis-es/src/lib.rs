@@ -11,6 +11,7 @@ pub mod error;
 pub mod evaluator;
 pub mod exact;
 pub mod executor;
+pub mod float_json;
 pub mod identify;
 pub mod output_error;
 pub mod problem;

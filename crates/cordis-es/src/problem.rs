@@ -1,6 +1,7 @@
 //! An identification problem: a scene with unknowns, an observed trajectory, a cost — and what
 //! the strategies' heuristics need to know about them.
 
+use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
@@ -10,10 +11,42 @@ use cordis_core::{LinkKind, Scene, Trajectory};
 
 use crate::cost::{CostKind, CostScratch, Objective};
 use crate::error::CostError;
-use crate::evaluator::{Evaluator, Local};
 use crate::output_error::Take;
 use crate::space::{ParameterSpace, Role};
 use crate::stable::{Guard, Rejection, StableHorizon};
+
+/// Computes the costs of a population of genomes for a [`Problem`]: where they are computed
+/// (a remote pool: the Python bindings' Ray executor; [`crate::evaluator`]).
+///
+/// An evaluator must return, for every genome, exactly what [`Problem::evaluate`] returns
+/// (bit for bit, +inf for a diverged or non-finite cost): a strategy's next generation depends
+/// on the costs, so this is what keeps a seed's result independent of where costs are computed.
+pub trait Evaluator: Send + Sync {
+    /// Global costs of the `costs.len()` genomes of `genomes` (row-major, `problem.dim()`
+    /// internal coordinates each) into `costs`; when `local` is given, each genome's
+    /// per-particle local costs (row-major, `problem.num_particles` each, m²) into it. The cost
+    /// function is `problem.objective` at its current generation (a progressive horizon
+    /// depends on it). Does not count evaluations ([`Problem::evaluate_population`] does).
+    ///
+    /// An `Err` (a lost cluster, a remote exception) stops the run with that message.
+    fn evaluate(
+        &self,
+        problem: &Problem,
+        genomes: &[f64],
+        costs: &mut [f64],
+        local: Option<&mut [f64]>,
+    ) -> Result<(), String>;
+}
+
+/// The `count` genomes of `dim` values each in `genomes`, one slice per individual; without
+/// unknowns the slices are empty (each individual still has a cost).
+pub(crate) fn genome_rows(genomes: &[f64], dim: usize, count: usize) -> Vec<&[f64]> {
+    if dim == 0 {
+        vec![&[][..]; count]
+    } else {
+        genomes.chunks_exact(dim).collect()
+    }
+}
 
 pub struct Problem {
     pub scene: Scene,
@@ -33,8 +66,9 @@ pub struct Problem {
     evals: AtomicU64,
     /// Wall time spent in [`Problem::timed`] sections (population evaluations), ns.
     eval_nanos: AtomicU64,
-    /// Where [`Problem::evaluate_population`] computes costs ([`Local`] by default).
-    evaluator: Arc<dyn Evaluator>,
+    /// Where [`Problem::evaluate_population`] computes costs; `None`: this process' rayon
+    /// pool ([`Problem::evaluate_here`], what [`crate::evaluator::Local`] does too).
+    evaluator: Option<Arc<dyn Evaluator>>,
     /// The first evaluator failure, for the run loop to report.
     eval_error: Mutex<Option<String>>,
     /// The observations as recorded (gaps, hidden particles, several takes) for estimators
@@ -78,7 +112,7 @@ impl Problem {
             guard: None,
             evals: AtomicU64::new(0),
             eval_nanos: AtomicU64::new(0),
-            evaluator: Arc::new(Local),
+            evaluator: None,
             eval_error: Mutex::new(None),
             takes: None,
         })
@@ -122,7 +156,7 @@ impl Problem {
 
     /// Computes populations' costs with `evaluator` instead of the local rayon pool.
     pub fn with_evaluator(mut self, evaluator: Arc<dyn Evaluator>) -> Self {
-        self.evaluator = evaluator;
+        self.evaluator = Some(evaluator);
         self
     }
 
@@ -235,9 +269,12 @@ impl Problem {
     ) {
         self.evals.fetch_add(costs.len() as u64, Ordering::Relaxed);
         // Timed here, not by each strategy: one that forgot (cmaes did) reported 0 s.
-        let outcome = self.timed(|| {
-            self.evaluator
-                .evaluate(self, genomes, costs, local.as_deref_mut())
+        let outcome = self.timed(|| match &self.evaluator {
+            Some(evaluator) => evaluator.evaluate(self, genomes, costs, local.as_deref_mut()),
+            None => {
+                self.evaluate_here(genomes, costs, local.as_deref_mut());
+                Ok(())
+            }
         });
         match outcome {
             // A remote evaluator's NaN is the same +inf a local one gives.
@@ -256,6 +293,30 @@ impl Problem {
         }
     }
 
+    /// Global costs (and local costs into `local`) of a population of genomes, as
+    /// [`Problem::evaluate_population`] takes them, on the current rayon pool, one scratch per
+    /// worker split; not counted. What every [`Evaluator`] must reproduce bit for bit.
+    pub fn evaluate_here(&self, genomes: &[f64], costs: &mut [f64], local: Option<&mut [f64]>) {
+        let dim = self.dim();
+        let n = self.num_particles;
+        debug_assert_eq!(genomes.len(), costs.len() * dim, "one genome per cost");
+        let rows = genome_rows(genomes, dim, costs.len());
+        match local {
+            Some(local) if n > 0 => rows
+                .par_iter()
+                .zip(costs.par_iter_mut())
+                .zip(local.par_chunks_mut(n))
+                .for_each_init(
+                    || self.scratch(),
+                    |s, ((g, c), l)| *c = self.evaluate_uncounted(g, s, l),
+                ),
+            _ => rows.par_iter().zip(costs.par_iter_mut()).for_each_init(
+                || (self.scratch(), vec![0.0; n]),
+                |(s, l), (g, c)| *c = self.evaluate_uncounted(g, s, l),
+            ),
+        }
+    }
+
     /// Short-cost residuals of a population of genomes (row-major, [`Problem::dim`] values
     /// each): each genome's [`Objective::residuals`] into its row of `out` (row-major,
     /// [`Objective::residual_len`] each) and its cost into `costs` (`+inf` when it diverged or
@@ -264,7 +325,6 @@ impl Problem {
     /// plugged in (a residual vector is too large to be worth shipping); the kind must be
     /// `short` (the least-squares strategies check it before a run).
     pub fn residuals_population(&self, genomes: &[f64], out: &mut [f64], costs: &mut [f64]) {
-        use rayon::prelude::*;
         self.evals.fetch_add(costs.len() as u64, Ordering::Relaxed);
         let dim = self.dim();
         let len = self.objective.residual_len();
@@ -283,7 +343,7 @@ impl Problem {
             costs.fill(0.0);
             return;
         }
-        let rows = crate::evaluator::genome_rows(genomes, dim, costs.len());
+        let rows = genome_rows(genomes, dim, costs.len());
         self.timed(|| {
             rows.par_iter()
                 .zip(out.par_chunks_mut(len))

@@ -27,6 +27,7 @@
 
 mod batch;
 mod free_run;
+mod geometry;
 pub mod hidden;
 pub(crate) mod kernels;
 mod kind;

@@ -1,12 +1,12 @@
 //! The objective of identification: a compiled scene, an observed trajectory and a cost kind,
 //! evaluated on parameter vectors (SPEC §3).
 
+use super::geometry::Geometry;
 use super::hidden::{HiddenState, PlanStateful};
 use super::kernels::{SpringBuf, GEOMETRY_BUDGET_BYTES};
 use super::kind::CostKind;
 use super::linear::LinearShortCost;
 use super::observed::Observed;
-use super::short::Geometry;
 use crate::error::CostError;
 use cordis_core::plan::Scratch;
 use cordis_core::{Plan, Scene, Trajectory, Vec3};
@@ -257,6 +257,13 @@ impl Objective {
     pub fn set_geometry_budget(&mut self, bytes: usize) {
         self.geometry_budget = bytes;
         self.geometry = OnceLock::new();
+    }
+
+    /// The precomputed geometry, built on first call (thread-safe; later calls are free).
+    pub(crate) fn geometry(&self) -> &Geometry {
+        self.geometry.get_or_init(|| {
+            Geometry::build(&self.obs, &self.plan.springs.pairs, self.geometry_budget)
+        })
     }
 
     /// Whether an evaluation of `p` takes the precomputed linear path.

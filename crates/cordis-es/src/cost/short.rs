@@ -4,6 +4,7 @@
 //! typed passes directly on the precomputed observed positions and velocities, and replaces
 //! the conditional grid by the pairs precomputed from the observation.
 
+use super::geometry::Geometry;
 use super::kernels::{springs, PairGeometry, SpringBuf};
 use super::kind::CostKind;
 use super::objective::{CostScratch, Objective};
@@ -12,53 +13,7 @@ use cordis_core::world::{Clock, OneClock, WorldClock};
 use cordis_core::Vec3;
 use std::ops::Range;
 
-/// Precomputed geometry of the listed pairs, per pass: `None` where it would not fit
-/// the objective's budget (that pass then computes its geometry at every evaluation).
-#[derive(Clone, Debug, Default)]
-pub(crate) struct Geometry {
-    pub springs: Option<PairGeometry>,
-    /// One per conditional pass (`None` also when its range is not known).
-    pub conditionals: Vec<Option<PairGeometry>>,
-}
-
 impl Objective {
-    /// The precomputed geometry, built on first call (thread-safe; later calls are free).
-    pub(crate) fn geometry(&self) -> &Geometry {
-        self.geometry.get_or_init(|| {
-            let obs = &self.obs;
-            let frames = obs.frames;
-            let mut budget = self.geometry_budget;
-            let mut fits = |bytes: usize| {
-                let ok = bytes <= budget;
-                if ok {
-                    budget -= bytes;
-                }
-                ok
-            };
-            let x_at = |t: usize| obs.frame(t);
-            let v_at = |t: usize| obs.velocity(t);
-            let pairs = &self.plan.springs.pairs;
-            let springs = (!pairs.is_empty()
-                && fits(PairGeometry::bytes((1..frames - 1).map(|_| pairs.len()))))
-            .then(|| PairGeometry::new(frames, |_| pairs.as_slice(), x_at, v_at));
-            let conditionals = obs
-                .pairs
-                .iter()
-                .map(|known| {
-                    let known = known.as_ref()?;
-                    fits(PairGeometry::bytes(
-                        (1..frames - 1).map(|t| known.at(t).len()),
-                    ))
-                    .then(|| PairGeometry::new(frames, |t| known.at(t), x_at, v_at))
-                })
-                .collect();
-            Geometry {
-                springs,
-                conditionals,
-            }
-        })
-    }
-
     /// `s.core.f = F(x(t), v(t))` at observed frame `t`: the plan's passes in `Plan::forces`
     /// order, so the sum is bit-for-bit a simulator step's.
     pub(crate) fn observed_forces(&self, p: &[f64], t: usize, s: &mut CostScratch, geo: &Geometry) {

@@ -44,6 +44,7 @@ pub(crate) mod design;
 pub(crate) mod profile;
 pub mod provot_rows;
 pub mod range_sweep;
+pub(crate) mod row_mask;
 pub(crate) mod tgr_cols;
 
 use std::collections::HashMap;
@@ -52,11 +53,13 @@ use cordis_core::{LinkKind, Scene, Vec3};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-use self::provot_rows::{ProvotRows, RowMask};
+use self::row_mask::RowMask;
 use crate::cost::{CostKind, LinearShortCost, Objective, ThetaEntry};
+use crate::float_json::{bits, lossless};
 use crate::problem::Problem;
+pub use crate::report::ExactReport;
 use crate::space::Role;
-use crate::strategy::{bits, lossless, GenerationStats, Strategy};
+use crate::strategy::{GenerationStats, Strategy};
 
 /// Singular values below this fraction of the largest (column-scaled design) are taken as
 /// zero. Measured on noiseless data, a never-stretched type gives ~1e-15 and the shipped
@@ -904,72 +907,6 @@ pub(crate) fn solve(spec: &Spec) -> Result<Outcome, String> {
 fn push_unique(v: &mut Vec<String>, s: &str) {
     if !v.iter().any(|x| x == s) {
         v.push(s.to_string());
-    }
-}
-
-/// What an exact solve says beside its answer (the `solver` field of a run summary).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct ExactReport {
-    /// Condition number of the column-equilibrated design of the final solve (1: orthogonal
-    /// unknowns; `inf` when nothing was solved).
-    #[serde(with = "lossless")]
-    pub condition: f64,
-    /// Unknowns the data cannot determine (held at their starting value).
-    pub undetermined: Vec<String>,
-    /// Unknowns on the weakest direction when the condition number exceeds [`POOR_CONDITION`].
-    pub poorly_determined: Vec<String>,
-    /// Unknowns whose unconstrained solution left the box (clamped onto it).
-    pub clamped: Vec<String>,
-    /// How the answer was reached (weightings, intervals of the nonlinear parameters…).
-    pub notes: Vec<String>,
-    /// Why the solve failed; the answer is then the starting point.
-    pub error: Option<String>,
-    /// Rows left out on a scene with Provot limits ([`self::provot_rows`]); absent otherwise.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub provot: Option<ProvotRows>,
-    /// Why the search stopped short of its own criterion (`hybrid`'s coordinate descent at its
-    /// cycle cap while still moving); absent when it met it.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub unconverged: Option<String>,
-}
-
-impl ExactReport {
-    /// One line per thing a user should know, for a terminal.
-    pub fn warnings(&self) -> Vec<String> {
-        let mut w = Vec::new();
-        if let Some(e) = &self.error {
-            w.push(e.clone());
-        }
-        if !self.undetermined.is_empty() {
-            w.push(format!(
-                "{}: not determined by the data (held at the starting value)",
-                self.undetermined.join(", ")
-            ));
-        }
-        if !self.poorly_determined.is_empty() {
-            w.push(format!(
-                "{}: poorly determined (condition number {:.1e})",
-                self.poorly_determined.join(", "),
-                self.condition
-            ));
-        }
-        if !self.clamped.is_empty() {
-            w.push(format!(
-                "{}: the unconstrained solution is outside the box (clamped onto it)",
-                self.clamped.join(", ")
-            ));
-        }
-        if let Some(u) = &self.unconverged {
-            w.push(u.clone());
-        }
-        if let Some(p) = self.provot.as_ref().filter(|p| !p.consistent) {
-            w.push(format!(
-                "Provot limit: after {} solves the estimate still marks rows that were kept \
-                 (the answer may be biased by the limit)",
-                p.iterations
-            ));
-        }
-        w
     }
 }
 

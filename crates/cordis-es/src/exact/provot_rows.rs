@@ -34,12 +34,13 @@
 
 use cordis_core::world::{Clock, OneClock};
 use cordis_core::Vec3;
-use serde::{Deserialize, Serialize};
 
 use crate::cost::Objective;
-use crate::exact::{self, Col, ExactReport, Split};
+use crate::exact::row_mask::RowMask;
+use crate::exact::{self, Col, Split};
 use crate::problem::Problem;
-use crate::strategy::lossless;
+use crate::report::ExactReport;
+pub use crate::report::ProvotRows;
 
 /// Relative shortening of every limit when marking the rows an estimate's Provot pass acts on:
 /// the rows whose prediction comes within 0.1 % of the limit are dropped too, so that the
@@ -52,65 +53,6 @@ pub const AT_LIMIT: f64 = 1e-12;
 
 /// Most solve–mark rounds (each only grows the mask; the cloth settles in a few).
 pub const MAX_ITERATIONS: usize = 50;
-
-/// What the Provot iteration did (the `provot` field of an exact solver's report).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct ProvotRows {
-    /// Rows (particle, frame) of the short cost left out: the limit may have acted on them.
-    pub dropped: usize,
-    /// Rows of the short cost (free particles × predicted frames).
-    pub rows: usize,
-    /// Solve–mark rounds.
-    pub iterations: usize,
-    /// Whether the rows the final estimate marks are all dropped (false only when the
-    /// iteration ran out of rounds).
-    pub consistent: bool,
-    /// Root mean square residual of the kept rows, per coordinate, m.
-    #[serde(with = "lossless")]
-    pub kept_rmse: f64,
-}
-
-/// Rows of the short cost, frame-major: `bits[t * n + i]` (frames 0 and 1 are never rows).
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub(crate) struct RowMask {
-    n: usize,
-    bits: Vec<bool>,
-}
-
-impl RowMask {
-    fn new(frames: usize, n: usize) -> Self {
-        RowMask {
-            n,
-            bits: vec![false; frames * n],
-        }
-    }
-
-    /// Whether row (frame t, particle i) is dropped.
-    #[inline]
-    pub fn get(&self, t: usize, i: usize) -> bool {
-        self.bits[t * self.n + i]
-    }
-
-    fn set(&mut self, t: usize, i: usize) {
-        self.bits[t * self.n + i] = true;
-    }
-
-    fn count(&self) -> usize {
-        self.bits.iter().filter(|&&b| b).count()
-    }
-
-    /// Adds `other`'s rows; returns whether any was new.
-    fn absorb(&mut self, other: &RowMask) -> bool {
-        let mut grew = false;
-        for (a, &b) in self.bits.iter_mut().zip(&other.bits) {
-            if b && !*a {
-                *a = true;
-                grew = true;
-            }
-        }
-        grew
-    }
-}
 
 /// Whether the objective's scene has a Provot limit on some link.
 pub(crate) fn applies(obj: &Objective) -> bool {

@@ -24,9 +24,10 @@ use super::cmaes::mean_finite;
 use super::common::{
     boxes, evaluate_genomes, from_unit, load_checked, reflect, start_genome, to_unit, NO_STATS,
 };
+use crate::float_json::{bits, lossless};
 use crate::problem::Problem;
 use crate::rng;
-use crate::strategy::{bits, lossless, GenerationStats, Strategy};
+use crate::strategy::{GenerationStats, Strategy};
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AnnealingConfig {

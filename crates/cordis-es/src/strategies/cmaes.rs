@@ -28,9 +28,10 @@ use serde::{Deserialize, Serialize};
 use super::common::{
     boxes, evaluate_genomes, from_unit, load_checked, start_genome, to_unit, NO_STATS,
 };
+use crate::float_json::{bits, lossless};
 use crate::problem::Problem;
 use crate::rng;
-use crate::strategy::{bits, lossless, GenerationStats, Strategy};
+use crate::strategy::{GenerationStats, Strategy};
 
 /// Options of `cmaes`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -51,9 +51,10 @@
 use serde::{Deserialize, Serialize};
 
 use super::common::{load_checked, start_genome, NO_STATS};
+use crate::float_json::{bits, lossless};
 use crate::problem::Problem;
 use crate::rng;
-use crate::strategy::{bits, lossless, GenerationStats, Strategy};
+use crate::strategy::{GenerationStats, Strategy};
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LmConfig {

@@ -31,9 +31,10 @@ use super::cmaes::mean_finite;
 use super::common::{
     boxes, evaluate_genomes, from_unit, load_checked, reflect, start_genome, to_unit, NO_STATS,
 };
+use crate::float_json::{bits, lossless};
 use crate::problem::Problem;
 use crate::rng::{self, Rng};
-use crate::strategy::{bits, lossless, GenerationStats, Strategy};
+use crate::strategy::{GenerationStats, Strategy};
 
 /// Largest σ (box widths): past it a reflected mutation is already spread over the whole box,
 /// so selection no longer holds σ back and it would drift up without end.

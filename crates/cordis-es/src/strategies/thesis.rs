@@ -22,9 +22,10 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::descent::{powell, Powell};
+use crate::float_json::{bits, lossless};
 use crate::problem::Problem;
 use crate::rng::{self, Rng};
-use crate::strategy::{bits, lossless, GenerationStats, Strategy};
+use crate::strategy::{GenerationStats, Strategy};
 
 /// Options of the thesis strategy; the `Param.gene` keys are `population`, `pcross`, `pmut`,
 /// `reducer` (and `generation`, which is a stop rule, and `noise`, applied to the data).

@@ -11,9 +11,13 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::strategies::exact::ExactReport;
-pub use crate::strategies::output_error::OutputErrorReport;
-use crate::strategy::lossless;
+use crate::float_json::lossless;
+
+mod exact;
+mod output_error;
+
+pub use exact::{ExactReport, ProvotRows};
+pub use output_error::OutputErrorReport;
 
 /// What `levenberg-marquardt` reports.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
