@@ -39,14 +39,19 @@ fn cell(p: &Vec3, h: f64) -> [i64; 3] {
     ]
 }
 
-/// Every pair `[i, j]` (`i < j`) closer than `radius` (m), with its distance, in `(i, j)`
-/// order. Pairs of two fixed particles are left out (no equation sees them).
-pub fn pairs_within(x: &[Vec3], fixed: &[bool], radius: f64) -> Vec<([usize; 2], f64)> {
+/// Calls `visit(i, j, distance)` for every pair `[i, j]` (`i < j`) closer than `radius` (m),
+/// two fixed particles left out (no equation sees them), in no particular order. Holds only
+/// the grid (O(N)): a caller can count the pairs before storing any.
+pub fn for_each_pair_within(
+    x: &[Vec3],
+    fixed: &[bool],
+    radius: f64,
+    mut visit: impl FnMut(usize, usize, f64),
+) {
     let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
     for (i, p) in x.iter().enumerate() {
         grid.entry(cell(p, radius)).or_default().push(i);
     }
-    let mut out = Vec::new();
     for (i, p) in x.iter().enumerate() {
         let c = cell(p, radius);
         for dx in -1..=1 {
@@ -61,15 +66,33 @@ pub fn pairs_within(x: &[Vec3], fixed: &[bool], radius: f64) -> Vec<([usize; 2],
                         }
                         let d = (x[j] - p).norm();
                         if d < radius {
-                            out.push(([i, j], d));
+                            visit(i, j, d);
                         }
                     }
                 }
             }
         }
     }
+}
+
+/// Every pair `[i, j]` (`i < j`) closer than `radius` (m), with its distance, in `(i, j)`
+/// order. Pairs of two fixed particles are left out (no equation sees them).
+pub fn pairs_within(x: &[Vec3], fixed: &[bool], radius: f64) -> Vec<([usize; 2], f64)> {
+    let mut out = Vec::new();
+    for_each_pair_within(x, fixed, radius, |i, j, d| out.push(([i, j], d)));
     out.sort_by_key(|(p, _)| *p);
     out
+}
+
+/// How many candidate pairs each particle is an end of (the counts of [`pairs_within`],
+/// without storing the pairs).
+pub fn degrees_within(x: &[Vec3], fixed: &[bool], radius: f64) -> Vec<usize> {
+    let mut degree = vec![0; x.len()];
+    for_each_pair_within(x, fixed, radius, |i, j, _| {
+        degree[i] += 1;
+        degree[j] += 1;
+    });
+    degree
 }
 
 /// [`RADIUS_PER_NEAREST`] × the median distance from a particle to its nearest neighbour in
@@ -137,6 +160,10 @@ mod tests {
             }
         }
         assert_eq!(got, want);
+        let degree = degrees_within(&x, &fixed, 0.13);
+        for (i, d) in degree.iter().enumerate() {
+            assert_eq!(*d, want.iter().filter(|p| p.contains(&i)).count());
+        }
         let r = default_radius(&x).unwrap();
         assert!(r > 0.0 && r < 1.0);
     }

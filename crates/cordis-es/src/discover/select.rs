@@ -61,6 +61,26 @@ fn features(traj: &Trajectory, dt: f64, t: usize, i: usize, j: usize) -> [Vec3; 
     [u * l, -u, u * v.dot(&u)]
 }
 
+/// Columns of the factor of a particle with `degree` candidate pairs: three intercepts, three
+/// per pair, the right-hand side.
+pub fn columns(degree: usize) -> usize {
+    3 + 3 * degree + 1
+}
+
+/// Bytes the selection holds, estimated before building: each free particle's factor (8 k²,
+/// k its [`columns`]) and fit (~110 bytes per pair), and per thread the transient of one build
+/// or fit (~7 k² of the largest: the Givens factor and its copy, the equilibrated matrix, the
+/// SVD's U and Vᵀ, the covariance factor).
+pub fn memory_bytes(degree: &[usize], free: &[bool], threads: usize) -> f64 {
+    let (mut held, mut largest) = (0.0, 0.0f64);
+    for (&d, _) in degree.iter().zip(free).filter(|(_, &f)| f) {
+        let k = columns(d) as f64;
+        held += 8.0 * k * k + 110.0 * d as f64;
+        largest = largest.max(k);
+    }
+    held + 8.0 * 7.0 * largest * largest * threads.max(1) as f64
+}
+
 /// Builds the factor of every free particle over its candidate pairs (in parallel).
 pub fn build(traj: &Trajectory, dt: f64, free: &[bool], pairs: &[[usize; 2]]) -> Vec<Local> {
     let n = traj.particles();
@@ -75,7 +95,7 @@ pub fn build(traj: &Trajectory, dt: f64, free: &[bool], pairs: &[[usize; 2]]) ->
         .filter(|&i| free[i])
         .map(|i| {
             let local = incident[i].clone();
-            let k = 3 + 3 * local.len() + 1;
+            let k = columns(local.len());
             let mut f = Factor::new(k);
             let mut rows = vec![[0.0; 3]; k];
             let mut row = vec![0.0; k];
