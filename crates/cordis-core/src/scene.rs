@@ -277,11 +277,44 @@ impl Scene {
                     format!("names one or two groups, got {}", t.groups.len()),
                 ));
             }
+            self.check_groups_have_particles(ti)?;
             self.check_groups_world(ti)?;
         } else if !t.groups.is_empty() {
             return Err(CordisError::scene(
                 format!("{at}.groups"),
                 "only conditional types have it",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Every group a conditional type names has a particle: a type whose group is empty
+    /// never links a pair, and is nearly always a misspelt name (`gaz`), which used to leave
+    /// the scene silently without that force. An error rather than a warning: a scene file
+    /// has no other channel, and removing an unused type loses nothing.
+    fn check_groups_have_particles(&self, ti: usize) -> Result<()> {
+        let t = &self.types[ti];
+        for g in &t.groups {
+            if self.particles.iter().any(|p| p.group.as_ref() == Some(g)) {
+                continue;
+            }
+            let present: std::collections::BTreeSet<&str> = self
+                .particles
+                .iter()
+                .filter_map(|p| p.group.as_deref())
+                .collect();
+            let present = if present.is_empty() {
+                "no particle has a group".to_string()
+            } else {
+                let names: Vec<&str> = present.iter().take(10).copied().collect();
+                let more = if present.len() > 10 { ", …" } else { "" };
+                format!("the groups are {}{more}", names.join(", "))
+            };
+            return Err(CordisError::scene(
+                format!("types.{}.groups", t.name),
+                crate::error::printable(&format!(
+                    "no particle is in group `{g}` ({present}): the type would never link a pair"
+                )),
             ));
         }
         Ok(())

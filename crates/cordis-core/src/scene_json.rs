@@ -33,7 +33,7 @@ impl Scene {
                 "empty file: expected a JSON scene",
             ));
         }
-        let value: Value = serde_json::from_str(text).map_err(|e| {
+        let value: Value = parse_unique_keys(text).map_err(|e| {
             // The place already says line and column: drop serde_json's own copy of them.
             let full = e.to_string();
             let suffix = format!(" at line {} column {}", e.line(), e.column());
@@ -192,6 +192,86 @@ impl Scene {
             .expect("a JSON value always serialises");
         s.push('\n');
         s
+    }
+}
+
+/// Parses JSON text as [`serde_json::from_str`] does, but refuses an object that repeats a key
+/// (serde_json keeps the last one silently: `"stiffness": 1, "stiffness": 100` read as 100).
+/// The error names the key; serde_json adds its line and column.
+fn parse_unique_keys(text: &str) -> serde_json::Result<Value> {
+    use serde::de::DeserializeSeed;
+    let mut de = serde_json::Deserializer::from_str(text);
+    let value = UniqueKeys.deserialize(&mut de)?;
+    de.end()?;
+    Ok(value)
+}
+
+/// A [`Value`] read with every object's keys distinct (see [`parse_unique_keys`]).
+struct UniqueKeys;
+
+impl<'de> serde::de::DeserializeSeed<'de> for UniqueKeys {
+    type Value = Value;
+    fn deserialize<D: serde::Deserializer<'de>>(
+        self,
+        d: D,
+    ) -> std::result::Result<Value, D::Error> {
+        d.deserialize_any(self)
+    }
+}
+
+impl<'de> serde::de::Visitor<'de> for UniqueKeys {
+    type Value = Value;
+
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("a JSON value")
+    }
+    fn visit_bool<E>(self, v: bool) -> std::result::Result<Value, E> {
+        Ok(Value::Bool(v))
+    }
+    fn visit_i64<E>(self, v: i64) -> std::result::Result<Value, E> {
+        Ok(Value::from(v))
+    }
+    fn visit_u64<E>(self, v: u64) -> std::result::Result<Value, E> {
+        Ok(Value::from(v))
+    }
+    fn visit_f64<E>(self, v: f64) -> std::result::Result<Value, E> {
+        Ok(serde_json::Number::from_f64(v).map_or(Value::Null, Value::Number))
+    }
+    fn visit_str<E>(self, v: &str) -> std::result::Result<Value, E> {
+        Ok(Value::String(v.to_owned()))
+    }
+    fn visit_string<E>(self, v: String) -> std::result::Result<Value, E> {
+        Ok(Value::String(v))
+    }
+    fn visit_unit<E>(self) -> std::result::Result<Value, E> {
+        Ok(Value::Null)
+    }
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(
+        self,
+        mut seq: A,
+    ) -> std::result::Result<Value, A::Error> {
+        let mut out = Vec::new();
+        while let Some(v) = seq.next_element_seed(UniqueKeys)? {
+            out.push(v);
+        }
+        Ok(Value::Array(out))
+    }
+    fn visit_map<A: serde::de::MapAccess<'de>>(
+        self,
+        mut map: A,
+    ) -> std::result::Result<Value, A::Error> {
+        let mut out = Map::new();
+        while let Some(key) = map.next_key::<String>()? {
+            if out.contains_key(&key) {
+                return Err(serde::de::Error::custom(format!(
+                    "duplicate key `{}` (a key appears once per object)",
+                    crate::error::printable(&key)
+                )));
+            }
+            let v = map.next_value_seed(UniqueKeys)?;
+            out.insert(key, v);
+        }
+        Ok(Value::Object(out))
     }
 }
 

@@ -596,3 +596,44 @@ fn partial_validation_agrees_with_validate() {
     same(&s, s.validate_type(1), &format!("types.{bend}."));
     s.validate_type(0).unwrap();
 }
+
+/// Issue 17: `"stiffness": 20, "stiffness": 1e6` read as 1e6 without a word (serde_json keeps
+/// the last value); now refused, naming the key, its line and column.
+#[test]
+fn a_duplicate_json_key_is_refused_naming_the_key_and_its_place() {
+    let text = "{\n  \"format\": \"cordis-scene/1\",\n  \"dt\": 0.01,\n  \"particles\": [{\"mass\": 1, \"pos\": [0, 0, 0]}],\n  \"types\": {\"rib\": {\"kind\": \"spring\", \"stiffness\": 20.0,\n    \"stiffness\": 1e6}},\n  \"links\": []\n}";
+    let e = Scene::from_json_str(text).unwrap_err().to_string();
+    assert!(
+        e.starts_with("scene:6:15: invalid JSON: duplicate key `stiffness`"),
+        "{e}"
+    );
+    // At the top level too, and in a file (the place starts with its name).
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("twice.json");
+    std::fs::write(&path, "{\"dt\": 0.01,\n \"dt\": 0.02}").unwrap();
+    let place = format!("{}:2:5", path.display());
+    check(
+        Scene::from_json_path(&path),
+        &place,
+        "duplicate key `dt`",
+        false,
+    );
+    // Equal keys in different objects are not duplicates.
+    assert!(read(&base()).is_ok());
+}
+
+/// Issue 17: a conditional type naming a group no particle is in (a misspelt `gaz`) left the
+/// scene without that force, silently.
+#[test]
+fn a_conditional_group_no_particle_has_is_an_error_naming_the_groups() {
+    scene_error(
+        &with("/types/near/groups", json!(["gaz"])),
+        "types.near.groups",
+        "no particle is in group `gaz` (the groups are gas): the type would never link a pair",
+    );
+    scene_error(
+        &with("/types/near/groups", json!(["gas", "wall"])),
+        "types.near.groups",
+        "no particle is in group `wall`",
+    );
+}

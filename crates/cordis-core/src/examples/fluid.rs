@@ -123,5 +123,13 @@ pub fn fluid(cols: usize, rows: usize) -> Scene {
         1.0,
         1.0,
     ));
+    // A box too small for a jet (fewer than 4 columns) has no jet particles: a type whose
+    // group is empty is an error (it could never act), so it is left out.
+    let has = |g: &String| scene.particles.iter().any(|p| p.group.as_ref() == Some(g));
+    let kept: Vec<LinkType> = std::mem::take(&mut scene.types)
+        .into_iter()
+        .filter(|t| t.groups.iter().all(has))
+        .collect();
+    scene.types = kept;
     scene
 }
