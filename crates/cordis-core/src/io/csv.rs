@@ -184,7 +184,7 @@ fn missing(name: &str, (frame, particle): (u64, u64)) -> CordisError {
 }
 
 /// A frame or particle index: a non-negative integer (`3` or `3.0`).
-fn parse_index(field: &str, what: &str) -> std::result::Result<u64, String> {
+pub(crate) fn parse_index(field: &str, what: &str) -> std::result::Result<u64, String> {
     if let Ok(v) = field.parse::<u64>() {
         return Ok(v);
     }
@@ -210,12 +210,26 @@ fn parse_coord(field: &str, what: &str) -> std::result::Result<f64, String> {
 /// CSV text of a trajectory, frames in order, particles in order within a frame. Values are
 /// printed in Rust's shortest round-trip form, so reading the text back is bit-exact.
 pub fn write_csv(traj: &Trajectory) -> String {
-    let n = traj.particles();
-    let mut out = String::with_capacity(32 + traj.as_flat().len() * 24);
+    write_csv_values(traj.particles(), traj.as_flat())
+}
+
+/// CSV text of row-major `(frames, particles, 3)` values; a NaN (missing) is an empty cell,
+/// which [`parse_csv_observations`] reads back as missing.
+pub fn write_csv_values(particles: usize, values: &[f64]) -> String {
+    let n = particles.max(1);
+    let mut out = String::with_capacity(32 + values.len() * 24);
     out.push_str("frame,particle,x,y,z\n");
-    for (k, c) in traj.as_flat().chunks_exact(3).enumerate() {
+    for (k, c) in values.chunks_exact(3).enumerate() {
         // Writing to a String cannot fail.
-        let _ = writeln!(out, "{},{},{:?},{:?},{:?}", k / n, k % n, c[0], c[1], c[2]);
+        let _ = write!(out, "{},{}", k / n, k % n);
+        for v in c {
+            if v.is_nan() {
+                out.push(',');
+            } else {
+                let _ = write!(out, ",{v:?}");
+            }
+        }
+        out.push('\n');
     }
     out
 }

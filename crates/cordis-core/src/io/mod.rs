@@ -1,15 +1,23 @@
 //! Trajectory files (SPEC §5.2): CSV, NumPy `.npy` and the thesis' `.tra`, chosen by
 //! extension, plus atomic writes that the other writers (scene JSON, thesis files) reuse.
+//! Marker files of the field — C3D, OpenSim TRC, tracker `.npz`, tables with named columns —
+//! are read through [`markers::read_markers`], which [`read_trajectory`] and
+//! [`read_observations`] call for every format but cordis' own.
 //!
 //! Each format has a pure parser over text or bytes (`parse_*`, for tests, fuzzing and
 //! in-memory data) and a pure writer; the functions here add the file system. Formats are
 //! described in `docs/file-formats.md`.
 
+pub(crate) mod c3d;
 pub mod csv;
+pub mod markers;
 pub mod npy;
 pub mod paths;
+pub mod table;
 pub(crate) mod tokens;
 pub mod tra;
+pub(crate) mod tracks;
+pub(crate) mod trc;
 
 use std::borrow::Cow;
 use std::io::Write;
@@ -19,6 +27,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use crate::error::{CordisError, Result};
 use crate::Trajectory;
 
+pub use markers::{read_markers, Imported, InputFormat, ReadOptions, Units};
 pub use paths::check_outputs;
 
 /// The trajectory formats, by file extension.
@@ -48,28 +57,65 @@ impl TrajectoryFormat {
     }
 }
 
-/// Reads a trajectory file; the format comes from the extension. `dt` is left unset: none of
-/// the formats stores it.
+/// Reads a complete trajectory file; the format comes from the extension. cordis' own
+/// formats (`.npy`, `.tra`, a `.csv` with the header `frame,particle,x,y,z`) leave `dt` unset;
+/// the others are read by [`read_markers`], which sets it when the file gives a rate, and
+/// must have no missing marker (the first one is named).
 pub fn read_trajectory(path: &Path) -> Result<Trajectory> {
-    let format = TrajectoryFormat::from_path(path)?;
-    let bytes = std::fs::read(path).map_err(|e| CordisError::io(path, e))?;
-    parse_trajectory(&path.display().to_string(), format, &bytes)
-}
-
-/// Reads observed positions with gaps (see [`crate::Observations`]): NaN in `.npy`, empty
-/// cells, `nan` and absent rows in CSV; a `.tra` file has no gaps.
-pub fn read_observations(path: &Path) -> Result<crate::Observations> {
-    let format = TrajectoryFormat::from_path(path)?;
+    let format = InputFormat::from_path(path)?;
     let bytes = std::fs::read(path).map_err(|e| CordisError::io(path, e))?;
     let name = path.display().to_string();
-    match format {
-        TrajectoryFormat::Csv => csv::parse_csv_observations(&name, &decode_text(&bytes)),
-        TrajectoryFormat::Npy => npy::parse_npy_observations(&name, &bytes),
-        TrajectoryFormat::Tra => Ok(crate::Observations::from_trajectory(&tra::parse_tra(
-            &name,
-            &decode_text(&bytes),
-        )?)),
+    let own = match format {
+        InputFormat::Npy => Some(TrajectoryFormat::Npy),
+        InputFormat::Tra => Some(TrajectoryFormat::Tra),
+        InputFormat::Csv if table::is_cordis_header(&decode_text(&bytes)) => {
+            Some(TrajectoryFormat::Csv)
+        }
+        _ => None,
+    };
+    if let Some(own) = own {
+        return parse_trajectory(&name, own, &bytes);
     }
+    let imported = markers::parse_markers(&name, format, &bytes, &ReadOptions::default())?;
+    imported
+        .observations
+        .into_trajectory()
+        .map_err(|e| match e {
+            CordisError::Trajectory { place, message } => CordisError::trajectory(
+                format!("{name}: {place}"),
+                format!("{message} (a missing marker: this command needs every position)"),
+            ),
+            e => e,
+        })
+}
+
+/// Reads observed positions with gaps (see [`crate::Observations`]) in any format
+/// [`read_markers`] reads: NaN in `.npy`, empty cells, `nan` and absent rows in tables, C3D
+/// points with a negative residual, hidden tracker points; a `.tra` file has no gaps.
+pub fn read_observations(path: &Path) -> Result<crate::Observations> {
+    Ok(read_markers(path, &ReadOptions::default())?.observations)
+}
+
+/// Writes observed positions (NaN where missing) atomically: `.npy` keeps NaN, `.csv` writes
+/// an empty cell; `.tra` has no gaps, so observations with a missing one are refused there.
+pub fn write_observations(path: &Path, obs: &crate::Observations) -> Result<()> {
+    let format = TrajectoryFormat::from_path(path)?;
+    if obs.missing() == 0 || format == TrajectoryFormat::Tra {
+        let traj = obs.clone().into_trajectory().map_err(|e| {
+            CordisError::trajectory(
+                path.display().to_string(),
+                format!("{e}: a .tra file cannot hold a missing marker; write .npy or .csv"),
+            )
+        })?;
+        return write_trajectory(path, &traj);
+    }
+    let bytes = match format {
+        TrajectoryFormat::Npy => {
+            npy::write_npy_values(obs.frames(), obs.particles(), obs.as_flat())
+        }
+        _ => csv::write_csv_values(obs.particles(), obs.as_flat()).into_bytes(),
+    };
+    write_atomic(path, &bytes)
 }
 
 /// Parses trajectory bytes in `format`; `name` starts every error's place.

@@ -36,8 +36,8 @@ fn placed(name: &str, e: CordisError) -> CordisError {
     }
 }
 
-/// The shape and the C-order values of `.npy` bytes.
-fn parse_values(name: &str, bytes: &[u8]) -> Result<(usize, usize, Vec<f64>)> {
+/// The header and the data bytes of `.npy` bytes (any dtype, any shape).
+fn split_header<'a>(name: &str, bytes: &'a [u8]) -> Result<(Header, &'a [u8])> {
     let err = |m: String| CordisError::format(name, m);
     if bytes.len() < 10 || !bytes.starts_with(MAGIC) {
         return Err(err(
@@ -73,6 +73,13 @@ fn parse_values(name: &str, bytes: &[u8]) -> Result<(usize, usize, Vec<f64>)> {
         raw.iter().map(|&b| b as char).collect()
     };
     let dict = parse_header(&header).map_err(|m| err(format!("header: {m}")))?;
+    Ok((dict, &bytes[start + header_len..]))
+}
+
+/// The shape and the C-order values of `.npy` bytes.
+fn parse_values(name: &str, bytes: &[u8]) -> Result<(usize, usize, Vec<f64>)> {
+    let err = |m: String| CordisError::format(name, m);
+    let (dict, data) = split_header(name, bytes)?;
     let big_endian = match dict.descr.as_str() {
         "<f8" => false,
         ">f8" => true,
@@ -98,7 +105,6 @@ fn parse_values(name: &str, bytes: &[u8]) -> Result<(usize, usize, Vec<f64>)> {
             "shape ({t}, {n}, 3) is empty: a trajectory needs at least one frame and one particle"
         )));
     }
-    let data = &bytes[start + header_len..];
     let count = t.checked_mul(n).and_then(|tn| tn.checked_mul(3));
     if count.and_then(|c| c.checked_mul(8)) != Some(data.len()) {
         return Err(err(format!(
@@ -135,24 +141,147 @@ fn parse_values(name: &str, bytes: &[u8]) -> Result<(usize, usize, Vec<f64>)> {
     Ok((t, n, values))
 }
 
+/// An array of any rank read from `.npy` bytes, its values widened to f64 in C order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NpyArray {
+    pub shape: Vec<usize>,
+    pub values: Vec<f64>,
+}
+
+/// The element types [`parse_npy_array`] reads: floats, integers and booleans of any byte
+/// order (a tracker saves float32 positions and boolean visibility).
+#[derive(Clone, Copy)]
+enum Element {
+    Float,
+    Signed,
+    Unsigned,
+    Bool,
+}
+
+/// Parses `.npy` bytes of any shape and of a numeric or boolean dtype (`f4`, `f8`, `i1`…`i8`,
+/// `u1`…`u8`, `b1`, either byte order); the shape is checked against the data length before
+/// anything is allocated. Used for tracker output (`tracks`, `visibility`).
+pub fn parse_npy_array(name: &str, bytes: &[u8]) -> Result<NpyArray> {
+    let err = |m: String| CordisError::format(name, m);
+    let (dict, data) = split_header(name, bytes)?;
+    let d = dict.descr.as_bytes();
+    let (order, kind, size) = match d {
+        [o @ (b'<' | b'>' | b'|' | b'='), k, s] => (*o, *k, *s),
+        _ => return Err(err(format!("dtype `{}` is not a number type", dict.descr))),
+    };
+    let element = match (kind, size) {
+        (b'f', b'4' | b'8') => Element::Float,
+        (b'i', b'1' | b'2' | b'4' | b'8') => Element::Signed,
+        (b'u', b'1' | b'2' | b'4' | b'8') => Element::Unsigned,
+        (b'b', b'1') => Element::Bool,
+        _ => {
+            return Err(err(format!(
+                "dtype `{}` is not read: expected a float (f4, f8), an integer or a boolean",
+                dict.descr
+            )))
+        }
+    };
+    let width = (size - b'0') as usize;
+    let big = order == b'>';
+    let count = dict
+        .shape
+        .iter()
+        .try_fold(1usize, |acc, &d| acc.checked_mul(d));
+    if count.and_then(|c| c.checked_mul(width)) != Some(data.len()) {
+        return Err(err(format!(
+            "shape {:?} of `{}` needs {} bytes of data, the file holds {}",
+            dict.shape,
+            dict.descr,
+            count.map_or("more than 2^64".into(), |c| (c as u128 * width as u128)
+                .to_string()),
+            data.len()
+        )));
+    }
+    let values: Vec<f64> = data
+        .chunks_exact(width)
+        .map(|b| decode(b, element, big))
+        .collect();
+    let values = if dict.fortran_order && dict.shape.len() > 1 {
+        fortran_to_c(&dict.shape, &values)
+    } else {
+        values
+    };
+    Ok(NpyArray {
+        shape: dict.shape,
+        values,
+    })
+}
+
+/// One element of `width = b.len()` bytes as f64.
+fn decode(b: &[u8], element: Element, big: bool) -> f64 {
+    let mut raw = [0u8; 8];
+    if big {
+        raw[8 - b.len()..].copy_from_slice(b);
+    } else {
+        raw[..b.len()].copy_from_slice(b);
+    }
+    let bits = if big {
+        u64::from_be_bytes(raw)
+    } else {
+        u64::from_le_bytes(raw)
+    };
+    let bits_len = 8 * b.len() as u32;
+    match element {
+        Element::Float if b.len() == 4 => f32::from_bits(bits as u32) as f64,
+        Element::Float => f64::from_bits(bits),
+        Element::Unsigned | Element::Bool => bits as f64,
+        Element::Signed => {
+            // Sign-extend the `bits_len`-bit value.
+            let shift = 64 - bits_len;
+            (((bits << shift) as i64) >> shift) as f64
+        }
+    }
+}
+
+/// C-order values of an array stored in Fortran order (first index fastest).
+fn fortran_to_c(shape: &[usize], values: &[f64]) -> Vec<f64> {
+    let mut out = vec![0.0; values.len()];
+    let mut index = vec![0usize; shape.len()];
+    for v in out.iter_mut() {
+        // `index` runs in C order; its Fortran offset is sum index[k] * prod shape[..k].
+        let (mut offset, mut stride) = (0, 1);
+        for (k, &i) in index.iter().enumerate() {
+            offset += i * stride;
+            stride *= shape[k];
+        }
+        *v = values[offset];
+        for k in (0..shape.len()).rev() {
+            index[k] += 1;
+            if index[k] < shape[k] {
+                break;
+            }
+            index[k] = 0;
+        }
+    }
+    out
+}
+
 /// `.npy` bytes (version 1.0, `<f8`, C order) of a trajectory.
 pub fn write_npy(traj: &Trajectory) -> Vec<u8> {
+    write_npy_values(traj.frames(), traj.particles(), traj.as_flat())
+}
+
+/// `.npy` bytes of `(frames, particles, 3)` row-major values (NaN kept: missing observations).
+pub fn write_npy_values(frames: usize, particles: usize, values: &[f64]) -> Vec<u8> {
     let mut header = format!(
-        "{{'descr': '<f8', 'fortran_order': False, 'shape': ({}, {}, 3), }}",
-        traj.frames(),
-        traj.particles()
+        "{{'descr': '<f8', 'fortran_order': False, 'shape': ({frames}, {particles}, 3), }}"
     );
     // Magic (6) + version (2) + length (2) + header + '\n' is a multiple of 64.
     let pad = (64 - (10 + header.len() + 1) % 64) % 64;
     header.extend(std::iter::repeat_n(' ', pad));
     header.push('\n');
-    let mut out = Vec::with_capacity(10 + header.len() + traj.as_flat().len() * 8);
+    let mut out = Vec::with_capacity(10 + header.len() + values.len() * 8);
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&[1, 0]);
     // A 3-D shape's header is far below 65535 bytes.
     out.extend_from_slice(&(header.len() as u16).to_le_bytes());
     out.extend_from_slice(header.as_bytes());
-    for v in traj.as_flat() {
+    for v in values {
         out.extend_from_slice(&v.to_le_bytes());
     }
     out
@@ -292,6 +421,47 @@ impl Lexer<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn npy_bytes(descr: &str, fortran: bool, shape: &str, data: &[u8]) -> Vec<u8> {
+        let fo = if fortran { "True" } else { "False" };
+        let header = format!("{{'descr': '{descr}', 'fortran_order': {fo}, 'shape': {shape}, }}\n");
+        let mut out = MAGIC.to_vec();
+        out.extend_from_slice(&[1, 0]);
+        out.extend_from_slice(&(header.len() as u16).to_le_bytes());
+        out.extend_from_slice(header.as_bytes());
+        out.extend_from_slice(data);
+        out
+    }
+
+    #[test]
+    fn arrays_of_any_rank_and_number_type_widen_to_f64() {
+        let f4: Vec<u8> = [1.5f32, -2.0, 3.25, 0.0, 5.0, 6.0]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        let a = parse_npy_array("t.npy", &npy_bytes("<f4", false, "(2, 3)", &f4)).unwrap();
+        assert_eq!(a.shape, [2, 3]);
+        assert_eq!(a.values, [1.5, -2.0, 3.25, 0.0, 5.0, 6.0]);
+        // Fortran order: the same bytes are the transpose.
+        let a = parse_npy_array("t.npy", &npy_bytes("<f4", true, "(3, 2)", &f4)).unwrap();
+        assert_eq!(a.values, [1.5, 0.0, -2.0, 5.0, 3.25, 6.0]);
+        let b = parse_npy_array("v.npy", &npy_bytes("|b1", false, "(3,)", &[1, 0, 1])).unwrap();
+        assert_eq!(b.values, [1.0, 0.0, 1.0]);
+        let i: Vec<u8> = [-3i16, 7].iter().flat_map(|v| v.to_be_bytes()).collect();
+        let a = parse_npy_array("i.npy", &npy_bytes(">i2", false, "(2,)", &i)).unwrap();
+        assert_eq!(a.values, [-3.0, 7.0]);
+        let e = parse_npy_array("t.npy", &npy_bytes("<f4", false, "(2, 4)", &f4))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("t.npy: shape [2, 4] of `<f4` needs 32 bytes"),
+            "{e}"
+        );
+        let e = parse_npy_array("t.npy", &npy_bytes("<U3", false, "(2,)", &f4))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("dtype `<U3` is not read"), "{e}");
+    }
 
     #[test]
     fn header_is_padded_to_64_bytes() {
