@@ -56,8 +56,11 @@ enum Command {
     /// Write a shipped example scene as JSON.
     #[command(after_help = "Example:\n  cordis example cloth --out cloth.json")]
     Example(commands::example::Args),
-    /// Convert the thesis' files (NAME.mas, NAME.cat, NAME.ini, …) into a JSON scene.
-    #[command(after_help = "Example:\n  cordis import data/tri --dt 0.01 --out tri.json")]
+    /// Convert the thesis' files (NAME.mas, NAME.cat, NAME.ini, …) into a JSON scene, or a marker
+    /// file (.c3d, .trc, .npz, .csv, .tsv) into a trajectory (NaN where a marker is missing).
+    #[command(
+        after_help = "Examples:\n  cordis import data/tri --dt 0.01 --out tri.json\n  cordis import walk.trc --out walk.npy\n  cordis import markers.csv --columns frame=Frame,particle=Marker,x=X,y=Y,z=Z --units mm --out markers.npy"
+    )]
     Import(commands::import::Args),
     /// Write a self-contained HTML page that plays a motion in 3-D (optionally against another).
     #[command(

@@ -11,17 +11,19 @@ use super::Output;
 pub struct Args {
     /// Scene file (JSON); unknown parameters are taken at their `init` or box middle.
     scene: PathBuf,
-    /// Observed trajectory (.csv, .npy or .tra).
+    /// Observed trajectory (.csv, .tsv, .npy, .tra, .trc, .c3d, .npz; see --columns, --units).
     #[arg(long, short = 't')]
     trajectory: PathBuf,
     /// Cost: short | horizon:H | long | progressive[:G[:START]] | harmonic[:EPS].
     #[arg(long, default_value = "short")]
     cost: String,
+    #[command(flatten)]
+    read: super::ReadArgs,
 }
 
 pub fn run(a: Args, output: Output) -> Result<()> {
     let scene = Scene::from_json_path(&a.scene)?;
-    let traj = cordis_core::io::read_trajectory(&a.trajectory)?;
+    let traj = cordis_core::io::read_trajectory_with(&a.trajectory, &a.read.options()?)?;
     super::check_dt(&scene, traj.dt, &a.trajectory)?;
     let kind: CostKind = a.cost.parse().map_err(|e| anyhow::anyhow!("--cost: {e}"))?;
     let start = Instant::now();

@@ -8,12 +8,15 @@ use super::Output;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Observed trajectory (.csv, .npy or .tra): positions only.
+    /// Observed trajectory (.csv, .tsv, .npy, .tra, .trc, .c3d, .npz; see --columns, --units):
+    /// positions only.
     #[arg(long, short = 't')]
     trajectory: PathBuf,
     /// Time step, s (default: the trajectory's own, when its format records one).
     #[arg(long)]
     dt: Option<f64>,
+    #[command(flatten)]
+    read: super::ReadArgs,
     /// Total mass of the moving particles, kg (masses and stiffnesses share one scale).
     #[arg(long, conflicts_with = "masses")]
     total_mass: Option<f64>,
@@ -65,7 +68,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
             ("--scores", a.scores.as_deref()),
         ],
     )?;
-    let traj = cordis_core::io::read_trajectory(&a.trajectory)?;
+    let traj = cordis_core::io::read_trajectory_with(&a.trajectory, &a.read.options()?)?;
     let dt = match (a.dt, traj.dt) {
         (Some(dt), _) => dt,
         (None, Some(dt)) => dt,

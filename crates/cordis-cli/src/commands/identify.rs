@@ -17,8 +17,9 @@ use super::Output;
 pub struct Args {
     /// Scene whose unknown parameters are written as {"min": …, "max": …}.
     scene: PathBuf,
-    /// Observed trajectory (.csv, .npy or .tra), particle i of the file the scene's particle
-    /// i. Gaps are missing observations: empty CSV cells, `nan`, absent rows, NaN in .npy;
+    /// Observed trajectory (.csv, .tsv, .npy, .tra, .trc, .c3d, .npz; see --columns, --units),
+    /// particle i of the file the scene's particle i. Gaps are missing observations: empty
+    /// cells, `nan`, absent rows, NaN in .npy, C3D residuals < 0, hidden tracker points;
     /// particles the file lacks are hidden. Repeat for several takes of the same object (one
     /// parameter set, each take its own initial state; output-error only).
     #[arg(long, short = 't', required = true)]
@@ -121,6 +122,8 @@ pub struct Args {
     /// Time step of the trajectory when its file does not give one (default: the scene's dt).
     #[arg(long)]
     dt: Option<f64>,
+    #[command(flatten)]
+    read: super::ReadArgs,
 }
 
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
@@ -199,7 +202,7 @@ fn request(a: &Args) -> Result<IdentifyRequest> {
     let scene = Scene::from_json_path(&a.scene)?;
     let mut takes = Vec::with_capacity(a.trajectory.len());
     for path in &a.trajectory {
-        let obs = cordis_core::io::read_observations(path)?;
+        let obs = cordis_core::io::read_observations_with(path, &a.read.options()?)?;
         super::check_dt(&scene, a.dt.or(obs.dt), path)?;
         takes.push(obs);
     }

@@ -107,6 +107,44 @@ pub fn guard_outputs(
     Ok(())
 }
 
+/// How to read a trajectory file beyond its extension: a table's columns, its delimiter, the
+/// units of a file that does not state them. Every command that takes a trajectory has these.
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct ReadArgs {
+    /// Columns of a .csv/.tsv table, e.g. `frame=Frame,particle=Marker,x=X,y=Y,z=Z`, `time=t`,
+    /// or a wide table `time=Time,x=*_X` (`*` is the marker's name). Keys not given are found
+    /// by their usual names.
+    #[arg(long, value_name = "KEY=COLUMN,...")]
+    pub columns: Option<String>,
+    /// Units of a trajectory file that does not state them: m, cm or mm (default m). A file
+    /// that states others (TRC, C3D, `X [mm]`) is refused.
+    #[arg(long)]
+    pub units: Option<String>,
+    /// Delimiter of a .csv/.tsv table: `,` `;` `tab` `space` (default: from its header).
+    #[arg(long)]
+    pub delimiter: Option<String>,
+}
+
+impl ReadArgs {
+    /// The reader's options, each option's value checked.
+    pub fn options(&self) -> Result<cordis_core::io::ReadOptions> {
+        use cordis_core::io::markers::{Delimiter, Units};
+        Ok(cordis_core::io::ReadOptions {
+            columns: self.columns.clone(),
+            units: self
+                .units
+                .as_deref()
+                .map(|u| Units::parse_arg("--units", u))
+                .transpose()?,
+            delimiter: self
+                .delimiter
+                .as_deref()
+                .map(|d| Delimiter::parse_arg("--delimiter", d))
+                .transpose()?,
+        })
+    }
+}
+
 /// Writes a scene as JSON (atomically) or to stdout when no path is given.
 pub fn write_scene(scene: &Scene, out: Option<&Path>) -> Result<()> {
     let text = scene.to_json_string();

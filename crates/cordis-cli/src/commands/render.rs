@@ -1,7 +1,7 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
-use cordis_core::io::{read_trajectory, write_atomic};
+use cordis_core::io::{read_trajectory_with, write_atomic};
 use cordis_core::{CordisError, Scene};
 
 use super::Output;
@@ -10,7 +10,7 @@ use super::Output;
 pub struct Args {
     /// Scene file (JSON, cordis-scene/1): gives the links to draw and the time step.
     scene: PathBuf,
-    /// The motion to show (.csv, .npy or .tra), drawn solid.
+    /// The motion to show (.csv, .tsv, .npy, .tra, .trc, .c3d, .npz), drawn solid.
     #[arg(long, short = 't')]
     trajectory: PathBuf,
     /// A second motion of the same scene (e.g. the identified model's), drawn pale and dashed
@@ -23,6 +23,8 @@ pub struct Args {
     /// Page title (default: the file names).
     #[arg(long)]
     title: Option<String>,
+    #[command(flatten)]
+    read: super::ReadArgs,
 }
 
 pub fn run(a: Args, output: Output) -> Result<()> {
@@ -35,8 +37,13 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         &[("--html", Some(&a.html))],
     )?;
     let scene = Scene::from_json_path(&a.scene)?;
-    let traj = read_trajectory(&a.trajectory)?;
-    let compare = a.compare.as_deref().map(read_trajectory).transpose()?;
+    let options = a.read.options()?;
+    let traj = read_trajectory_with(&a.trajectory, &options)?;
+    let compare = a
+        .compare
+        .as_deref()
+        .map(|c| read_trajectory_with(c, &options))
+        .transpose()?;
     let title = a.title.clone().unwrap_or_else(|| {
         let name = |p: &PathBuf| {
             p.file_name().map_or_else(
@@ -166,6 +173,7 @@ mod tests {
             compare: None,
             html: p("w.html"),
             title: None,
+            read: Default::default(),
         };
         let named = super::name_files(e, &args).to_string();
         assert!(

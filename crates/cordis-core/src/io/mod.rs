@@ -62,10 +62,17 @@ impl TrajectoryFormat {
 /// the others are read by [`read_markers`], which sets it when the file gives a rate, and
 /// must have no missing marker (the first one is named).
 pub fn read_trajectory(path: &Path) -> Result<Trajectory> {
+    read_trajectory_with(path, &ReadOptions::default())
+}
+
+/// [`read_trajectory`] with a table's columns, a delimiter or units (`--columns`, `--units`).
+pub fn read_trajectory_with(path: &Path, options: &ReadOptions) -> Result<Trajectory> {
     let format = InputFormat::from_path(path)?;
     let bytes = std::fs::read(path).map_err(|e| CordisError::io(path, e))?;
     let name = path.display().to_string();
+    let plain = options.columns.is_none() && options.delimiter.is_none() && options.units.is_none();
     let own = match format {
+        _ if !plain => None,
         InputFormat::Npy => Some(TrajectoryFormat::Npy),
         InputFormat::Tra => Some(TrajectoryFormat::Tra),
         InputFormat::Csv if table::is_cordis_header(&decode_text(&bytes)) => {
@@ -76,7 +83,7 @@ pub fn read_trajectory(path: &Path) -> Result<Trajectory> {
     if let Some(own) = own {
         return parse_trajectory(&name, own, &bytes);
     }
-    let imported = markers::parse_markers(&name, format, &bytes, &ReadOptions::default())?;
+    let imported = markers::parse_markers(&name, format, &bytes, options)?;
     imported
         .observations
         .into_trajectory()
@@ -93,7 +100,12 @@ pub fn read_trajectory(path: &Path) -> Result<Trajectory> {
 /// [`read_markers`] reads: NaN in `.npy`, empty cells, `nan` and absent rows in tables, C3D
 /// points with a negative residual, hidden tracker points; a `.tra` file has no gaps.
 pub fn read_observations(path: &Path) -> Result<crate::Observations> {
-    Ok(read_markers(path, &ReadOptions::default())?.observations)
+    read_observations_with(path, &ReadOptions::default())
+}
+
+/// [`read_observations`] with a table's columns, a delimiter or units.
+pub fn read_observations_with(path: &Path, options: &ReadOptions) -> Result<crate::Observations> {
+    Ok(read_markers(path, options)?.observations)
 }
 
 /// Writes observed positions (NaN where missing) atomically: `.npy` keeps NaN, `.csv` writes
