@@ -7,9 +7,10 @@ use cordis_core::thesis::GeneParams;
 use cordis_core::Trajectory;
 
 use crate::output_error;
+use crate::problem::space::Role;
 use crate::problem::Problem;
-use crate::rng;
-use crate::space::Role;
+use crate::run::rng;
+use crate::run::strategy::Strategy;
 use crate::strategies::annealing::{Annealing, AnnealingConfig};
 use crate::strategies::cmaes::{Cmaes, CmaesConfig};
 use crate::strategies::exact;
@@ -20,7 +21,6 @@ use crate::strategies::parisian::{Parisian, ParisianConfig};
 use crate::strategies::self_adaptive::{SelfAdaptive, SelfAdaptiveConfig};
 use crate::strategies::thesis::{Thesis, ThesisConfig};
 use crate::strategies::{self, hybrid, least_squares};
-use crate::strategy::Strategy;
 
 /// `--strategy` values.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

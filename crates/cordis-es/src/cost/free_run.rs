@@ -1,5 +1,5 @@
 //! The free run of a candidate from the observed start, for stability-aware identification
-//! ([`crate::stable`]): no observed frame is used after the first two.
+//! ([`crate::problem::stable`]): no observed frame is used after the first two.
 
 use super::objective::{CostScratch, Objective};
 use cordis_core::plan::RUNAWAY;

@@ -12,6 +12,8 @@
 //! Storage: `A` is packed row by row, row k holding columns k..=dim (the last column is q, and
 //! ρ sits alone in the last row).
 
+use crate::linalg::givens::rotate_in;
+
 /// Packed length of the augmented factor for `dim` unknowns.
 pub(crate) fn packed_len(dim: usize) -> usize {
     let d = dim + 1;
@@ -29,24 +31,8 @@ pub(crate) fn add_row(a: &mut [f64], dim: usize, row: &mut [f64]) {
     let d = dim + 1;
     debug_assert_eq!(row.len(), d);
     for k in 0..d {
-        let w = row[k];
-        if w == 0.0 {
-            continue;
-        }
         let o = row_offset(k, d);
-        let rkk = a[o];
-        // sqrt(a² + b²) is exact enough and 5× cheaper than hypot away from over/underflow.
-        let mut rho = (rkk * rkk + w * w).sqrt();
-        if !(rho > 1e-150 && rho < 1e150) {
-            rho = rkk.hypot(w);
-        }
-        let (c, s) = (rkk / rho, w / rho);
-        a[o] = rho;
-        for l in k + 1..d {
-            let (x, y) = (a[o + l - k], row[l]);
-            a[o + l - k] = c * x + s * y;
-            row[l] = c * y - s * x;
-        }
+        rotate_in(&mut a[o..o + d - k], &mut row[k..d]);
     }
 }
 

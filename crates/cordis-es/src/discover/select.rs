@@ -25,7 +25,7 @@ use cordis_core::{Trajectory, Vec3};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use rayon::prelude::*;
 
-use crate::strategies::exact::Factor;
+use crate::linalg::givens::Factor;
 
 /// One free particle's factor: columns `[1x, 1y, 1z, pair 0 (K, K·l0, Z), pair 1, …, a]`.
 pub struct Local {

@@ -29,7 +29,8 @@ use nalgebra::DMatrix;
 
 use crate::cost::Objective;
 use crate::exact::tgr_cols::Tendon;
-use crate::exact::{self, Block, Col, Factor, System, Weighting};
+use crate::exact::{self, Block, Col, System, Weighting};
+use crate::linalg::givens::Factor;
 
 /// Rows `[Φ | a]` of every free particle, column by column.
 #[derive(Clone, Debug)]

@@ -55,16 +55,15 @@ use serde::{Deserialize, Serialize};
 
 use self::row_mask::RowMask;
 use crate::cost::{CostKind, LinearShortCost, Objective, ThetaEntry};
-use crate::float_json::{bits, lossless};
+use crate::linalg::equilibrated::lsq;
+pub(crate) use crate::linalg::givens::Factor;
+use crate::problem::space::Role;
 use crate::problem::Problem;
 pub use crate::report::ExactReport;
-use crate::space::Role;
-use crate::strategy::{GenerationStats, Strategy};
+use crate::run::float_json::{bits, lossless};
+use crate::run::strategy::{GenerationStats, Strategy};
 
-/// Singular values below this fraction of the largest (column-scaled design) are taken as
-/// zero. Measured on noiseless data, a never-stretched type gives ~1e-15 and the shipped
-/// examples' smallest legitimate ones are above 1e-9.
-pub const RANK_TOL: f64 = 1e-11;
+pub use crate::linalg::equilibrated::RANK_TOL;
 
 /// Above this condition number an identified value is reported as poorly determined (data
 /// noise of relative size ε moves it by up to ~ε × condition).
@@ -117,52 +116,6 @@ pub(crate) enum Weighting {
     /// As they are, masses unknown allowed: the short cost with particle i's terms weighted
     /// by m_i² (the only weighting in which the residual is linear in the masses).
     Force,
-}
-
-/// Upper-triangular factor of a sum of squared rows, rows rotated in by Givens.
-#[derive(Clone, Debug)]
-pub(crate) struct Factor {
-    n: usize,
-    a: Vec<f64>,
-}
-
-impl Factor {
-    pub fn new(n: usize) -> Self {
-        Factor {
-            n,
-            a: vec![0.0; n * n],
-        }
-    }
-
-    /// Rotates `row` (length n, destroyed) into the factor.
-    pub fn add_row(&mut self, row: &mut [f64]) {
-        let n = self.n;
-        for k in 0..n {
-            let w = row[k];
-            if w == 0.0 {
-                continue;
-            }
-            let o = k * n;
-            let r = self.a[o + k];
-            // sqrt(a² + b²) is exact enough and much cheaper than hypot away from over/underflow.
-            let mut rho = (r * r + w * w).sqrt();
-            if !(rho > 1e-150 && rho < 1e150) {
-                rho = r.hypot(w);
-            }
-            let (c, s) = (r / rho, w / rho);
-            self.a[o + k] = rho;
-            let a = &mut self.a[o + k + 1..o + n];
-            for (x, y) in a.iter_mut().zip(&mut row[k + 1..n]) {
-                let (xv, yv) = (*x, *y);
-                *x = c * xv + s * yv;
-                *y = c * yv - s * xv;
-            }
-        }
-    }
-
-    pub fn matrix(&self) -> DMatrix<f64> {
-        DMatrix::from_row_slice(self.n, self.n, &self.a)
-    }
 }
 
 /// The θ columns of a scene for [`assemble`], or why its short cost is not linear in θ.
@@ -653,80 +606,6 @@ fn xi_system(
     }
 }
 
-/// SVD solution of `min |Dξ + d|²` on equilibrated columns.
-struct Lsq {
-    xi: DVector<f64>,
-    condition: f64,
-    /// Right singular vectors (scaled space) of the zero singular values.
-    null: Vec<DVector<f64>>,
-    /// Right singular vector of the smallest nonzero singular value.
-    weakest: Option<DVector<f64>>,
-}
-
-fn lsq(d: &DMatrix<f64>, rhs: &DVector<f64>) -> Option<Lsq> {
-    let p = d.ncols();
-    if p == 0 {
-        return Some(Lsq {
-            xi: DVector::zeros(0),
-            condition: 1.0,
-            null: Vec::new(),
-            weakest: None,
-        });
-    }
-    let scale: Vec<f64> = (0..p)
-        .map(|j| {
-            let n = d.column(j).norm();
-            if n > 0.0 {
-                n
-            } else {
-                1.0
-            }
-        })
-        .collect();
-    let mut ds = d.clone();
-    for (j, &sc) in scale.iter().enumerate() {
-        ds.column_mut(j).unscale_mut(sc);
-    }
-    if !ds.iter().all(|v| v.is_finite()) || !rhs.iter().all(|v| v.is_finite()) {
-        return None;
-    }
-    let svd = ds.svd(true, true);
-    let (u, vt) = (svd.u.as_ref()?, svd.v_t.as_ref()?);
-    let sv = &svd.singular_values;
-    let smax = sv.iter().cloned().fold(0.0, f64::max);
-    let mut xi = DVector::zeros(p);
-    let mut null = Vec::new();
-    let mut smin = f64::INFINITY;
-    let mut weakest = None;
-    for k in 0..sv.len() {
-        let v = vt.row(k).transpose();
-        if sv[k] <= RANK_TOL * smax || smax == 0.0 {
-            null.push(v);
-            continue;
-        }
-        let coef = u.column(k).dot(rhs) / sv[k];
-        xi -= &v * coef;
-        if sv[k] < smin {
-            smin = sv[k];
-            weakest = Some(v);
-        }
-    }
-    for j in 0..p {
-        xi[j] /= scale[j];
-    }
-    let condition = if null.is_empty() {
-        smax / smin
-    } else {
-        f64::INFINITY
-    };
-    Some(Lsq {
-        xi,
-        condition,
-        null,
-        weakest,
-    })
-}
-
 /// What to solve: the problem's unknowns `linear` (indices into `space.unknowns`: type
 /// parameters entering θ and masses) with everything else at its value in `p`.
 pub(crate) struct Spec<'a> {
@@ -913,7 +792,7 @@ fn push_unique(v: &mut Vec<String>, s: &str) {
 /// The answer of an exact solver.
 #[derive(Clone, Debug)]
 pub struct Solution {
-    /// Internal coordinates ([`crate::space`]).
+    /// Internal coordinates ([`crate::problem::space`]).
     pub genome: Vec<f64>,
     /// The problem's own cost of the genome.
     pub cost: f64,

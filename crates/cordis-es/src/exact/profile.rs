@@ -10,7 +10,7 @@
 //! is exactly 0 at the truth and grows quadratically away from it, so the tolerance can be far
 //! below the usual √ε: the minimum is located to ~1e-11 of the coordinate.
 
-use crate::descent::brent;
+use crate::linalg::line_search::brent;
 
 /// Points of the coarse grid (box ends included).
 pub(crate) const GRID: usize = 16;

@@ -29,8 +29,8 @@ use cordis_core::Vec3;
 use nalgebra::DMatrix;
 
 use crate::exact::{self, Block, Col, Reduction, Spec, System, Weighting};
+use crate::problem::space::Role;
 use crate::problem::Problem;
-use crate::space::Role;
 
 /// Most intervals solved exactly per sweep: the bounds are sharp enough that a handful is the
 /// rule; the cap only bounds the time when many intervals fit equally (then the best of those

@@ -22,7 +22,7 @@
 use cordis_core::{LinkKind, Scene};
 
 use crate::exact::Col;
-use crate::space::Unknown;
+use crate::problem::space::Unknown;
 
 /// Offsets of l0 and Z in a TGR type's parameters (K, l0, Z, m_t, K_t, Z_t).
 const LINEAR: [usize; 2] = [1, 2];

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::float_json::lossless;
+use crate::run::float_json::lossless;
 
 /// What an exact solve says beside its answer (the `solver` field of a run summary).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]

@@ -5,13 +5,13 @@
 //! [`Report::to_json`]) under `"solver"`; Python raises them through `warnings.warn` and keeps
 //! the report on `IdentifyResult.report`. One list of warnings for both, so they cannot drift.
 //!
-//! A report also decides how a finished run is labelled ([`crate::executor::StopReason`]):
+//! A report also decides how a finished run is labelled ([`crate::run::executor::StopReason`]):
 //! `converged` only when the solver's own criterion was met ([`Report::unconverged`] is
 //! `None`) and every unknown was determined ([`Report::undetermined`] is empty).
 
 use serde::{Deserialize, Serialize};
 
-use crate::float_json::lossless;
+use crate::run::float_json::lossless;
 
 mod exact;
 mod output_error;

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::float_json::lossless;
+use crate::run::float_json::lossless;
 
 /// What `output-error` reports beside the estimate (see [`crate::output_error::Estimate`]).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]

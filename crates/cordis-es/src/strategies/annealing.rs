@@ -16,7 +16,7 @@
 //! best state ever visited is kept.
 //!
 //! Chain k draws its proposal and its acceptance test from
-//! [`crate::rng::stream`]`(seed, g, k + 1)`.
+//! [`crate::run::rng::stream`]`(seed, g, k + 1)`.
 
 use serde::{Deserialize, Serialize};
 
@@ -24,10 +24,10 @@ use super::cmaes::mean_finite;
 use super::common::{
     boxes, evaluate_genomes, from_unit, load_checked, reflect, start_genome, to_unit, NO_STATS,
 };
-use crate::float_json::{bits, lossless};
 use crate::problem::Problem;
-use crate::rng;
-use crate::strategy::{GenerationStats, Strategy};
+use crate::run::float_json::{bits, lossless};
+use crate::run::rng;
+use crate::run::strategy::{GenerationStats, Strategy};
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AnnealingConfig {

@@ -11,7 +11,7 @@
 //! keeping the best point ever seen.
 //!
 //! **Bounds.** The search runs in the unit box: each unknown's internal box (see
-//! [`crate::space`]) maps to [0, 1]. The distribution itself is unbounded; a candidate is
+//! [`crate::problem::space`]) maps to [0, 1]. The distribution itself is unbounded; a candidate is
 //! folded into the box by *reflection* (mirror at 0 and 1, period 2, [`super::common::reflect`])
 //! before it is evaluated, so CMA-ES sees the continuous function f∘reflect, whose copies of
 //! the box tile space. Because reflection has period 2, shifting the mean by an even integer
@@ -19,7 +19,7 @@
 //! away along a flat direction.
 //!
 //! **Determinism.** Candidate k of generation g draws its normal vector from
-//! [`crate::rng::stream`]`(seed, g, k + 1)`; a restart draws its mean from stream 0. The whole
+//! [`crate::run::rng::stream`]`(seed, g, k + 1)`; a restart draws its mean from stream 0. The whole
 //! state (mean, σ, C, B, D, paths, histories) is saved as exact bit patterns.
 
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
@@ -28,10 +28,10 @@ use serde::{Deserialize, Serialize};
 use super::common::{
     boxes, evaluate_genomes, from_unit, load_checked, start_genome, to_unit, NO_STATS,
 };
-use crate::float_json::{bits, lossless};
 use crate::problem::Problem;
-use crate::rng;
-use crate::strategy::{GenerationStats, Strategy};
+use crate::run::float_json::{bits, lossless};
+use crate::run::rng;
+use crate::run::strategy::{GenerationStats, Strategy};
 
 /// Options of `cmaes`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -2,7 +2,7 @@
 //! heuristic starting point, and the unit box every one of them searches in.
 
 use crate::problem::Problem;
-use crate::strategy::GenerationStats;
+use crate::run::strategy::GenerationStats;
 
 /// Global costs of `genomes` (internal coordinates), by the problem's evaluator (in parallel).
 /// Each evaluation is a pure function of its genome, so the result does not depend on the

@@ -48,8 +48,8 @@ use crate::exact::profile;
 use crate::exact::provot_rows;
 use crate::exact::range_sweep::{self, Sweeper, MAX_EXACT_PER_SWEEP};
 use crate::exact::{self, ExactReport, OneShot, Solution, Spec, Weighting};
+use crate::problem::space::Role;
 use crate::problem::Problem;
-use crate::space::Role;
 
 /// Most coordinate-descent cycles over the nonlinear unknowns.
 pub const MAX_CYCLES: usize = 6;

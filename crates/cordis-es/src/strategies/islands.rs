@@ -13,8 +13,8 @@ use rand::RngCore;
 use serde::{Deserialize, Serialize};
 
 use crate::problem::Problem;
-use crate::rng;
-use crate::strategy::{GenerationStats, Strategy};
+use crate::run::rng;
+use crate::run::strategy::{GenerationStats, Strategy};
 
 /// How islands are laid out and how often they exchange individuals.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

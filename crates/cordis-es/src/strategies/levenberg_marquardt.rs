@@ -4,7 +4,7 @@
 //!
 //! The short cost is `C(z) = |r(z)|²` with `r` the residual vector of
 //! [`crate::cost::Objective::residuals`] (3 per predicted frame and free particle). Each
-//! iteration works in the search space's internal coordinates `z` ([`crate::space`]: log for
+//! iteration works in the search space's internal coordinates `z` ([`crate::problem::space`]: log for
 //! wide positive boxes, so a relative change of a stiffness is one step):
 //!
 //! - **Jacobian** by forward differences, column j from `r(z + h_j e_j)` with
@@ -34,7 +34,7 @@
 //! 308 to 0.656 %. A convergence at a cost above
 //! `small · A`, where `A` is [`crate::cost::Objective::acceleration_cost`] (what a model with no
 //! force would miss), is taken for a local minimum: the next generation restarts from a point
-//! drawn uniformly in the internal box from [`crate::rng::stream`]`(seed, generation, 0)`, up
+//! drawn uniformly in the internal box from [`crate::run::rng::stream`]`(seed, generation, 0)`, up
 //! to `restarts` times; the best point ever accepted is kept. [`Strategy::finished`] is true
 //! after a convergence at a small cost or when restarts are exhausted. On noisy data no
 //! minimum is "small" (the noise's own cost is a floor): every restart is then spent, which is
@@ -51,10 +51,10 @@
 use serde::{Deserialize, Serialize};
 
 use super::common::{load_checked, start_genome, NO_STATS};
-use crate::float_json::{bits, lossless};
 use crate::problem::Problem;
-use crate::rng;
-use crate::strategy::{GenerationStats, Strategy};
+use crate::run::float_json::{bits, lossless};
+use crate::run::rng;
+use crate::run::strategy::{GenerationStats, Strategy};
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LmConfig {

@@ -1,4 +1,4 @@
-//! The identification strategies, one file each, all behind [`crate::strategy::Strategy`].
+//! The identification strategies, one file each, all behind [`crate::run::strategy::Strategy`].
 
 pub mod annealing;
 pub mod cmaes;

@@ -31,10 +31,10 @@ use super::common::{
     boxes, evaluate_genomes, from_unit, load_checked, start_genome, to_unit, NO_STATS,
 };
 use super::self_adaptive::{Individual, Recombination, SaEs, SelfAdaptiveConfig};
-use crate::float_json::{bits, lossless};
+use crate::problem::space::Role;
 use crate::problem::Problem;
-use crate::space::Role;
-use crate::strategy::{GenerationStats, Strategy};
+use crate::run::float_json::{bits, lossless};
+use crate::run::strategy::{GenerationStats, Strategy};
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ParisianConfig {

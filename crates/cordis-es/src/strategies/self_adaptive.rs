@@ -22,7 +22,7 @@
 //!
 //! Points live in the unit box of the problem's internal coordinates (each internal box maps to
 //! [0, 1], σ in units of the box width); a mutated point is reflected back into it. Child k of
-//! generation g draws from [`crate::rng::stream`]`(seed, g, k + 1)`.
+//! generation g draws from [`crate::run::rng::stream`]`(seed, g, k + 1)`.
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -31,10 +31,10 @@ use super::cmaes::mean_finite;
 use super::common::{
     boxes, evaluate_genomes, from_unit, load_checked, reflect, start_genome, to_unit, NO_STATS,
 };
-use crate::float_json::{bits, lossless};
 use crate::problem::Problem;
-use crate::rng::{self, Rng};
-use crate::strategy::{GenerationStats, Strategy};
+use crate::run::float_json::{bits, lossless};
+use crate::run::rng::{self, Rng};
+use crate::run::strategy::{GenerationStats, Strategy};
 
 /// Largest σ (box widths): past it a reflected mutation is already spread over the whole box,
 /// so selection no longer holds σ back and it would drift up without end.

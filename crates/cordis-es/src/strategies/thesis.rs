@@ -14,18 +14,18 @@
 //!
 //! Unchanged individuals' mutabilities decay by `reducer` per generation (décadence); from
 //! generation `descent_start`, every `descent_every` generations, Powell's descent polishes
-//! the best individual. Genes are internal coordinates ([`crate::space`]): log for stiffness-
+//! the best individual. Genes are internal coordinates ([`crate::problem::space`]): log for stiffness-
 //! and damping-like parameters. Rest lengths (cosines) start at the mean observed length
 //! (cosine) of their type's instances.
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::descent::{powell, Powell};
-use crate::float_json::{bits, lossless};
+use crate::linalg::powell::{powell, Powell};
 use crate::problem::Problem;
-use crate::rng::{self, Rng};
-use crate::strategy::{GenerationStats, Strategy};
+use crate::run::float_json::{bits, lossless};
+use crate::run::rng::{self, Rng};
+use crate::run::strategy::{GenerationStats, Strategy};
 
 /// Options of the thesis strategy; the `Param.gene` keys are `population`, `pcross`, `pmut`,
 /// `reducer` (and `generation`, which is a stop rule, and `noise`, applied to the data).

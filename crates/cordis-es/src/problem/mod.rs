@@ -1,5 +1,12 @@
 //! An identification problem: a scene with unknowns, an observed trajectory, a cost — and what
 //! the strategies' heuristics need to know about them.
+//!
+//! Beside [`Problem`]: the unknowns and their genome coordinates ([`space`]), where populations
+//! are evaluated ([`evaluator`]) and stability-aware identification ([`stable`]).
+
+pub mod evaluator;
+pub mod space;
+pub mod stable;
 
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -12,11 +19,11 @@ use cordis_core::{LinkKind, Scene, Trajectory};
 use crate::cost::{CostKind, CostScratch, Objective};
 use crate::error::CostError;
 use crate::output_error::Take;
-use crate::space::{ParameterSpace, Role};
-use crate::stable::{Guard, Rejection, StableHorizon};
+use crate::problem::space::{ParameterSpace, Role};
+use crate::problem::stable::{Guard, Rejection, StableHorizon};
 
 /// Computes the costs of a population of genomes for a [`Problem`]: where they are computed
-/// (a remote pool: the Python bindings' Ray executor; [`crate::evaluator`]).
+/// (a remote pool: the Python bindings' Ray executor; [`crate::problem::evaluator`]).
 ///
 /// An evaluator must return, for every genome, exactly what [`Problem::evaluate`] returns
 /// (bit for bit, +inf for a diverged or non-finite cost): a strategy's next generation depends
@@ -67,7 +74,7 @@ pub struct Problem {
     /// Wall time spent in [`Problem::timed`] sections (population evaluations), ns.
     eval_nanos: AtomicU64,
     /// Where [`Problem::evaluate_population`] computes costs; `None`: this process' rayon
-    /// pool ([`Problem::evaluate_here`], what [`crate::evaluator::Local`] does too).
+    /// pool ([`Problem::evaluate_here`], what [`crate::problem::evaluator::Local`] does too).
     evaluator: Option<Arc<dyn Evaluator>>,
     /// The first evaluator failure, for the run loop to report.
     eval_error: Mutex<Option<String>>,
@@ -187,7 +194,7 @@ impl Problem {
 
     /// Rejects (`+inf` cost) every candidate whose stability bound exceeds 1 or whose free
     /// run from the observed start diverges within `horizon.frames` frames (see
-    /// [`crate::stable`]). The spread limit is fixed here from the observed trajectory.
+    /// [`crate::problem::stable`]). The spread limit is fixed here from the observed trajectory.
     pub fn with_stable_horizon(mut self, horizon: StableHorizon) -> Self {
         self.guard = Some(Guard::new(horizon, self.objective.observed_spread()));
         self

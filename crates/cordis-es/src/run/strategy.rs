@@ -1,5 +1,5 @@
 //! The one interface every identification strategy implements (argmin-style): the run loop in
-//! [`crate::executor`] drives it, counts evaluations, logs, checkpoints and stops it.
+//! [`crate::run::executor`] drives it, counts evaluations, logs, checkpoints and stops it.
 
 use crate::problem::Problem;
 
@@ -21,7 +21,7 @@ pub trait Strategy: Send {
     fn init(&mut self, problem: &Problem, seed: u64);
 
     /// Produces and evaluates generation `generation` (1, 2, …). All randomness must come from
-    /// [`crate::rng::stream`]`(seed, generation, …)` so that a run depends on its seed only.
+    /// [`crate::run::rng::stream`]`(seed, generation, …)` so that a run depends on its seed only.
     fn next_generation(&mut self, problem: &Problem, seed: u64, generation: u64);
 
     /// [`Strategy::next_generation`] for strategies whose one generation can take long (a
@@ -40,7 +40,7 @@ pub trait Strategy: Send {
     }
 
     /// True when the strategy has nothing left to do (an exact solver after its solve): the
-    /// run loop then stops, as [`crate::executor::StopReason::Converged`] only when
+    /// run loop then stops, as [`crate::run::executor::StopReason::Converged`] only when
     /// [`Strategy::report`] says its criterion was met and every unknown determined.
     fn finished(&self) -> bool {
         false
@@ -109,5 +109,5 @@ pub trait Strategy: Send {
     }
 }
 
-// The exact-float JSON forms live in `crate::float_json`; these paths stay valid.
-pub use crate::float_json::{bits, lossless};
+// The exact-float JSON forms live in `crate::run::float_json`; these paths stay valid.
+pub use crate::run::float_json::{bits, lossless};

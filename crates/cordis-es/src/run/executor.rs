@@ -6,9 +6,9 @@ use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
 
-use crate::float_json::lossless;
 use crate::problem::Problem;
-use crate::strategy::Strategy;
+use crate::run::float_json::lossless;
+use crate::run::strategy::Strategy;
 use crate::CostError;
 
 /// When to stop; the first rule met ends the run. `None` everywhere runs until stopped.
@@ -79,7 +79,7 @@ pub trait Observer: Send {
     fn observe(&mut self, row: &HistoryRow) -> bool;
 
     /// [`Observer::observe`] with the best genome so far (internal coordinates, see
-    /// [`crate::space`]), for observers that report the parameters themselves (the Python
+    /// [`crate::problem::space`]), for observers that report the parameters themselves (the Python
     /// callback). The run loop calls this one; by default it forwards to `observe`.
     fn observe_best(&mut self, row: &HistoryRow, best_genome: &[f64]) -> bool {
         let _ = best_genome;

@@ -1,0 +1,9 @@
+//! Dense linear algebra of the solvers, one method per file: the Givens factor of a stream of
+//! rows ([`givens`]), the column-equilibrated SVD least squares ([`equilibrated`]), Brent's
+//! bounded line search ([`line_search`]) and Powell's conjugate-direction descent built on it
+//! ([`powell`]).
+
+pub mod equilibrated;
+pub mod givens;
+pub mod line_search;
+pub mod powell;

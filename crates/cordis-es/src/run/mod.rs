@@ -1,0 +1,9 @@
+//! The framework every search runs in (argmin-style), apart from the strategies: the
+//! [`strategy::Strategy`] trait, the one run loop ([`executor`]: stop rules, observers,
+//! checkpoints and resume, the history), the seeded random streams ([`rng`]) and the exact-float
+//! JSON forms of checkpoints and reports ([`float_json`]).
+
+pub mod executor;
+pub mod float_json;
+pub mod rng;
+pub mod strategy;
