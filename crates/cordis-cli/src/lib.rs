@@ -70,6 +70,8 @@ enum Command {
     /// Stability report: each particle's ratio to the bound 4m > K dt² + 2 Z dt, and a JSON line.
     #[command(after_help = "Example:\n  cordis check rigid.json")]
     Check(commands::check::Args),
+    /// Scenes built from data: `from-markers` puts a spring network on tracked markers.
+    Scene(commands::scene::Args),
     /// Benchmarks printing JSON lines and a readable table.
     #[command(after_help = "Example:\n  cordis bench stability --quick")]
     Bench(commands::bench::Args),
@@ -122,6 +124,7 @@ where
         Command::Render(a) => commands::render::run(a, output),
         Command::Check(a) => commands::check::run(a, output),
         Command::Bench(a) => commands::bench::run(a, output),
+        Command::Scene(a) => commands::scene::run(a, output),
     };
     match result {
         Ok(()) => 0,

@@ -21,6 +21,7 @@ pub mod arg;
 pub mod error;
 pub mod examples;
 pub mod forces;
+pub mod from_markers;
 pub mod io;
 mod link_kind;
 mod link_type;

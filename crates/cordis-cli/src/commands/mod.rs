@@ -6,6 +6,7 @@ pub mod example;
 pub mod identify;
 pub mod import;
 pub mod render;
+pub mod scene;
 pub mod simulate;
 
 use std::path::Path;
