@@ -38,7 +38,7 @@ import statistics
 import sys
 import time
 import warnings
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -136,10 +136,10 @@ def mujoco_cable(
 
 def mujoco_cloth(
     seed: int = 0,
-    side: int = 7,
+    side: int = 5,
     spacing: float = 0.04,
     frames: int = 300,
-    frame_steps: int = 3,
+    frame_steps: int = 2,
     timestep: float = 1e-3,
 ) -> Motion:
     """A square cloth hanging from the two corners of one edge, starting flat and horizontal."""
@@ -242,7 +242,7 @@ def cordis_scene(motion: Motion, observed: np.ndarray, rule: str = "stable") -> 
     mass = motion.total_mass / n
     particles = []
     for i in range(n):
-        p: Dict[str, object] = {"mass": mass, "pos": x0[i].tolist()}
+        p: Dict[str, Any] = {"mass": mass, "pos": x0[i].tolist()}
         if i in motion.fixed:
             p["fixed"] = True
         else:
@@ -298,7 +298,7 @@ def run_case(
     noise: float,
     seed: int,
     methods: Sequence[str] = ("output-error:stable", "least-squares:stable"),
-) -> List[Dict[str, object]]:
+) -> List[Dict[str, Any]]:
     """Fits each method (``STRATEGY:BOXES``) on the first 70 % of ``motion`` (with Gaussian
     noise of ``noise`` × its size, drawn from ``seed``) and scores the replay of the last 30 %
     against MuJoCo's positions, beside the baselines."""
@@ -313,13 +313,13 @@ def run_case(
     common = {"motion": motion.name, "seed": seed, "noise": noise, "sigma_m": sigma,
               "points": n, "frames": frames, "fit_frames": fit, "dt": motion.dt,
               "size_m": motion.size}
-    rows: List[Dict[str, object]] = []
+    rows: List[Dict[str, Any]] = []
     for name, pred in baselines(observed_fit, frames - fit, motion.dt).items():
         rows.append({**common, "method": name, "predict_rms_m": _rms(pred, truth[fit:], free)})
     for method in methods:
         strategy, _, rule = method.partition(":")
         scene = cordis_scene(motion, observed_fit, rule or "stable")
-        row: Dict[str, object] = {**common, "method": method}
+        row: Dict[str, Any] = {**common, "method": method}
         t0 = time.perf_counter()
         try:
             with warnings.catch_warnings(record=True) as caught:
@@ -346,24 +346,35 @@ def run_case(
     return rows
 
 
-def table(rows: List[Dict[str, object]]) -> str:
-    """Medians over seeds of the prediction RMS, in mm and in % of the object's size."""
+def table(rows: List[Dict[str, Any]]) -> str:
+    """Medians (and ranges) over seeds of the prediction RMS, in mm and in % of the object's
+    size; ``converged`` counts the fits whose solver met its own criterion, ``diverged`` the
+    identified scenes whose replay left the finite numbers or ran away (> 100 × the size)."""
     keys = sorted({(r["motion"], r["noise"], r["method"]) for r in rows},
-                  key=lambda k: (k[0], k[1], _method_key(k[2])))
-    out = ["| motion | σ/size | method | seeds | predict RMS, mm (median) | % of size | fit RMS, mm | s/fit | failed |",
-           "|---|---|---|---|---|---|---|---|---|"]
+                  key=lambda k: (k[0], k[1], _method_key(str(k[2]))))
+    out = ["| motion | σ/size | method | seeds | predict RMS, mm: median [min, max] | % of size "
+           "| fit-window RMS, mm | s/fit | converged | diverged |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
     for motion, noise, method in keys:
         sel = [r for r in rows if (r["motion"], r["noise"], r["method"]) == (motion, noise, method)]
+        size = float(sel[0]["size_m"])
         pred = [float(r["predict_rms_m"]) for r in sel]
         med = statistics.median(pred)
-        size = float(sel[0]["size_m"])
         fitr = [float(r["fit_rms_m"]) for r in sel if "fit_rms_m" in r]
         secs = [float(r["seconds"]) for r in sel if "seconds" in r]
-        failed = sum(1 for r in sel if "error" in r or r.get("stopped_by") not in (None, "converged"))
+        fitted = "stopped_by" in sel[0] or "error" in sel[0]
+        conv = sum(1 for r in sel if r.get("stopped_by") == "converged")
+        div = sum(1 for p in pred if not p < 100 * size)
+
+        def mm(v: float) -> str:
+            return f"{1e3 * v:.3g}" if v < 100 * size else "runaway"
+
         out.append(
-            f"| {motion} | {noise:g} | {method} | {len(sel)} | {1e3 * med:.3g} | {100 * med / size:.3g} | "
-            + (f"{1e3 * statistics.median(fitr):.3g}" if fitr else "–") + " | "
-            + (f"{statistics.median(secs):.3g}" if secs else "–") + f" | {failed} |"
+            f"| {motion} | {noise:g} | {method} | {len(sel)} | {mm(med)} [{mm(min(pred))}, "
+            f"{mm(max(pred))}] | " + (f"{100 * med / size:.3g}" if med < 100 * size else "–")
+            + " | " + (mm(statistics.median(fitr)) if fitr else "–") + " | "
+            + (f"{statistics.median(secs):.3g}" if secs else "–") + " | "
+            + (f"{conv}/{len(sel)} | {div}/{len(sel)}" if fitted else "– | –") + " |"
         )
     return "\n".join(out)
 
@@ -379,10 +390,18 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     ap.add_argument("--seeds", default="0,1,2")
     ap.add_argument("--noise", default="0,1e-3", help="σ as a fraction of the object's size")
     ap.add_argument("--frames", type=int, default=300)
+    ap.add_argument("--table", nargs="+", metavar="JSONL",
+                    help="only print the table of these files' JSON lines (earlier runs)")
     ap.add_argument("--methods", default="output-error:stable,least-squares:stable",
                     help="STRATEGY:BOXES, BOXES `stable` or `wide` (see boxes())")
     args = ap.parse_args(argv)
-    rows: List[Dict[str, object]] = []
+    rows: List[Dict[str, Any]] = []
+    if args.table:
+        for path in args.table:
+            with open(path) as f:
+                rows += [json.loads(line) for line in f if line.startswith("{")]
+        print(table(rows))
+        return 0
     for name in args.motions.split(","):
         for seed in (int(s) for s in args.seeds.split(",")):
             motion = MOTIONS[name](seed=seed, frames=args.frames)
