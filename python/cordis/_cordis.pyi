@@ -88,7 +88,9 @@ class DivergedError(CordisError):
     message: str
 
 class CordisIOError(CordisError, OSError):
-    """A file could not be read or written (``errno``, ``strerror``, ``filename`` as OSError)."""
+    """A file could not be read or written (``errno``, ``strerror``, ``filename`` as OSError
+    when the system gave an errno; ``place`` is always the file: an input above the size limit,
+    2 GiB or 256 MiB from a stream, has no errno)."""
 
     place: str
     message: str
@@ -113,7 +115,8 @@ class ArgumentError(CordisError, ValueError):
     message: str
 
 class CheckpointError(CordisError):
-    """A checkpoint could not be read or written, or does not fit the run it should resume."""
+    """A checkpoint that reads but does not fit the run it should resume, or could not be
+    written (one that cannot be opened or read is a ``CordisIOError``)."""
 
 class SceneKeyError(SceneError, KeyError):
     """A link-type or parameter name the scene does not have; ``place`` names it.

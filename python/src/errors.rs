@@ -237,11 +237,9 @@ fn build(py: Python<'_>, err: &CoreError) -> PyResult<PyErr> {
                     let strerror = py.import("os")?.call_method1("strerror", (code,))?;
                     cls.call1((code, strerror, &filename))?
                 }
-                None => {
-                    let e = cls.call1((&text,))?;
-                    e.setattr("filename", &filename)?;
-                    e
-                }
+                // No errno (a file too large, a directory): the message alone. Setting
+                // `filename` here would make OSError print `[Errno None] None: 'path'`.
+                None => cls.call1((&text,))?,
             };
             e.setattr("place", &filename)?;
             e.setattr("message", source.to_string())?;

@@ -1,6 +1,7 @@
 """cordis.identify on the rigid example: accuracy, history, callback, determinism across
 thread counts, stop rules, checkpoints, Ctrl-C and bad inputs."""
 
+import errno
 import os
 import signal
 import threading
@@ -145,8 +146,13 @@ def test_resume_continues_the_same_run(rigid, tmp_path):
     assert comparable(resumed) == comparable(straight)
     with pytest.raises(cordis.CheckpointError, match="seed"):
         cordis.identify(scene, traj, strategy="thesis", generations=120, seed=3, resume=cp)
-    with pytest.raises(cordis.CheckpointError):
+    # A checkpoint file that cannot be read is an I/O error, as every input (issue 17).
+    with pytest.raises(cordis.CordisIOError) as e:
         cordis.identify(scene, traj, strategy="thesis", resume=tmp_path / "missing.json")
+    assert e.value.errno == errno.ENOENT
+    (tmp_path / "garbage.json").write_text("garbage")
+    with pytest.raises(cordis.CheckpointError, match="not a checkpoint"):
+        cordis.identify(scene, traj, strategy="thesis", resume=tmp_path / "garbage.json")
 
 
 def test_other_stop_rules(rigid):

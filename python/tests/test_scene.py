@@ -261,6 +261,23 @@ def test_missing_file_is_an_os_error(tmp_path):
     assert e.value.filename == str(missing)
 
 
+def test_an_unbounded_file_is_refused_with_the_limit_not_errno_none(tmp_path):
+    # Issue 17: a symlink to /dev/zero was read until memory ran out, then surfaced as
+    # `CordisIOError [Errno None] None`.
+    zero = tmp_path / "zero.json"
+    zero.symlink_to("/dev/zero")
+    with pytest.raises(cordis.CordisIOError) as e:
+        cordis.Scene.from_json(zero)
+    text = str(e.value)
+    assert "Errno None" not in text and "None:" not in text, text
+    assert text.startswith(f"{zero}: not a regular file, and more than the 268435456 bytes"), text
+    assert e.value.place == str(zero)
+    traj = tmp_path / "zero.npy"
+    traj.symlink_to("/dev/zero")
+    with pytest.raises(cordis.CordisIOError, match="256 MiB"):
+        cordis.read_trajectory(traj)
+
+
 def test_wrong_argument_types():
     for bad in (42, b"{}", None):
         with pytest.raises(TypeError, match="path_or_text"):

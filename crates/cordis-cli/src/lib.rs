@@ -158,8 +158,10 @@ fn one_line(e: &anyhow::Error) -> String {
     cordis_core::error::printable(&s.replace('\n', " "))
 }
 
-/// 0 success, 1 a run that failed (divergence, a file that cannot be read or written), 2 bad
-/// input or usage, 130 interrupted by Ctrl-C (after writing the best result so far).
+/// 0 success, 1 a run that failed (divergence, a file that cannot be opened, read or written —
+/// every input alike, `--resume` included), 2 bad input (a file that reads but is wrong) or
+/// usage, 130 interrupted by Ctrl-C (after writing the best result so far). docs/cli.md holds
+/// the table; `tests/exit_codes_cli.rs` checks it for every command.
 fn exit_code(e: &anyhow::Error) -> i32 {
     use cordis_core::CordisError;
     use cordis_es::CostError;

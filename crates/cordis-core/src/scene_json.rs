@@ -22,7 +22,16 @@ impl Scene {
     /// Reads and validates a scene file; error places start with the file name.
     pub fn from_json_path(path: impl AsRef<Path>) -> Result<Scene> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|e| CordisError::io(path, e))?;
+        let bytes = crate::io::read_input(path)?;
+        let text = String::from_utf8(bytes).map_err(|e| {
+            CordisError::format(
+                path.display().to_string(),
+                format!(
+                    "not UTF-8 text (byte {} is not valid): expected a JSON scene",
+                    e.utf8_error().valid_up_to()
+                ),
+            )
+        })?;
         Self::from_json_text(&text, &path.display().to_string())
     }
 

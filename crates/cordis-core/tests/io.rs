@@ -1051,3 +1051,50 @@ fn write_atomic_writes_through_devices_instead_of_replacing_them() {
         assert_eq!(std::fs::read(null).unwrap().len(), 0);
     }
 }
+
+/// Issue 17: a symlink to `/dev/zero` as the trajectory, the scene or a thesis file was read
+/// until memory ran out (in Python: `CordisIOError [Errno None] None`). Now refused with the
+/// limit, naming the file: a stream after 256 MiB, a regular file before any read by its size.
+#[test]
+fn inputs_of_unbounded_size_are_refused_with_the_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let zero = dir.path().join("zero.csv");
+    std::os::unix::fs::symlink("/dev/zero", &zero).unwrap();
+    let t0 = std::time::Instant::now();
+    let e = io::read_trajectory(&zero).unwrap_err();
+    let text = e.to_string();
+    assert!(
+        matches!(&e, CordisError::Io { path, source }
+            if *path == zero && source.kind() == std::io::ErrorKind::FileTooLarge),
+        "{e:?}"
+    );
+    assert!(
+        text.contains("more than the 268435456 bytes (256 MiB) read from a stream"),
+        "{text}"
+    );
+    assert!(t0.elapsed().as_secs_f64() < 30.0);
+    let scene = dir.path().join("zero.json");
+    std::os::unix::fs::symlink("/dev/zero", &scene).unwrap();
+    assert!(Scene::from_json_path(&scene)
+        .unwrap_err()
+        .to_string()
+        .contains("256 MiB"));
+    // A sparse 3 GiB file: refused by its size, nothing read.
+    let huge = dir.path().join("huge.npy");
+    std::fs::File::create(&huge)
+        .unwrap()
+        .set_len(3 << 30)
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    let text = io::read_trajectory(&huge).unwrap_err().to_string();
+    assert!(
+        text.contains("3221225472 bytes, larger than the 2147483648 bytes (2 GiB)"),
+        "{text}"
+    );
+    assert!(t0.elapsed().as_secs_f64() < 1.0);
+    // A directory is an I/O error naming it, not a panic or an empty read.
+    let sub = dir.path().join("d.csv");
+    std::fs::create_dir(&sub).unwrap();
+    let e = io::read_trajectory(&sub).unwrap_err();
+    assert!(e.to_string().contains("is a directory"), "{e}");
+}

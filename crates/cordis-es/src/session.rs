@@ -468,7 +468,7 @@ fn read_gene(req: &IdentifyRequest) -> Result<Option<GeneParams>, CostError> {
     let Some(p) = &req.param_gene else {
         return Ok(None);
     };
-    let text = std::fs::read_to_string(p).map_err(|e| cordis_core::CordisError::io(p, e))?;
+    let text = cordis_core::io::read_text(p)?;
     Ok(Some(cordis_core::thesis::parse_gene(
         &p.display().to_string(),
         &text,
@@ -511,8 +511,7 @@ fn lock_names(
     match lock {
         Lock::File(path) => {
             let place = path.display().to_string();
-            let text =
-                std::fs::read_to_string(path).map_err(|e| cordis_core::CordisError::io(path, e))?;
+            let text = cordis_core::io::read_text(path)?;
             let mut names = Vec::new();
             for t in cordis_core::thesis::parse_lock(&place, &text)? {
                 let params: &[&str] = match t.family.kind() {

@@ -1,7 +1,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{anyhow, bail, Result};
 use cordis_es::discover::{discover, DiscoverOptions};
 
 use super::Output;
@@ -45,8 +45,9 @@ pub struct Args {
     scores: Option<PathBuf>,
 }
 
-fn read_masses(path: &PathBuf) -> Result<Vec<f64>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
+fn read_masses(path: &std::path::Path) -> Result<Vec<f64>> {
+    // A missing or unreadable file is an I/O error (exit 1), as for every input.
+    let text = cordis_core::io::read_text(path)?;
     text.split(|c: char| c.is_whitespace() || c == ',' || c == '[' || c == ']')
         .filter(|s| !s.is_empty())
         .enumerate()
@@ -80,7 +81,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     if a.total_mass.is_none() && a.masses.is_none() {
         bail!("--total-mass or --masses: masses and stiffnesses are only determined up to a common scale");
     }
-    let masses = a.masses.as_ref().map(read_masses).transpose()?;
+    let masses = a.masses.as_deref().map(read_masses).transpose()?;
     let opt = DiscoverOptions {
         total_mass: a.total_mass,
         masses,

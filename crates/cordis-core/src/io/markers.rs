@@ -187,7 +187,7 @@ pub struct Imported {
 /// Reads marker positions from a file in any [`InputFormat`], by extension.
 pub fn read_markers(path: &Path, options: &ReadOptions) -> Result<Imported> {
     let format = InputFormat::from_path(path)?;
-    let bytes = std::fs::read(path).map_err(|e| CordisError::io(path, e))?;
+    let bytes = super::read_input(path)?;
     parse_markers(&path.display().to_string(), format, &bytes, options)
 }
 

@@ -68,7 +68,7 @@ pub fn read_trajectory(path: &Path) -> Result<Trajectory> {
 /// [`read_trajectory`] with a table's columns, a delimiter or units (`--columns`, `--units`).
 pub fn read_trajectory_with(path: &Path, options: &ReadOptions) -> Result<Trajectory> {
     let format = InputFormat::from_path(path)?;
-    let bytes = std::fs::read(path).map_err(|e| CordisError::io(path, e))?;
+    let bytes = read_input(path)?;
     let name = path.display().to_string();
     let plain = options.columns.is_none() && options.delimiter.is_none() && options.units.is_none();
     let own = match format {
@@ -250,8 +250,74 @@ pub(crate) fn decode_text(bytes: &[u8]) -> Cow<'_, str> {
     }
 }
 
-/// Reads a text file (see [`decode_text`]).
-pub(crate) fn read_text(path: &Path) -> Result<String> {
-    let bytes = std::fs::read(path).map_err(|e| CordisError::io(path, e))?;
+/// Reads a text file (see [`decode_text`]), bounded as [`read_input`].
+pub fn read_text(path: &Path) -> Result<String> {
+    let bytes = read_input(path)?;
     Ok(decode_text(&bytes).into_owned())
+}
+
+/// The largest regular file an input may be, bytes (2 GiB: a 10⁵-particle `.npy` of 1,000
+/// frames is 2.4 GB, a scene of 10⁶ links ~100 MB).
+pub const MAX_INPUT_BYTES: u64 = 2 << 30;
+
+/// The most read from an input that is not a regular file (a pipe, `/dev/stdin`, a device),
+/// bytes: its size is unknown until it ends, and `/dev/zero` never does.
+pub const MAX_STREAM_BYTES: u64 = 256 << 20;
+
+/// The bytes of an input file, refused with its size beyond [`MAX_INPUT_BYTES`] or the memory
+/// available (before reading: a regular file's size is known), or beyond [`MAX_STREAM_BYTES`]
+/// read from a stream. Reading without a bound, a symlink to `/dev/zero` ran until memory ran
+/// out. The error is an [`CordisError::Io`] of kind `FileTooLarge` naming the file.
+pub fn read_input(path: &Path) -> Result<Vec<u8>> {
+    use std::io::Read;
+    let too_large = |msg: String| {
+        CordisError::io(
+            path,
+            std::io::Error::new(std::io::ErrorKind::FileTooLarge, msg),
+        )
+    };
+    let file = std::fs::File::open(path).map_err(|e| CordisError::io(path, e))?;
+    let meta = file.metadata().map_err(|e| CordisError::io(path, e))?;
+    if meta.is_dir() {
+        return Err(CordisError::io(
+            path,
+            std::io::Error::new(
+                std::io::ErrorKind::IsADirectory,
+                "is a directory, not a file",
+            ),
+        ));
+    }
+    let limit = if meta.is_file() {
+        let len = meta.len();
+        if len > MAX_INPUT_BYTES {
+            return Err(too_large(format!(
+                "{len} bytes, larger than the {MAX_INPUT_BYTES} bytes (2 GiB) an input may be"
+            )));
+        }
+        if let Some(free) = crate::arg::available_memory() {
+            if len > free {
+                return Err(too_large(format!(
+                    "{len} bytes, more than the {free} bytes of memory available"
+                )));
+            }
+        }
+        len.clamp(MAX_STREAM_BYTES, MAX_INPUT_BYTES)
+    } else {
+        MAX_STREAM_BYTES
+    };
+    let mut bytes = Vec::with_capacity(if meta.is_file() {
+        meta.len() as usize
+    } else {
+        0
+    });
+    file.take(limit + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| CordisError::io(path, e))?;
+    if bytes.len() as u64 > limit {
+        return Err(too_large(format!(
+            "not a regular file, and more than the {limit} bytes (256 MiB) read from a stream \
+             (a device such as /dev/zero?)"
+        )));
+    }
+    Ok(bytes)
 }

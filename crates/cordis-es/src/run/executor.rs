@@ -383,7 +383,9 @@ fn resume(
 ) -> Result<Start, CostError> {
     let place = path.display().to_string();
     let bad = |m: String| CostError::resume(&place, m);
-    let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
+    // A checkpoint that cannot be read is an I/O error (CLI exit 1, as for every input); one
+    // that reads but cannot resume this run is a resume error (exit 2).
+    let text = cordis_core::io::read_text(path)?;
     let cp: Checkpoint =
         serde_json::from_str(&text).map_err(|e| bad(format!("not a checkpoint: {e}")))?;
     if cp.format != CHECKPOINT_FORMAT || cp.strategy != strategy.name() || cp.dim != problem.dim() {
@@ -539,8 +541,7 @@ impl HistoryFile {
     fn read(checkpoint: &std::path::Path, rows: usize) -> Result<Vec<HistoryRow>, CostError> {
         let path = Self::path(checkpoint);
         let place = path.display().to_string();
-        let text =
-            std::fs::read_to_string(&path).map_err(|e| CostError::resume(&place, e.to_string()))?;
+        let text = cordis_core::io::read_text(&path)?;
         let history = text
             .lines()
             .take(rows)
