@@ -75,7 +75,7 @@ fn an_unbounded_input_exits_1_with_the_limit_and_bad_content_exits_2() {
     }
     // Read, but wrong: 2, whichever input it is.
     std::fs::write(d.join("bad.json"), "{\"dt\": 0.01, \"dt\": 0.02}").unwrap();
-    std::fs::write(d.join("bad.csv"), "frame,particle,x,y\n0,0,1,2\n").unwrap();
+    std::fs::write(d.join("bad.csv"), "frame,particle,x,y,z\n0,0,1,2\n").unwrap();
     std::fs::write(d.join("cp.json"), "garbage").unwrap();
     std::fs::write(d.join("p.gene"), "population = -3\n").unwrap();
     for (args, says) in [
