@@ -27,7 +27,7 @@ pub use frog::{frog, frog_heading, frog_with, FROG_FRAMES};
 pub use horse::{horse, HORSE_FRAMES};
 pub use horse_gait::{horse_gait, GAIT_GAIN, GAIT_RATE_WEIGHT};
 pub use muscle::{muscle, MUSCLE_FRAMES, MUSCLE_GAIN};
-pub use random::random_network;
+pub use random::{random_network, tracked_network};
 pub use rigid::{rigid, RIGID_FRAMES};
 pub use tadpole::{
     tadpole, tadpole_vmax_bracket, tadpole_with, TADPOLE_BODY_LENGTH, TADPOLE_FRAMES,

@@ -106,6 +106,34 @@ pub fn random_network(seed: u64, masses: usize, types: usize) -> Scene {
     scene
 }
 
+/// The generated networks of `cordis bench noise` (and the tracked-motion tests):
+/// [`random_network`]`(7000 + seed, masses, types)` with every spring type damped (0.02–0.3
+/// N·s/m from the seed), a damper between particles 1 and `masses - 1`, air drag on particles 2
+/// and `masses - 2`, and an anchor (25 N/m, 0.2 m, 0.05 N·s/m) from particle `masses / 2` to a
+/// point beside it: every kind the output-error estimator differentiates. `masses` ≥ 4.
+pub fn tracked_network(seed: u64, masses: usize, types: usize) -> Scene {
+    let mut truth = random_network(7_000 + seed, masses, types);
+    for (k, t) in truth.types.iter_mut().enumerate() {
+        let u = ((seed * 11 + k as u64 * 17) % 31) as f64 / 31.0;
+        t.params[2] = crate::Param::Known(0.02 + 0.28 * u);
+    }
+    truth.add_type(LinkType::new("dashpot", LinkKind::Damper).with("damping", 0.12));
+    truth.add_type(LinkType::new("air", LinkKind::Drag).with("damping", 0.05));
+    truth.add_type(
+        LinkType::new("tether", LinkKind::Anchor)
+            .with("stiffness", 25.0)
+            .with("rest_length", 0.2)
+            .with("damping", 0.05),
+    );
+    truth.add_link("dashpot", &[1, masses - 1]);
+    truth.add_link("air", &[2]);
+    truth.add_link("air", &[masses - 2]);
+    let a = truth.add_link("tether", &[masses / 2]);
+    let x = truth.particles[masses / 2].pos;
+    truth.links[a].point = Some([x[0] + 0.3, x[1] + 0.1, x[2] - 0.1]);
+    truth
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

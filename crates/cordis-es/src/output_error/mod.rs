@@ -162,7 +162,10 @@ pub(crate) fn grow_windows(
     let mut schedule = windows::Schedule::new(fitter, config.first_window, noise);
     loop {
         let end = stage(q, schedule.next);
-        let after = schedule.after(fitter, q, end, &mut Sens::default())?;
+        let mut after = schedule.after(fitter, q, end, &mut Sens::default())?;
+        if after == windows::After::Stuck {
+            after = schedule.keep_going(q)?;
+        }
         if let windows::After::Done(end) = after {
             return Ok((end, schedule.windows));
         }

@@ -114,6 +114,37 @@ pub fn start_genome(
     }
 }
 
+/// The start of restart `attempt` (1, 2, …) after a fit stuck in a wrong basin: the unknowns a
+/// heuristic reads from the data (rest lengths from the observed lengths) keep that value, the
+/// others (stiffness, damping, masses) are drawn uniformly in their internal boxes (log-uniform
+/// for wide positive ones) from a stream fixed by `attempt`, so a fit is reproducible.
+pub fn restart_genome(
+    scene: &Scene,
+    space: &ParameterSpace,
+    take: &Take,
+    attempt: usize,
+) -> Vec<f64> {
+    use rand::Rng;
+    const RESTART_STREAM: u64 = 0x5EED_0E57;
+    let fallback: Vec<Vec3> = scene.particles.iter().map(|p| Vec3::from(p.pos)).collect();
+    let filled = take.filled(&fallback).with_dt(scene.dt);
+    let observed = match Problem::new(scene, &filled, CostKind::Short) {
+        Ok(pr) if pr.observed.len() == space.dim() => pr.observed,
+        _ => vec![None; space.dim()],
+    };
+    let mut draw = crate::rng::stream(RESTART_STREAM, attempt as u64, 0);
+    space
+        .unknowns
+        .iter()
+        .zip(&observed)
+        .map(|(u, seen)| {
+            let (lo, hi) = u.internal_bounds();
+            let random = lo + (hi - lo) * draw.random::<f64>();
+            u.clamp_internal(seen.map_or(random, |m| u.to_internal(m)))
+        })
+        .collect()
+}
+
 /// Each free particle's `[x0, v0]` from the take's first frames: a least-squares quadratic in
 /// time through its first (at least 3) observed frames per coordinate, `x0` its value at frame
 /// 0 and `v0 = (x(0) - x(-1))/dt` (the scheme's backward difference). A coordinate observed in

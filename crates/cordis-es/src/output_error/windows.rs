@@ -6,8 +6,11 @@
 //! the third-difference level, or beyond rounding on noiseless data) is a wrong basin reached
 //! by growing too fast: the fit goes back to the last good window's optimum and grows by a
 //! smaller factor (1.5, 1.25, 1.125 of the last clean window); a window that cannot be grown
-//! into cleanly even so is kept as it ended and the doubling resumes from it. A window the
-//! last optimum cannot even simulate (it diverges) is a window grown too far, handled alike.
+//! into cleanly even so is a wrong basin no smaller step leaves: the schedule says
+//! [`After::Stuck`], and the fit restarts from another start ([`super::run`]); when it has no
+//! start left, the window is kept as it ended and the doubling resumes from it
+//! ([`Schedule::keep_going`]). A window the last optimum cannot even simulate (it diverges) is
+//! a window grown too far, handled alike.
 
 use serde::{Deserialize, Serialize};
 
@@ -32,6 +35,8 @@ pub(crate) struct Schedule {
     /// Residual rms above which a window counts as a wrong basin, m.
     #[serde(with = "lossless")]
     tolerance: f64,
+    /// Whether the stuck window diverged (then no going on from it).
+    stuck_diverged: bool,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -48,6 +53,9 @@ pub(crate) enum After {
     Stage,
     /// The whole take is fitted; the last stage ended so.
     Done(StageEnd),
+    /// The last window left residuals above the noise even after the smallest step back: a
+    /// wrong basin. Restart, or [`Schedule::keep_going`].
+    Stuck,
 }
 
 impl Schedule {
@@ -61,6 +69,7 @@ impl Schedule {
             growth: 2.0,
             longest,
             tolerance: (1.5 * noise).max(1e-9 * fitter.observed_size()),
+            stuck_diverged: false,
         }
     }
 
@@ -80,6 +89,7 @@ impl Schedule {
     ) -> Result<After, CostError> {
         let w = self.next;
         self.windows.push(w);
+        self.stuck_diverged = false;
         let diverged = end == StageEnd::Diverged;
         if diverged && self.good.is_none() {
             return Err(CostError::mismatch(
@@ -104,20 +114,29 @@ impl Schedule {
                     ((from as f64 * self.growth).ceil() as usize).clamp(from + 1, self.longest);
                 return Ok(After::Stage);
             }
-            if diverged {
-                return Err(CostError::mismatch(
-                    "fit",
-                    format!(
-                        "the model fitted to {} frames diverges within {w}: \
-                         narrow the boxes or check dt",
-                        good.window
-                    ),
-                ));
-            }
+            self.stuck_diverged = diverged;
+            return Ok(After::Stuck);
+        }
+        self.keep_going(q)
+    }
+
+    /// After [`After::Stuck`] with no restart left: keeps the last window as it ended and
+    /// resumes the doubling from it (an error when it diverged).
+    pub fn keep_going(&mut self, q: &[f64]) -> Result<After, CostError> {
+        let w = self.windows.last().copied().unwrap_or(self.next);
+        if self.stuck_diverged {
+            let from = self.good.as_ref().map_or(0, |g| g.window);
+            return Err(CostError::mismatch(
+                "fit",
+                format!(
+                    "the model fitted to {from} frames diverges within {w}: \
+                     narrow the boxes or check dt"
+                ),
+            ));
         }
         // Clean, the first window, or no smaller step left: go on from here.
         self.good = Some(Good {
-            q: q.clone(),
+            q: q.to_vec(),
             window: w,
         });
         self.growth = 2.0;

@@ -78,7 +78,7 @@ impl OutputError {
         let dof = observed.saturating_sub(variables).max(1);
         self.state.report = OutputErrorReport {
             estimator: "output-error".into(),
-            start: progress.start_note().to_string(),
+            start: progress.start_note(),
             windows: progress.windows().to_vec(),
             end: if progress.stopped() {
                 "interrupted"

@@ -1,7 +1,7 @@
 //! `cordis bench noise`: the output-error estimator against the Cramér–Rao bound on generated
 //! networks, through noise, gaps and hidden particles, beside the short cost's exact estimate.
 //!
-//! Each draw is a network of its own (`random_network` with every spring type damped, a damper,
+//! Each draw is a network of its own (`tracked_network`: every spring type damped, a damper,
 //! air drag on two particles and an anchor to a point; boxes 25× wide around the truth at a
 //! place drawn from the seed), simulated for `--frames` frames, observed through Gaussian noise
 //! of σ = `rel` × the trajectory's size, with every coordinate, 20 % of them missing at random,
@@ -16,8 +16,8 @@
 use std::time::Instant;
 
 use anyhow::Result;
-use cordis_core::examples::random_network;
-use cordis_core::{LinkKind, LinkType, Param, Scene, Vec3};
+use cordis_core::examples::tracked_network;
+use cordis_core::{Scene, Vec3};
 use cordis_es::cost::CostKind;
 use cordis_es::identify::{add_noise, with_unknown_boxes};
 use cordis_es::output_error::{cramer_rao, estimate, expected_error_pct, Config, Take};
@@ -55,25 +55,7 @@ pub struct Args {
 
 /// One generated network and the guess a user would write for it.
 fn network(seed: u64, masses: usize, types: usize) -> (Scene, Scene) {
-    let mut truth = random_network(7_000 + seed, masses, types);
-    for (k, t) in truth.types.iter_mut().enumerate() {
-        let u = ((seed * 11 + k as u64 * 17) % 31) as f64 / 31.0;
-        t.params[2] = Param::Known(0.02 + 0.28 * u);
-    }
-    truth.add_type(LinkType::new("dashpot", LinkKind::Damper).with("damping", 0.12));
-    truth.add_type(LinkType::new("air", LinkKind::Drag).with("damping", 0.05));
-    truth.add_type(
-        LinkType::new("tether", LinkKind::Anchor)
-            .with("stiffness", 25.0)
-            .with("rest_length", 0.2)
-            .with("damping", 0.05),
-    );
-    truth.add_link("dashpot", &[1, masses - 1]);
-    truth.add_link("air", &[2]);
-    truth.add_link("air", &[masses - 2]);
-    let a = truth.add_link("tether", &[masses / 2]);
-    let x = truth.particles[masses / 2].pos;
-    truth.links[a].point = Some([x[0] + 0.3, x[1] + 0.1, x[2] - 0.1]);
+    let truth = tracked_network(seed, masses, types);
     let guess = with_unknown_boxes(&truth, 25.0, seed);
     (truth, guess)
 }
