@@ -403,8 +403,10 @@ fn session_to_py(err: CostError) -> PyErr {
 ///   kind; `time_limit` (s), `target_cost`, `max_evals`: further stop rules; `threads`
 ///   (default: all cores; more than the machine has are capped, with a warning); `truth`: the
 ///   true scene, to report `param_error_pct`; `checkpoint`/`resume`: a checkpoint file written
-///   every 50 generations and at the end, and one to continue from (refused when made for
-///   another scene, data, cost, noise or options); `dt` (s): the trajectory's time step.
+///   every 50 generations but at most once a second, and at the end however the run stops (its
+///   history rows appended to `checkpoint + ".history"`), and one to continue from (refused
+///   when made for another scene, data, cost, noise or options); `dt` (s): the trajectory's
+///   time step.
 /// - `total_mass` (kg): the free particles' total, needed when their masses are unknown;
 ///   `lock`: unknowns kept at their start (a `NAME.lock` file or names); `param_gene`: a thesis
 ///   `Param.gene` file; `descent_start`, `descent_every`: the thesis strategy's Powell descent.

@@ -278,3 +278,117 @@ fn stale_temporaries_of_a_killed_writer_are_removed_by_the_next_write() {
         assert!(d.join(n).exists(), "{n} removed");
     }
 }
+
+/// Issue 17: an identification whose `--log` or `--out` write failed at the end (a full disk)
+/// lost its result — no table, no summary line — and a failing `--log` exited 2 naming no
+/// file. Now the summary line is printed first, then the error names the file, exit 1.
+#[test]
+fn identify_prints_its_result_before_a_failed_log_or_out_write() {
+    if !Path::new("/dev/full").exists() {
+        return; // Linux only
+    }
+    let dir = rigid_dir();
+    let d = dir.path();
+    std::os::unix::fs::symlink("/dev/full", d.join("full.csv")).unwrap();
+    std::os::unix::fs::symlink("/dev/full", d.join("full.json")).unwrap();
+    let run = [
+        "identify",
+        "u.json",
+        "-t",
+        "r.csv",
+        "--strategy",
+        "thesis",
+        "-g",
+        "5",
+    ];
+    for extra in [&["--log", "full.csv"][..], &["--out", "full.json"]] {
+        let mut args = run.to_vec();
+        args.extend_from_slice(extra);
+        args.extend(["--json", "-q"]);
+        let out = cordis(d, &args);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{extra:?}: {err}");
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        let lines: Vec<&str> = stdout.lines().collect();
+        assert_eq!(lines.len(), 2, "{stdout}");
+        let summary: serde_json::Value = serde_json::from_str(lines[0]).unwrap();
+        assert_eq!(summary["generations"], 5, "{stdout}");
+        assert!(summary["cost"].is_number());
+        assert!(lines[1].contains(extra[1]) && lines[1].contains("No space left"));
+        assert!(
+            err.contains(extra[1]) && err.contains("No space left"),
+            "{err}"
+        );
+    }
+}
+
+/// Issue 17: the log went through an 8 KB buffer, so a killed run left a torn last row. Each
+/// row is now one write of the whole line: after kill -9 every line is complete.
+#[test]
+fn a_killed_identification_leaves_only_whole_log_rows() {
+    let dir = rigid_dir();
+    let d = dir.path();
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_cordis"))
+        .current_dir(d)
+        .args([
+            "identify",
+            "u.json",
+            "-t",
+            "r.csv",
+            "--strategy",
+            "thesis",
+            "-g",
+            "100000000",
+        ])
+        .args([
+            "-p",
+            "4",
+            "--threads",
+            "1",
+            "--log",
+            "l.csv",
+            "-q",
+            "-o",
+            "o.json",
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Until the log holds a few thousand rows (several buffers' worth), then kill -9.
+    let t0 = std::time::Instant::now();
+    while std::fs::metadata(d.join("l.csv")).map_or(0, |m| m.len()) < 200_000
+        && t0.elapsed().as_secs() < 60
+    {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let text = std::fs::read_to_string(d.join("l.csv")).unwrap();
+    assert!(text.len() >= 200_000, "{} bytes", text.len());
+    assert!(
+        text.ends_with('\n'),
+        "a torn last row: {:?}",
+        &text[text.len() - 80..]
+    );
+    let fields = |l: &str| l.split(',').count();
+    let mut lines = text.lines();
+    let header = fields(lines.next().unwrap());
+    assert!(lines.all(|l| fields(l) == header));
+}
+
+/// Issue 17: `--checkpoint`'s help said "every 50 generations", but periodic checkpoints are
+/// also at least a second apart and the history goes to FILE.history.
+#[test]
+fn checkpoint_help_says_when_it_writes() {
+    let out = cordis(Path::new("."), &["identify", "--help"]);
+    let help = String::from_utf8_lossy(&out.stdout).replace('\n', " ");
+    let help = help.split_whitespace().collect::<Vec<_>>().join(" ");
+    assert!(
+        help.contains(
+            "every 50 generations but at most once a second, and at the end however the run stops"
+        ),
+        "{help}"
+    );
+    assert!(help.contains("FILE.history"), "{help}");
+}

@@ -1,9 +1,9 @@
 use std::fs::File;
-use std::io::{BufWriter, IsTerminal, Write};
+use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use cordis_core::Scene;
 use cordis_es::cost::CostKind;
 use cordis_es::executor::{HistoryRow, Observer, StopReason};
@@ -100,7 +100,8 @@ pub struct Args {
     /// comma-separated names such as `types.rib.stiffness,particles[3].mass`.
     #[arg(long)]
     lock: Option<String>,
-    /// Write a checkpoint here (every 50 generations and at the end).
+    /// Write a checkpoint here: every 50 generations but at most once a second, and at the end
+    /// however the run stops; the history rows are appended to FILE.history beside it.
     #[arg(long)]
     checkpoint: Option<PathBuf>,
     /// Resume from this checkpoint (same scene, trajectory, strategy and seed).
@@ -150,11 +151,13 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     let outcome = session.run(&mut observers, Some(&INTERRUPTED))?;
     drop(observers);
     progress.finish();
-    if let Some(mut l) = log {
-        l.flush()?;
-    }
+    // A write that fails here (a full disk) must not lose the result: it is printed first,
+    // then the failure names its file (exit 1).
+    let mut failed = log.and_then(|l| l.finish().err().map(anyhow::Error::from));
     if let Some(out) = &a.out {
-        super::write_scene(&outcome.scene, Some(out))?;
+        if let Err(e) = super::write_scene(&outcome.scene, Some(out)) {
+            failed.get_or_insert(e);
+        }
     }
     if output.human() {
         print_human(ran, &outcome);
@@ -164,6 +167,9 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         eprintln!("warning: {w}");
     }
     output.json_line(&summary(ran, &outcome, a.stable_horizon))?;
+    if let Some(e) = failed {
+        return Err(e);
+    }
     if outcome.result.stopped_by == StopReason::Interrupted {
         return Err(super::Interrupted.into());
     }
@@ -314,28 +320,59 @@ fn summary(ran: &str, outcome: &Outcome, stable_horizon: Option<usize>) -> serde
     summary
 }
 
-/// Convergence log, CSV or JSON lines by extension, flushed every row.
+/// Convergence log, CSV or JSON lines by extension, written whole-line: each row is one
+/// write of the full line, unbuffered, so a kill leaves only whole rows; a write that fails
+/// (a full disk) is cut back to the last whole row, ends the logging and is reported, naming
+/// the file, once the result is out ([`LogWriter::finish`]).
 struct LogWriter {
-    out: BufWriter<File>,
+    path: PathBuf,
+    file: File,
     jsonl: bool,
+    /// Bytes of whole rows written.
+    len: u64,
+    failed: Option<std::io::Error>,
 }
 
 impl LogWriter {
     fn create(path: &std::path::Path) -> Result<Self> {
-        let file = File::create(path).with_context(|| format!("{}", path.display()))?;
+        let file = File::create(path).map_err(|e| cordis_core::CordisError::io(path, e))?;
         let jsonl = path
             .extension()
             .is_some_and(|e| e == "jsonl" || e == "json");
-        let mut out = BufWriter::new(file);
+        let mut log = LogWriter {
+            path: path.to_path_buf(),
+            file,
+            jsonl,
+            len: 0,
+            failed: None,
+        };
         if !jsonl {
-            writeln!(out, "{}", HistoryRow::CSV_HEADER)?;
+            log.write_line(HistoryRow::CSV_HEADER.to_string());
         }
-        Ok(LogWriter { out, jsonl })
+        Ok(log)
     }
 
-    fn flush(&mut self) -> Result<()> {
-        self.out.flush()?;
-        Ok(())
+    fn write_line(&mut self, mut line: String) {
+        if self.failed.is_some() {
+            return;
+        }
+        line.push('\n');
+        match self.file.write_all(line.as_bytes()) {
+            Ok(()) => self.len += line.len() as u64,
+            Err(e) => {
+                // Best effort: a file that cannot even be cut keeps its torn row.
+                let _ = self.file.set_len(self.len);
+                self.failed = Some(e);
+            }
+        }
+    }
+
+    /// The first write error, as an I/O error naming the file.
+    fn finish(self) -> Result<(), cordis_core::CordisError> {
+        match self.failed {
+            Some(e) => Err(cordis_core::CordisError::io(&self.path, e)),
+            None => Ok(()),
+        }
     }
 }
 
@@ -346,7 +383,7 @@ impl Observer for LogWriter {
         } else {
             row.csv()
         };
-        let _ = writeln!(self.out, "{line}");
+        self.write_line(line);
         true
     }
 }
