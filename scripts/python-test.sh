@@ -32,6 +32,8 @@ fi
 # own cable (test_mujoco_prediction.py, benches/mujoco_prediction.py: 4.x flexcomp rods and the
 # `discrete` integrator). Required: a test of an installable tool never skips in CI.
 "$venv/bin/python" -m pip install --quiet "mujoco>=4,<5"
+# A third-party C3D writer (pure Python) for the marker-reading tests (test_markers.py).
+"$venv/bin/python" -m pip install --quiet c3d
 # Run from the repository root so that `import cordis` finds the installed package (the source
 # folder python/cordis/ has no compiled extension).
 "$venv/bin/python" -m pytest python/tests -q

@@ -72,6 +72,7 @@ from ._cordis import (
     identify,
     random_network,
     read_trajectory,
+    scene_from_markers,
     write_trajectory,
 )
 from . import plot  # matplotlib is imported only when a plot function runs
@@ -111,6 +112,7 @@ __all__ = [
     "plot",
     "random_network",
     "read_trajectory",
+    "scene_from_markers",
     "write_trajectory",
 ]
 

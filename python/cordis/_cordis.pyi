@@ -7,12 +7,14 @@ from typing import (
     Dict,
     Iterator,
     List,
+    Literal,
     Mapping,
     Optional,
     Sequence,
     Tuple,
     Union,
     final,
+    overload,
 )
 
 import numpy as np
@@ -52,6 +54,7 @@ __all__ = [
     "identify",
     "DiscoverResult",
     "discover",
+    "scene_from_markers",
     "random_network",
     "_cli_main",
 ]
@@ -369,6 +372,15 @@ class Scene:
     @property
     def has_unknowns(self) -> bool:
         """True when some parameter or mass is still to be identified."""
+    def with_unknowns(self, width: float = 4.0) -> "Scene":
+        """A copy whose positive known link-type parameters are unknown, in boxes ``width``
+        times wide (max/min) centred geometrically on their values (their start).
+
+        Zeros (an absent damping) stay known, as do a muscle's weights, gain and threshold and
+        a TGR's tendon. ``width`` must exceed 1 (ArgumentError).
+
+        >>> guess = cordis.example("rigid").with_unknowns(width=4.0)
+        """
     def copy(self) -> "Scene":
         """An independent copy (edits to one do not change the other)."""
     def __eq__(self, other: object, /) -> bool: ...
@@ -377,11 +389,38 @@ class Scene:
     def __deepcopy__(self, memo: Optional[Dict[int, Any]]) -> "Scene": ...
     def __reduce__(self) -> Tuple[Any, Tuple[str]]: ...
 
-def read_trajectory(path: _PathLike, /) -> npt.NDArray[np.float64]:
-    """Reads a ``.csv``, ``.npy`` or ``.tra`` trajectory (by extension) as ``(T, N, 3)`` m.
+@overload
+def read_trajectory(
+    path: _PathLike,
+    /,
+    *,
+    columns: Optional[str] = None,
+    units: Optional[str] = None,
+    delimiter: Optional[str] = None,
+    with_dt: Literal[False] = False,
+) -> npt.NDArray[np.float64]:
+    """Reads a trajectory or marker file by extension as ``(T, N, 3)`` m, NaN where missing.
+
+    cordis' ``.csv``, ``.npy``, ``.tra``; motion capture ``.c3d``, OpenSim ``.trc``; tracker
+    ``.npz`` (TAP-Vid ``tracks (N, T, 2|3)`` + ``visibility (N, T)``, CoTracker); ``.csv`` /
+    ``.tsv`` tables with named columns (``columns="frame=Frame,particle=Marker,x=X,y=Y,z=Z"``,
+    ``"time=t"``, wide ``"time=Time,x=*_X"``). ``units`` (m, cm, mm) are those of a file that
+    does not state them. With ``with_dt=True``: ``(array, dt)``, ``dt`` in s from the file's
+    rate, or None.
 
     >>> traj = cordis.read_trajectory("rigid.csv")
+    >>> markers, dt = cordis.read_trajectory("walk.trc", with_dt=True)
     """
+@overload
+def read_trajectory(
+    path: _PathLike,
+    /,
+    *,
+    columns: Optional[str] = None,
+    units: Optional[str] = None,
+    delimiter: Optional[str] = None,
+    with_dt: Literal[True],
+) -> Tuple[npt.NDArray[np.float64], Optional[float]]: ...
 
 def write_trajectory(path: _PathLike, array: _ArrayLike, dt: Optional[float] = None) -> None:
     """Writes positions ``(T, N, 3)`` (any float64-convertible array, m) atomically.
@@ -675,6 +714,34 @@ class DiscoverResult:
     @property
     def notes(self) -> List[str]:
         """How the answer was reached."""
+
+def scene_from_markers(
+    markers: _ArrayLike,
+    dt: float,
+    total_mass: float,
+    *,
+    neighbours: Optional[int] = None,
+    radius: Optional[float] = None,
+    types: str = "family",
+    width: float = 4.0,
+    gravity: Optional[Tuple[float, float, float]] = None,
+    still: Optional[float] = None,
+    family_tolerance: float = 0.05,
+) -> Scene:
+    """A spring network on tracked markers ``(T, N, 3)`` (NaN where missing), every parameter
+    unknown in a box, ready for :func:`identify` (as ``cordis scene from-markers``).
+
+    One particle per marker at its first observed position, fixed when it never moves (within
+    ``still`` m of its median; default 2 % of the markers' extent), masses ``total_mass / N``;
+    springs to the ``neighbours`` nearest markers (default 6) or between every pair closer
+    than ``radius`` m; one type per family of equal first-frame lengths (``types="family"``)
+    or per link (``"link"``); rest lengths in boxes ``width`` times wide around them, stiffness
+    and damping under the shared stability bound; ``gravity`` (m/s²) defaults to
+    ``(0, -9.81, 0)`` (y up).
+
+    >>> markers, dt = cordis.read_trajectory("markers.csv", with_dt=True)
+    >>> scene = cordis.scene_from_markers(markers, 0.01, 0.54, radius=0.18)
+    """
 
 def discover(
     traj: _ArrayLike,

@@ -19,6 +19,7 @@ pub mod discover;
 pub mod errors;
 pub mod evaluator;
 pub mod examples;
+pub mod from_markers;
 pub mod identify;
 pub mod json;
 pub mod scene;
@@ -42,6 +43,7 @@ fn _cordis(m: &Bound<'_, PyModule>) -> PyResult<()> {
     identify::register(m)?;
     evaluator::register(m)?;
     discover::register(m)?;
+    from_markers::register(m)?;
     cli::register(m)?;
     Ok(())
 }

@@ -330,6 +330,18 @@ impl Scene {
         self.core().has_unknowns()
     }
 
+    /// A copy whose positive known link-type parameters are unknown, each in a box `width`
+    /// times wide (max/min) centred geometrically on its value (its start); zeros (an absent
+    /// damping) stay known, as do a muscle's weights, gain and threshold and a TGR's tendon.
+    ///
+    /// >>> guess = cordis.example("rigid").with_unknowns(width=4.0)   # doctest: +SKIP
+    #[pyo3(signature = (width = 4.0))]
+    fn with_unknowns(&self, width: f64) -> PyResult<Scene> {
+        cordis_core::from_markers::with_unknowns(&self.core(), width)
+            .map(Scene::from_core)
+            .map_err(crate::errors::to_py)
+    }
+
     /// A copy of the scene (edits to one do not change the other).
     fn copy(&self) -> Scene {
         Scene::from_core((*self.core()).clone())

@@ -139,17 +139,57 @@ pub fn check_dt(dt: f64, what: &str) -> PyResult<f64> {
     }
 }
 
-/// Reads a trajectory file — `.csv` (`frame,particle,x,y,z`), `.npy` (float64 `(T, N, 3)`) or
-/// the thesis' `.tra`, chosen by extension — as a float64 array `(T, N, 3)`, m.
+/// Reads a trajectory or marker file, chosen by extension — cordis' `.csv`, `.npy`, `.tra`;
+/// motion capture `.c3d`, OpenSim `.trc`; tracker `.npz` (TAP-Vid / CoTracker); `.csv`/`.tsv`
+/// tables with named columns — as a float64 array `(T, N, 3)` in m, NaN where a marker is
+/// missing (never zero). The same reader as the CLI's (`cordis_core::io::read_markers`).
+///
+/// `columns` maps a table's columns (`"frame=Frame,particle=Marker,x=X,y=Y,z=Z"`, `"time=t"`,
+/// wide `"time=Time,x=*_X"`); `units` (`"m"`, `"cm"`, `"mm"`) are those of a file that does not
+/// state them; `delimiter` a table's (default: sniffed). With `with_dt=True` the result is
+/// `(array, dt)`, `dt` in s from the file's rate (TRC `DataRate`, C3D `POINT:RATE`, a time
+/// column), or None when it gives none.
 ///
 /// >>> traj = cordis.read_trajectory("rigid.csv")   # doctest: +SKIP
+/// >>> markers, dt = cordis.read_trajectory("walk.trc", with_dt=True)   # doctest: +SKIP
 #[pyfunction]
-#[pyo3(signature = (path, /))]
-pub fn read_trajectory(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyArray3<f64>>> {
-    let traj = py
-        .detach(|| cordis_core::io::read_trajectory(&path))
+#[pyo3(signature = (path, /, *, columns = None, units = None, delimiter = None, with_dt = false))]
+pub fn read_trajectory<'py>(
+    py: Python<'py>,
+    path: PathBuf,
+    columns: Option<String>,
+    units: Option<String>,
+    delimiter: Option<String>,
+    with_dt: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    use cordis_core::io::markers::{Delimiter, Units};
+    let options = cordis_core::io::ReadOptions {
+        columns,
+        units: units
+            .as_deref()
+            .map(|u| Units::parse_arg("units", u))
+            .transpose()
+            .map_err(to_py)?,
+        delimiter: delimiter
+            .as_deref()
+            .map(|d| Delimiter::parse_arg("delimiter", d))
+            .transpose()
+            .map_err(to_py)?,
+    };
+    let imported = py
+        .detach(|| cordis_core::io::read_markers(&path, &options))
         .map_err(to_py)?;
-    traj_to_py(py, traj)
+    let obs = imported.observations;
+    let shape = (obs.frames(), obs.particles(), 3);
+    let array = Array3::from_shape_vec(shape, obs.as_flat().to_vec())
+        .map_err(|e| PyValueError::new_err(format!("trajectory shape: {e}")))?
+        .into_pyarray(py)
+        .into_any();
+    if with_dt {
+        Ok((array, obs.dt).into_pyobject(py)?.into_any())
+    } else {
+        Ok(array)
+    }
 }
 
 /// Writes positions `(T, N, 3)` (any float64-convertible array, m) atomically, in the format
