@@ -7,7 +7,7 @@ import pytest
 
 import cordis
 
-c3d = pytest.importorskip("c3d")  # installed by scripts/python-test.sh
+import c3d  # noqa: E402  (the c3d package from PyPI, installed by scripts/python-test.sh)
 
 
 def _positions(frames, markers):
