@@ -5,8 +5,8 @@ example, in one run (issue 5).
     cargo build --release -p cordis-cli
     python benches/pareto.py --out pareto.jsonl --plot docs/images/pareto.png [-- BENCH ARGS]
 
-1. Runs ``cordis bench pareto --data DIR --out FILE BENCH ARGS`` (every strategy, every
-   example, several budgets; see ``cordis bench pareto --help``), which also writes each
+1. Runs ``cordis-bench pareto --data DIR --out FILE BENCH ARGS`` (every strategy, every
+   example, several budgets; see ``cordis-bench pareto --help``), which also writes each
    scene's truth, unknowns and trajectory into DIR.
 2. Runs pycma (CMA-ES, default population, the peer a Python user would pick) on the same data,
    with the same budgets, seed and time limit, its objective a compiled ``cordis.Objective``
@@ -30,7 +30,7 @@ import time
 
 def cordis_binary():
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    return os.path.join(root, "target", "release", "cordis")
+    return os.path.join(root, "target", "release", "cordis-bench")
 
 
 def slot_box(d, name):
@@ -179,21 +179,22 @@ def plot(records, path):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--cordis", default=cordis_binary(), help="the cordis binary")
+    ap.add_argument("--cordis-bench", dest="cordis", default=cordis_binary(),
+                    help="the cordis-bench binary (cargo build --release -p cordis-bench)")
     ap.add_argument("--out", default="pareto.jsonl", help="JSON-lines output")
     ap.add_argument("--plot", help="error against run time, one panel per scene (.png/.svg)")
     ap.add_argument("--no-pycma", action="store_true", help="only the CLI bench")
     ap.add_argument("--reuse", nargs=2, metavar=("FILE", "DIR"),
                     help="skip the CLI bench: add pycma to the records FILE of an earlier "
-                         "`cordis bench pareto --out FILE --data DIR`")
-    ap.add_argument("bench_args", nargs="*", help="arguments of `cordis bench pareto` (after --)")
+                         "`cordis-bench pareto --out FILE --data DIR`")
+    ap.add_argument("bench_args", nargs="*", help="arguments of `cordis-bench pareto` (after --)")
     a = ap.parse_args()
     with tempfile.TemporaryDirectory(prefix="cordis-pareto-") as tmp:
         if a.reuse:
             source, data = a.reuse
         else:
             source, data = a.out, tmp
-            cmd = [a.cordis, "bench", "pareto", "--out", a.out, "--data", data, *a.bench_args]
+            cmd = [a.cordis, "pareto", "--out", a.out, "--data", data, *a.bench_args]
             print("$", " ".join(cmd), flush=True)
             subprocess.run(cmd, check=True)
         with open(source) as fh:

@@ -73,7 +73,7 @@ enum Command {
     /// Scenes built from data: `from-markers` puts a spring network on tracked markers.
     Scene(commands::scene::Args),
     /// Benchmarks printing JSON lines and a readable table.
-    #[command(after_help = "Example:\n  cordis bench stability --quick")]
+    #[command(after_help = "Example:\n  cordis bench cost")]
     Bench(commands::bench::Args),
 }
 

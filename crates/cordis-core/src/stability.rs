@@ -31,7 +31,7 @@
 //!   the local figure may overestimate too (a cloth is stable slightly beyond it).
 //!
 //! For two equal free masses on one spring the Gershgorin ratio is exact (twice the local
-//! one); for a mass joined only to fixed points both are exact. `cordis bench stability`
+//! one); for a mass joined only to fixed points both are exact. `cordis-bench stability`
 //! measures how conservative the bound is on larger networks.
 //!
 //! # Local stiffness of each kind

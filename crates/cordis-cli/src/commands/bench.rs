@@ -1,10 +1,10 @@
-//! `cordis bench MODE`: benchmarks that print one JSON line per measurement on stdout and a
-//! readable table on stderr. One file per mode under `bench/`.
+//! `cordis bench MODE`: benchmarks a user runs on their machine and data, printing one JSON
+//! line per measurement on stdout and a readable table on stderr. One file per mode under
+//! `bench/`. The thesis-reproduction harness (`pareto`, `stability`) is the `cordis-bench`
+//! binary of `crates/cordis-bench`, not part of this one.
 
 mod cost;
 mod noise;
-mod pareto;
-mod stability;
 
 use anyhow::Result;
 
@@ -18,26 +18,16 @@ pub struct Args {
 pub enum Mode {
     /// Cost-function throughput (link evaluations per second) on the shipped examples.
     Cost(cost::Args),
-    /// The stability bound against measured limits, long undamped runs, large scenes and
-    /// extreme values.
-    Stability(stability::Args),
-    /// Every identification strategy on every shipped example at several budgets: run time,
-    /// evaluations, cost and parameter error, and the speed-up over the thesis' strategy.
-    Pareto(pareto::Args),
     /// The output-error estimator against the Cramér–Rao bound on generated networks through
     /// noise, gaps and hidden particles, beside the short cost's estimate.
     Noise(noise::Args),
 }
 
-/// `cost` and `stability` print JSON lines on stdout whatever `--json` says, and their table
-/// on stderr even with `--quiet` (a script keeps stdout only; docs/cli.md says so). `pareto`
-/// writes its records to a file and its tables on stdout; with `--json`, the records on stdout
-/// and the tables on stderr.
-pub fn run(a: Args, output: super::Output) -> Result<()> {
+/// `cost` prints JSON lines on stdout whatever `--json` says, and its table on stderr even
+/// with `--quiet` (a script keeps stdout only; docs/cli.md says so).
+pub fn run(a: Args, _output: super::Output) -> Result<()> {
     match a.mode {
         Mode::Cost(a) => cost::run(a),
-        Mode::Stability(a) => stability::run(a),
-        Mode::Pareto(a) => pareto::run(a, output),
         Mode::Noise(a) => noise::run(a),
     }
 }

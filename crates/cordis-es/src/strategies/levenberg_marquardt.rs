@@ -29,7 +29,7 @@
 //!
 //! The run starts where every strategy of this crate starts (`common::start_genome`): rest
 //! lengths and cosines at their observed means, an unknown's `init` when it has one, otherwise
-//! the centre of its internal box. Measured on `cordis bench pareto` (noiseless), that start
+//! the centre of its internal box. Measured on `cordis-bench pareto` (noiseless), that start
 //! against the plain box centre: muscle 45 against 67 evaluations to 0.01 %, cloth 27 against
 //! 308 to 0.656 %. A convergence at a cost above
 //! `small · A`, where `A` is [`crate::cost::Objective::acceleration_cost`] (what a model with no

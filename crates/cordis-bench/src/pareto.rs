@@ -1,4 +1,4 @@
-//! `cordis bench pareto`: every identification strategy on every shipped example at several
+//! `cordis-bench pareto`: every identification strategy on every shipped example at several
 //! budgets of cost evaluations, as (seconds, evaluations, cost, mean parameter error) points;
 //! and, per example, how much sooner than the `thesis` strategy the best other strategy
 //! reaches the error the thesis reports for that experiment.
@@ -243,7 +243,7 @@ pub fn bench_scene(name: &str, seed: u64) -> Result<BenchScene> {
     })
 }
 
-pub fn run(a: Args, output: super::super::Output) -> Result<()> {
+pub fn run(a: Args, output: crate::Output) -> Result<()> {
     let out = Report(output);
     let mut budgets = a.budgets.clone();
     budgets.sort_unstable();
@@ -496,7 +496,7 @@ fn print_speedups(out: &Report, speedups: &[Value]) {
 
 /// Where the tables and records go: tables on stdout, or with `--json` the records on stdout
 /// and the tables on stderr (none with `--quiet`).
-struct Report(super::super::Output);
+struct Report(crate::Output);
 
 impl Report {
     fn table(&self, line: String) {

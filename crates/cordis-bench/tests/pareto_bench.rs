@@ -1,4 +1,4 @@
-//! `cordis bench pareto` at small budgets on `rigid`: the JSON lines' schema, CMA-ES getting
+//! `cordis-bench pareto` at small budgets on `rigid`: the JSON lines' schema, CMA-ES getting
 //! better with its budget, the exact solvers' single point, and "not applicable" records.
 
 use std::process::Command;
@@ -6,12 +6,12 @@ use std::process::Command;
 use serde_json::Value;
 
 fn bench(dir: &std::path::Path, args: &[&str]) -> Vec<Value> {
-    let out = Command::new(env!("CARGO_BIN_EXE_cordis"))
+    let out = Command::new(env!("CARGO_BIN_EXE_cordis-bench"))
         .current_dir(dir)
-        .args(["bench", "pareto", "--out", "p.jsonl"])
+        .args(["pareto", "--out", "p.jsonl"])
         .args(args)
         .output()
-        .expect("cordis runs");
+        .expect("cordis-bench runs");
     assert!(
         out.status.success(),
         "{}",
@@ -145,14 +145,12 @@ fn exact_solvers_on_a_nonlinear_scene_are_reported_not_applicable() {
     assert!(records(&lines, "point", "").is_empty());
 
     // With --json, stdout holds the same records and nothing else; the table goes to stderr.
-    let out = Command::new(env!("CARGO_BIN_EXE_cordis"))
+    let out = Command::new(env!("CARGO_BIN_EXE_cordis-bench"))
         .current_dir(dir.path())
-        .args([
-            "--json", "bench", "pareto", "--out", "q.jsonl", "--scenes", "muscle",
-        ])
+        .args(["--json", "pareto", "--out", "q.jsonl", "--scenes", "muscle"])
         .args(["--strategies", "least-squares", "--budgets", "100"])
         .output()
-        .expect("cordis runs");
+        .expect("cordis-bench runs");
     assert!(out.status.success());
     let stdout: Vec<Value> = String::from_utf8_lossy(&out.stdout)
         .lines()

@@ -1,4 +1,4 @@
-//! `cordis bench stability`: the bound of `cordis_core::stability` against what the scheme does.
+//! `cordis-bench stability`: the bound of `cordis_core::stability` against what the scheme does.
 //!
 //! Sections (each measurement one JSON line with `"bench": "stability"` and a `"case"`):
 //! - `sweep`: one mass on an anchor, `K dt²/m` from 3.0 to 4.4: the bound's verdict and
