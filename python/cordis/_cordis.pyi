@@ -632,6 +632,7 @@ def identify(
     visible: Optional[Union[_ArrayLike, Sequence[_ArrayLike]]] = None,
     markers: Optional[Sequence[int]] = None,
     weights: Optional[Sequence[float]] = None,
+    loss: str = "squared",
 ) -> IdentifyResult:
     """Identifies the unknowns of ``scene`` from the observed positions ``traj`` (GIL released).
 
@@ -641,7 +642,8 @@ def identify(
     ``(T, N)``, or one per take) hides a particle where it is False; ``markers[j]`` is the
     scene particle the data's particle j tracks (the rest hidden; fixed particles need not be
     tracked); ``weights``: each marker's weight, 1/σ relative (one per marker or three: x, y,
-    z; read by ``output-error`` only). Only ``output-error``
+    z; read by ``output-error`` only); ``loss``: ``"squared"``, or ``"huber"``/``"cauchy"``,
+    robust against tracking outliers and swapped markers (output-error). Only ``output-error``
     reads gaps and takes, and ``auto`` picks it for them and for noisy data; its result has
     ``stderr``, ``intervals``, ``covariance`` and ``sigma``, and its ``scene`` carries the
     estimated initial state (``res.scene.simulate(T)`` replays the take).

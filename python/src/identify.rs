@@ -252,6 +252,7 @@ struct PyArgs<'py> {
     visible: Option<Bound<'py, PyAny>>,
     markers: Option<Vec<i64>>,
     weights: Option<Vec<f64>>,
+    loss: &'py str,
 }
 
 /// The arguments as a session request: integer conversions and Python's types here, every
@@ -281,6 +282,7 @@ fn request(
         })
         .transpose()?;
     r.weights = a.weights;
+    r.loss = a.loss.parse().map_err(|e| bad("loss", e))?;
     r.strategy = a.strategy.parse().map_err(|e| bad("strategy", e))?;
     r.generations = match a.generations {
         Some(g) => Generations::Limit(count(g, "generations")?),
@@ -420,7 +422,8 @@ fn session_to_py(err: CostError) -> PyErr {
 ///   (boolean `(T, N)`, or one per take) hides a particle where it is False; `markers[j]` is
 ///   the scene particle that the data's particle j tracks (the rest hidden; fixed particles
 ///   need not be tracked); `weights`: each marker's weight, 1/σ relative (one per marker, or
-///   three: x, y, z; read by `output-error` only). Only
+///   three: x, y, z; read by `output-error` only); `loss`: `"squared"`, or `"huber"` /
+///   `"cauchy"`, robust against tracking outliers and swapped markers (output-error). Only
 ///   `output-error` reads gaps and takes; `auto` picks it for them and for noisy data, and its
 ///   result has `stderr`, `intervals`, `covariance` and `sigma` (None for other strategies);
 ///   its `scene` carries the estimated initial state, so `res.scene.simulate(T)` replays
@@ -447,7 +450,7 @@ fn session_to_py(err: CostError) -> PyErr {
     stable_horizon = None, stable_spread = cordis_es::stable::DEFAULT_SPREAD,
     executor = None, islands = None, migrate_every = 10, migrants = 2, total_mass = None,
     lock = None, param_gene = None, descent_start = 400, descent_every = 100, visible = None,
-    markers = None, weights = None
+    markers = None, weights = None, loss = "squared"
 ))]
 #[pyo3(
     text_signature = "(scene, traj, strategy='auto', generations=1000, population=None, \
@@ -456,7 +459,7 @@ fn session_to_py(err: CostError) -> PyErr {
     stable_horizon=None, stable_spread=2.0, \
     executor=None, islands=None, migrate_every=10, migrants=2, total_mass=None, lock=None, \
     param_gene=None, descent_start=400, descent_every=100, visible=None, markers=None, \
-    weights=None)"
+    weights=None, loss='squared')"
 )]
 #[allow(clippy::too_many_arguments)]
 pub fn identify(
@@ -492,6 +495,7 @@ pub fn identify(
     visible: Option<Bound<'_, PyAny>>,
     markers: Option<Vec<i64>>,
     weights: Option<Vec<f64>>,
+    loss: &str,
 ) -> PyResult<IdentifyResult> {
     let args = PyArgs {
         strategy,
@@ -520,6 +524,7 @@ pub fn identify(
         visible,
         markers,
         weights,
+        loss,
     };
     let req = request(&scene.core(), traj, truth, args)?;
     let executor = executor_object(py, executor)?;

@@ -175,3 +175,25 @@ def test_bad_markers_and_weights_are_refused_by_name(kw, says):
     guess, _, traj = load()
     with pytest.raises(ValueError, match=says):
         cordis.identify(guess, traj, **kw)
+
+
+def test_a_robust_loss_downweights_a_marker_swap_and_the_cli_agrees(tmp_path):
+    guess, truth, traj = load()
+    swapped = traj.copy()
+    swapped[60:100, [13, 14]] = traj[60:100, [14, 13]]
+    res = cordis.identify(guess, swapped, loss="huber", truth=truth)
+    assert res.strategy == "output-error" and res.stopped_by == "converged"
+    assert "robust loss (huber)" in res.report["chosen_because"]
+    assert res.report["loss"] == "huber" and res.report["downweighted"] >= 200
+    assert res.param_error_pct < 5.0
+    np.save(tmp_path / "s.npy", swapped)
+    exe = shutil.which("cordis", path=os.path.dirname(sys.executable))
+    out = subprocess.run(
+        [exe, "identify", str(SOFT / "guess.json"), "-t", str(tmp_path / "s.npy"), "-q",
+         "--loss", "huber"],
+        capture_output=True, text=True, timeout=300,
+    )
+    assert out.returncode == 0, out.stderr
+    assert json.loads(out.stdout.strip().splitlines()[-1])["cost"] == res.cost
+    with pytest.raises(ValueError, match="loss: `l1` is not one of squared, huber, cauchy"):
+        cordis.identify(guess, traj, loss="l1")

@@ -321,7 +321,15 @@ fn bad_markers_and_weights_are_refused_by_name() {
     let mut twice = all.clone();
     twice[5] = "4".into();
     let (twice, all) = (twice.join(","), all.join(","));
-    let cases: [(&[&str], &[&str]); 6] = [
+    let cases: [(&[&str], &[&str]); 8] = [
+        (
+            &["--loss", "l1"],
+            &["--loss", "not one of squared, huber, cauchy"],
+        ),
+        (
+            &["--loss", "huber", "--strategy", "least-squares"],
+            &["--loss", "read by output-error only"],
+        ),
         (
             &["--markers", &twice],
             &["--markers[5]", "already tracked by marker 4"],

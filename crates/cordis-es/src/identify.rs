@@ -76,6 +76,8 @@ pub struct StrategyOptions {
     /// Thesis strategy: Powell's descent from this generation, every `descent_every`.
     pub descent_start: u64,
     pub descent_every: u64,
+    /// The output-error fit's loss on each residual.
+    pub loss: output_error::Loss,
 }
 
 impl Default for StrategyOptions {
@@ -86,6 +88,7 @@ impl Default for StrategyOptions {
             gene: None,
             descent_start: t.descent_start,
             descent_every: t.descent_every,
+            loss: output_error::Loss::Squared,
         }
     }
 }
@@ -96,7 +99,12 @@ pub fn make_strategy(
     problem: &Problem,
     options: &StrategyOptions,
 ) -> (Box<dyn Strategy>, &'static str) {
+    let robust = options.loss != output_error::Loss::Squared;
     let (auto_reason, solved) = match name {
+        StrategyName::Auto if robust && strategies::output_error::supported(problem).is_ok() => (
+            Some(format!("a robust loss ({}) is asked for", options.loss)),
+            None,
+        ),
         StrategyName::Auto => auto_probe(problem),
         _ => (None, None),
     };
@@ -168,7 +176,11 @@ pub fn make_strategy(
             "levenberg-marquardt",
         ),
         StrategyName::OutputError => {
-            let oe = OutputError::new(output_error::Config::default()).chosen_because(auto_reason);
+            let config = output_error::Config {
+                loss: options.loss,
+                ..output_error::Config::default()
+            };
+            let oe = OutputError::new(config).chosen_because(auto_reason);
             (Box::new(oe), "output-error")
         }
     }

@@ -92,6 +92,9 @@ pub struct IdentifyRequest {
     /// every take (`None`: marker `i` is particle `i`). Particles no marker names are hidden;
     /// fixed ones need not be tracked at all.
     pub markers: Option<Vec<usize>>,
+    /// The output-error fit's loss on each residual: squared, or robust (`huber`, `cauchy`)
+    /// against tracking outliers and swapped markers.
+    pub loss: crate::output_error::Loss,
     /// Each marker's weight, 1/σ relative to the others (one per marker, or three per marker:
     /// x, y, z), read by `output-error` only (`None`: all 1).
     pub weights: Option<Vec<f64>>,
@@ -160,6 +163,7 @@ impl IdentifyRequest {
             takes,
             markers: None,
             weights: None,
+            loss: crate::output_error::Loss::Squared,
             strategy: StrategyName::Auto,
             population: None,
             param_gene: None,
@@ -248,6 +252,7 @@ impl Session {
             descent_start: req.descent_start,
             descent_every: req.descent_every,
             gene: gene.clone(),
+            loss: req.loss,
         };
         check_memory(&req, &problem, &options)?;
         let (strategy, ran) = match req.islands {
@@ -564,6 +569,16 @@ fn stop_rules(req: &IdentifyRequest, gene: Option<&GeneParams>) -> StopRules {
 /// scale nothing fixes (masses and forces then trade off: every answer is a box centre).
 fn check(req: &IdentifyRequest, ran: &str, problem: &Problem) -> Result<(), CostError> {
     let place = format!("{} ({ran})", req.scene_place);
+    if req.loss != crate::output_error::Loss::Squared && ran != "output-error" {
+        return Err(CostError::invalid(
+            req.opt("loss"),
+            format!(
+                "`{}` is read by output-error only, not `{ran}` (use --strategy output-error or auto)",
+                req.loss
+            )
+            .replace("--strategy", &req.opt("strategy")),
+        ));
+    }
     if req.total_mass.is_none() {
         let split = exact::split(problem);
         if split.free_masses {
@@ -729,6 +744,9 @@ fn fingerprint(
         f.insert("markers".into(), format!("{:?} {:?}", req.markers, weights));
     }
     f.insert("cost".into(), req.cost.to_string());
+    if req.loss != crate::output_error::Loss::Squared {
+        f.insert("loss".into(), req.loss.to_string());
+    }
     f.insert("noise".into(), format!("{noise:e}"));
     f.insert("population".into(), options.population.to_string());
     f.insert(

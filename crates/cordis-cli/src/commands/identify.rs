@@ -33,6 +33,11 @@ pub struct Args {
     /// three per marker (x, y, z). Positive and finite; read by output-error only.
     #[arg(long, value_delimiter = ',', num_args = 1.., allow_negative_numbers = true)]
     weights: Option<Vec<f64>>,
+    /// Loss on each position residual (output-error): squared (maximum likelihood under
+    /// Gaussian noise) | huber | cauchy (robust against tracking outliers and swapped markers;
+    /// auto then picks output-error).
+    #[arg(long, default_value = "squared")]
+    loss: String,
     /// Strategy: auto | thesis | least-squares | hybrid | cmaes | self-adaptive | annealing |
     /// parisian | levenberg-marquardt | output-error. auto = output-error on noisy or gappy data
     /// (when every kind has exact sensitivities), else least-squares when every unknown enters
@@ -221,6 +226,7 @@ fn request(a: &Args) -> Result<IdentifyRequest> {
     r.scene_place = a.scene.display().to_string();
     r.markers = a.markers.clone();
     r.weights = a.weights.clone();
+    r.loss = a.loss.parse().map_err(|e| anyhow::anyhow!("--loss: {e}"))?;
     r.strategy = a.strategy;
     r.population = a.population;
     r.param_gene = a.param_gene.clone();

@@ -90,6 +90,35 @@ impl Fitter<'_> {
         }
     }
 
+    /// The weighted residuals `w (x − y)` of each take over its first `window` frames (the
+    /// take's layout, NaN where a coordinate is missing or beyond the window); `None` when a
+    /// rollout diverges. For the robust loss's reweighting only: no NaN leaves the fit.
+    pub fn residuals(&self, q: &[f64], window: usize, buf: &mut Sens) -> Option<Vec<Vec<f64>>> {
+        let p = self.params(q);
+        let mut out = Vec::with_capacity(self.takes.len());
+        for (k, take) in self.takes.iter().enumerate() {
+            let state = &q[self.theta() + k * self.state_len()..][..self.state_len()];
+            let n = take.particles();
+            let mut r = vec![f64::NAN; take.frames() * n * 3];
+            let mut visit = |t: usize, x: &[cordis_core::Vec3], _: Option<&[f64]>| {
+                for (i, xi) in x.iter().enumerate() {
+                    for c in 0..3 {
+                        let (obs, w) = take.at(t, i, c);
+                        if w > 0.0 {
+                            r[(t * n + i) * 3 + c] = w * (xi[c] - obs);
+                        }
+                    }
+                }
+            };
+            let frames = window.min(take.frames());
+            self.tangent
+                .rollout(&p, state, frames, None, buf, &mut visit)
+                .ok()?;
+            out.push(r);
+        }
+        Some(out)
+    }
+
     /// Cost, Gauss–Newton matrix and gradient over the first `window` frames of each take, in
     /// the fit's variables (internal coordinates for θ); `None` when a rollout diverges.
     pub fn normal(&self, q: &[f64], window: usize, buf: &mut Sens) -> Option<Normal> {

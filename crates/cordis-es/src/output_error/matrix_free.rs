@@ -1570,6 +1570,8 @@ pub(crate) fn finish(
         evaluations: counts.evaluations,
         windows,
         start: note,
+        loss: super::Loss::Squared,
+        downweighted: 0,
     })
 }
 

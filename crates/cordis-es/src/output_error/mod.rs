@@ -42,6 +42,7 @@
 //! initial state goes into the identified scene, so replaying it reproduces the observed motion.
 
 pub mod fit;
+pub mod loss;
 pub mod matrix_free;
 pub mod observations;
 pub mod run;
@@ -55,6 +56,7 @@ use std::collections::VecDeque;
 use cordis_core::Scene;
 use nalgebra::DMatrix;
 
+pub use loss::Loss;
 pub use observations::Take;
 pub use run::{Prepared, Progress, Step};
 
@@ -78,6 +80,8 @@ pub struct Config {
     pub start: Option<Vec<f64>>,
     /// Starting initial state per take (`[x0, v0]` per free particle); `None`: from the data.
     pub start_states: Option<Vec<Vec<f64>>>,
+    /// The loss on each residual ([`loss`]: squared, or robust against outliers).
+    pub loss: Loss,
 }
 
 impl Default for Config {
@@ -90,6 +94,7 @@ impl Default for Config {
             gtol: 1e-10,
             start: None,
             start_states: None,
+            loss: Loss::Squared,
         }
     }
 }
@@ -133,6 +138,10 @@ pub struct Estimate {
     pub windows: Vec<usize>,
     /// Where the fit started (short-cost solve or heuristic, and why).
     pub start: String,
+    /// The loss, and with a robust one the observed coordinates it weighs at less than half
+    /// (ω < 0.5: outliers).
+    pub loss: Loss,
+    pub downweighted: usize,
 }
 
 /// The maximum-likelihood estimate of `space`'s unknowns from `takes` (module docs), in one
@@ -221,6 +230,8 @@ pub(crate) fn summarise(
         evaluations: counts.evaluations,
         windows,
         start,
+        loss: Loss::Squared,
+        downweighted: 0,
     }
 }
 

@@ -203,9 +203,24 @@ impl Take {
         (self.values[k], self.weights[k])
     }
 
+    /// The weight of coordinate `k` of the flat layout (0: missing).
+    pub(crate) fn weight_at(&self, k: usize) -> f64 {
+        self.weights[k]
+    }
+
     /// Whether particle `i` is observed at some frame (any coordinate).
     pub fn tracks(&self, i: usize) -> bool {
         (0..self.frames).any(|t| (0..3).any(|c| self.at(t, i, c).1 > 0.0))
+    }
+
+    /// The take with every weight multiplied by `mult` (same layout; a robust loss's
+    /// multipliers, [`super::loss`]).
+    pub fn reweighted(&self, mult: &[f64]) -> Take {
+        let mut out = self.clone();
+        for (w, m) in out.weights.iter_mut().zip(mult) {
+            *w *= m;
+        }
+        out
     }
 
     /// The take truncated to its first `frames` frames.

@@ -12,6 +12,7 @@ use cordis_core::Scene;
 use serde::{Deserialize, Serialize};
 
 use super::fit::{self, Counts, Fitter, LmSettings, StageEnd};
+use super::loss::{self, Loss};
 use super::matrix_free::{self, CgCounts};
 use super::observations::Take;
 use super::tangent::{Columns, Sens, Tangent};
@@ -40,6 +41,7 @@ pub struct Prepared {
     noise_level: Vec<f64>,
     set: LmSettings,
     first_window: usize,
+    loss: Loss,
 }
 
 /// Where a fit stands between two stages.
@@ -66,6 +68,30 @@ pub struct Progress {
     /// The first attempt where it got stuck: what the fit goes on from when no restart is
     /// left (its start was the informed one).
     first_stuck: Option<Box<Stuck>>,
+    /// The robust loss's weight multipliers per take (the take's layout; empty: all 1).
+    #[serde(with = "nested_bits")]
+    robust: Vec<Vec<f64>>,
+    /// Reweighting rounds of the current window.
+    reweights: usize,
+}
+
+/// Exact f64 vectors of vectors in JSON (IEEE bits).
+mod nested_bits {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &[Vec<f64>], s: S) -> Result<S::Ok, S::Error> {
+        v.iter()
+            .map(|r| r.iter().map(|x| x.to_bits()).collect::<Vec<u64>>())
+            .collect::<Vec<_>>()
+            .serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<Vec<f64>>, D::Error> {
+        Ok(Vec::<Vec<u64>>::deserialize(d)?
+            .into_iter()
+            .map(|r| r.into_iter().map(f64::from_bits).collect())
+            .collect())
+    }
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -127,17 +153,68 @@ impl Prepared {
                 gtol: config.gtol,
             },
             first_window: config.first_window,
+            loss: config.loss,
         })
     }
 
     fn fitter<'a>(&'a self, space: &'a ParameterSpace) -> Fitter<'a> {
+        self.fitter_on(space, &self.takes)
+    }
+
+    fn fitter_on<'a>(&'a self, space: &'a ParameterSpace, takes: &'a [Take]) -> Fitter<'a> {
         Fitter {
             tangent: &self.tangent,
             unknowns: &space.unknowns,
             base: &space.base,
-            takes: &self.takes,
+            takes,
             cols: self.cols.clone(),
         }
+    }
+
+    /// The takes the fit weighs now: the observed ones, times the robust loss's multipliers.
+    fn weighed(&self, progress: &Progress) -> Vec<Take> {
+        match progress.robust.is_empty() {
+            true => self.takes.clone(),
+            false => self
+                .takes
+                .iter()
+                .zip(&progress.robust)
+                .map(|(t, m)| t.reweighted(m))
+                .collect(),
+        }
+    }
+
+    /// IRLS ([`super::loss`]): the multipliers `√ω(r/s)` at `q` over the first `window`
+    /// frames; whether one moved by more than 0.01 (then the window is fitted again).
+    fn reweight(&self, space: &ParameterSpace, q: &[f64], window: usize, p: &mut Progress) -> bool {
+        let Some(res) = self
+            .fitter(space)
+            .residuals(q, window, &mut Sens::default())
+        else {
+            return false;
+        };
+        let scale = loss::robust_scale(res.iter().flatten().copied());
+        if scale.is_nan() || scale <= 0.0 {
+            return false;
+        }
+        if p.robust.is_empty() {
+            p.robust = self
+                .takes
+                .iter()
+                .map(|t| vec![1.0; t.frames() * t.particles() * 3])
+                .collect();
+        }
+        let mut moved = false;
+        for (mult, r) in p.robust.iter_mut().zip(&res) {
+            for (m, &r) in mult.iter_mut().zip(r) {
+                if r.is_finite() {
+                    let next = self.loss.weight(r / scale).sqrt();
+                    moved |= (next - *m).abs() > 0.01;
+                    *m = next;
+                }
+            }
+        }
+        moved
     }
 
     /// The largest take's noise level, m.
@@ -177,6 +254,8 @@ impl Prepared {
             states0: q[space.dim()..].to_vec(),
             restarts: 0,
             first_stuck: None,
+            robust: Vec::new(),
+            reweights: 0,
             q,
             schedule: Schedule::new(&fitter, self.first_window, self.noise()),
             counts: Counts::default(),
@@ -194,7 +273,8 @@ impl Prepared {
         progress: &mut Progress,
         halt: &dyn Fn() -> bool,
     ) -> Result<Step, CostError> {
-        let fitter = self.fitter(space);
+        let takes = self.weighed(progress);
+        let fitter = self.fitter_on(space, &takes);
         let w = progress.schedule.next;
         let mut q = progress.q.clone();
         let mut counts = progress.counts;
@@ -222,6 +302,23 @@ impl Prepared {
         progress.partial = None;
         progress.counts = counts;
         progress.cg = cg;
+        // Intermediate windows only steer the growth: a few rounds; the last one to the fixed
+        // point.
+        let rounds = match w >= progress.schedule.longest() {
+            true => loss::MAX_REWEIGHTS,
+            false => loss::WINDOW_REWEIGHTS,
+        };
+        if self.loss != Loss::Squared
+            && end != StageEnd::Diverged
+            && progress.reweights < rounds
+            && self.reweight(space, &q, w, progress)
+        {
+            // The same window again on the new weights.
+            progress.reweights += 1;
+            progress.q = q;
+            return Ok(Step::More);
+        }
+        progress.reweights = 0;
         let mut after = progress
             .schedule
             .after(&fitter, &mut q, end, &mut Sens::default())?;
@@ -276,10 +373,32 @@ impl Prepared {
         space: &ParameterSpace,
         progress: &Progress,
     ) -> Result<Estimate, CostError> {
+        let mut e = self.finish_fit(scene, space, progress)?;
+        e.loss = self.loss;
+        e.downweighted = progress
+            .robust
+            .iter()
+            .zip(&self.takes)
+            .map(|(m, t)| {
+                (0..m.len())
+                    .filter(|&k| t.weight_at(k) > 0.0 && m[k] * m[k] < 0.5)
+                    .count()
+            })
+            .sum();
+        Ok(e)
+    }
+
+    fn finish_fit(
+        &self,
+        scene: &Scene,
+        space: &ParameterSpace,
+        progress: &Progress,
+    ) -> Result<Estimate, CostError> {
         let end = progress.last_end.ok_or_else(|| {
             CostError::mismatch("output-error", "the fit has not reached the whole take")
         })?;
-        let fitter = self.fitter(space);
+        let takes = self.weighed(progress);
+        let fitter = self.fitter_on(space, &takes);
         let p = progress;
         let windows = p.schedule.windows.clone();
         if self.large {
@@ -322,6 +441,16 @@ impl Prepared {
                 "output-error state holds {} fit variables, this problem has {len}",
                 progress.q.len()
             ));
+        }
+        let robust_fits = progress.robust.is_empty()
+            || (progress.robust.len() == self.takes.len()
+                && progress
+                    .robust
+                    .iter()
+                    .zip(&self.takes)
+                    .all(|(m, t)| m.len() == t.frames() * t.particles() * 3));
+        if !robust_fits {
+            return Err("output-error state holds robust weights of another shape".into());
         }
         if progress.schedule.longest() != longest || progress.schedule.next > longest {
             return Err(format!(

@@ -28,6 +28,12 @@ pub struct OutputErrorReport {
     pub sigma: f64,
     /// Noise level of each take from its third differences before the fit, m.
     pub noise_level: Vec<f64>,
+    /// The loss on each residual (`squared`, `huber`, `cauchy`) and, with a robust one, the
+    /// observed coordinates it weighs at less than half (outliers).
+    #[serde(default)]
+    pub loss: String,
+    #[serde(default)]
+    pub downweighted: usize,
     /// Observed coordinates and fit variables (unknowns + 6 per free particle and take).
     pub observed: usize,
     pub variables: usize,

@@ -91,6 +91,7 @@ impl OutputError {
             position_cost,
             sigma: (position_cost / dof as f64).sqrt(),
             noise_level: prepared.noise_level().to_vec(),
+            loss: self.config.loss.to_string(),
             observed,
             variables,
             unconverged: Some(format!(
@@ -177,6 +178,8 @@ impl OutputErrorReport {
             position_cost: e.cost,
             sigma: e.sigma,
             noise_level: e.noise_level.clone(),
+            loss: e.loss.to_string(),
+            downweighted: e.downweighted,
             observed: e.observed,
             variables: e.variables,
             correlation: (0..dim)
