@@ -21,9 +21,9 @@ wheels="$venv/wheels"
 wheel=("$wheels"/cordis_anima-*.whl)
 # With the ray extra, for the Ray executor's tests (python/tests/test_ray.py, about a minute
 # with Ray's start-up); if Ray has no wheel for this Python, without it (those tests then skip).
-if ! "$venv/bin/python" -m pip install --quiet "${wheel[0]}[ray]" pytest mypy; then
+if ! "$venv/bin/python" -m pip install --quiet "${wheel[0]}[ray]" pytest mypy hypothesis; then
     echo "python-test: the ray extra could not be installed; test_ray.py will be skipped" >&2
-    "$venv/bin/python" -m pip install --quiet "${wheel[0]}" pytest mypy
+    "$venv/bin/python" -m pip install --quiet "${wheel[0]}" pytest mypy hypothesis
 fi
 (cd "$venv" && "$venv/bin/python" -c 'import cordis; print("python-test: installed cordis", cordis.__version__, "from", cordis.__file__)')
 # The plot extra, for cordis.plot's tests and the examples/ scripts (a wheel: a few seconds).
