@@ -1,8 +1,6 @@
 //! Choosing and configuring a strategy by name, and the data preparation `identify` shares
 //! between the CLI and Python.
 
-use std::str::FromStr;
-
 use cordis_core::thesis::GeneParams;
 use cordis_core::Trajectory;
 
@@ -22,50 +20,7 @@ use crate::strategies::self_adaptive::{SelfAdaptive, SelfAdaptiveConfig};
 use crate::strategies::thesis::{Thesis, ThesisConfig};
 use crate::strategies::{self, hybrid, least_squares};
 
-/// `--strategy` values.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum StrategyName {
-    /// `least-squares` when every unknown enters the short cost linearly, `hybrid` when only
-    /// ranges, v_max and a TGR's stiffness and tendon do not, `levenberg-marquardt` when the
-    /// exact solvers refuse but the short cost is smooth in every unknown (no unknown range
-    /// or v_max: muscles, worlds, couplings), else `thesis`.
-    Auto,
-    Thesis,
-    LeastSquares,
-    Hybrid,
-    Cmaes,
-    SelfAdaptive,
-    Annealing,
-    Parisian,
-    LevenbergMarquardt,
-    /// The maximum-likelihood fit of simulated to observed positions over the parameters and
-    /// the initial state ([`crate::output_error`]); `auto` picks it for noisy or incomplete
-    /// data when the scene's kinds have exact sensitivities.
-    OutputError,
-}
-
-impl FromStr for StrategyName {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "auto" => Ok(StrategyName::Auto),
-            "thesis" => Ok(StrategyName::Thesis),
-            "least-squares" => Ok(StrategyName::LeastSquares),
-            "hybrid" => Ok(StrategyName::Hybrid),
-            "cmaes" => Ok(StrategyName::Cmaes),
-            "self-adaptive" => Ok(StrategyName::SelfAdaptive),
-            "annealing" => Ok(StrategyName::Annealing),
-            "parisian" => Ok(StrategyName::Parisian),
-            "levenberg-marquardt" => Ok(StrategyName::LevenbergMarquardt),
-            "output-error" => Ok(StrategyName::OutputError),
-            _ => Err(format!(
-                "unknown strategy `{s}` (expected one of: auto, thesis, least-squares, hybrid, \
-                 cmaes, self-adaptive, annealing, parisian, levenberg-marquardt, output-error)"
-            )),
-        }
-    }
-}
+pub use crate::strategies::registry::StrategyName;
 
 /// What a strategy may be configured with, from the CLI or Python.
 #[derive(Clone, Debug, PartialEq)]
@@ -124,9 +79,9 @@ pub fn make_strategy(
                 Some((s, evals)) => least_squares::strategy().with_solution(s, evals),
                 None => least_squares::strategy(),
             };
-            (Box::new(strategy), "least-squares")
+            (Box::new(strategy), name.name())
         }
-        StrategyName::Hybrid => (Box::new(hybrid::strategy()), "hybrid"),
+        StrategyName::Hybrid => (Box::new(hybrid::strategy()), name.name()),
         StrategyName::Auto | StrategyName::Thesis => {
             let mut c = ThesisConfig {
                 population: options.population,
@@ -139,7 +94,7 @@ pub fn make_strategy(
                 c.pmut = g.pmut.unwrap_or(c.pmut);
                 c.reducer = g.reducer.unwrap_or(c.reducer);
             }
-            (Box::new(Thesis::new(c)), "thesis")
+            (Box::new(Thesis::new(c)), StrategyName::Thesis.name())
         }
         // `population` is λ (the initial λ for cmaes, the number of chains for annealing, the
         // total over the sub-populations for parisian).
@@ -148,32 +103,32 @@ pub fn make_strategy(
                 population: Some(options.population),
                 ..CmaesConfig::default()
             };
-            (Box::new(Cmaes::new(c)), "cmaes")
+            (Box::new(Cmaes::new(c)), name.name())
         }
         StrategyName::SelfAdaptive => (
             Box::new(SelfAdaptive::new(SelfAdaptiveConfig::with_lambda(
                 options.population,
             ))),
-            "self-adaptive",
+            name.name(),
         ),
         StrategyName::Annealing => {
             let c = AnnealingConfig {
                 chains: options.population,
                 ..AnnealingConfig::default()
             };
-            (Box::new(Annealing::new(c)), "annealing")
+            (Box::new(Annealing::new(c)), name.name())
         }
         StrategyName::Parisian => {
             let c = ParisianConfig {
                 population: options.population,
                 ..ParisianConfig::default()
             };
-            (Box::new(Parisian::new(c)), "parisian")
+            (Box::new(Parisian::new(c)), name.name())
         }
         // No population: one point, its Jacobian's columns evaluated in parallel.
         StrategyName::LevenbergMarquardt => (
             Box::new(LevenbergMarquardt::new(LmConfig::default())),
-            "levenberg-marquardt",
+            name.name(),
         ),
         StrategyName::OutputError => {
             let config = output_error::Config {
@@ -181,7 +136,7 @@ pub fn make_strategy(
                 ..output_error::Config::default()
             };
             let oe = OutputError::new(config).chosen_because(auto_reason);
-            (Box::new(oe), "output-error")
+            (Box::new(oe), name.name())
         }
     }
 }

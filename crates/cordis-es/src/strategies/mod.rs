@@ -9,6 +9,7 @@ pub mod least_squares;
 pub mod levenberg_marquardt;
 pub mod output_error;
 pub mod parisian;
+pub mod registry;
 pub mod self_adaptive;
 #[cfg(test)]
 pub(crate) mod test_scenes;

@@ -1,0 +1,117 @@
+//! The strategies by name: [`StrategyName`] and [`STRATEGIES`], the one list of `--strategy`
+//! values that parsing, help texts, errors and checkpoints read. Building a strategy from its
+//! name (and `auto`'s choice) is [`crate::identify::make_strategy`].
+
+use std::fmt;
+use std::str::FromStr;
+
+#[cfg(doc)]
+use crate::run::strategy::Strategy;
+
+/// `--strategy` values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StrategyName {
+    /// `least-squares` when every unknown enters the short cost linearly, `hybrid` when only
+    /// ranges, v_max and a TGR's stiffness and tendon do not, `levenberg-marquardt` when the
+    /// exact solvers refuse but the short cost is smooth in every unknown (no unknown range
+    /// or v_max: muscles, worlds, couplings), else `thesis`.
+    Auto,
+    Thesis,
+    LeastSquares,
+    Hybrid,
+    Cmaes,
+    SelfAdaptive,
+    Annealing,
+    Parisian,
+    LevenbergMarquardt,
+    /// The maximum-likelihood fit of simulated to observed positions over the parameters and
+    /// the initial state ([`crate::output_error`]); `auto` picks it for noisy or incomplete
+    /// data when the scene's kinds have exact sensitivities.
+    OutputError,
+}
+
+/// Every strategy and its `--strategy` name (also its [`Strategy::name`] and the checkpoint's
+/// `strategy`), in the order help texts list them: the one list of names.
+pub const STRATEGIES: [(StrategyName, &str); 10] = [
+    (StrategyName::Auto, "auto"),
+    (StrategyName::Thesis, "thesis"),
+    (StrategyName::LeastSquares, "least-squares"),
+    (StrategyName::Hybrid, "hybrid"),
+    (StrategyName::Cmaes, "cmaes"),
+    (StrategyName::SelfAdaptive, "self-adaptive"),
+    (StrategyName::Annealing, "annealing"),
+    (StrategyName::Parisian, "parisian"),
+    (StrategyName::LevenbergMarquardt, "levenberg-marquardt"),
+    (StrategyName::OutputError, "output-error"),
+];
+
+impl StrategyName {
+    /// The `--strategy` name.
+    pub fn name(self) -> &'static str {
+        STRATEGIES
+            .iter()
+            .find(|(s, _)| *s == self)
+            .map_or("auto", |(_, n)| n)
+    }
+
+    /// Every `--strategy` name, comma-separated, for help texts and errors.
+    pub fn list() -> String {
+        STRATEGIES.map(|(_, n)| n).join(", ")
+    }
+}
+
+impl fmt::Display for StrategyName {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for StrategyName {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        STRATEGIES
+            .iter()
+            .find(|(_, n)| *n == s)
+            .map(|(k, _)| *k)
+            .ok_or_else(|| {
+                format!(
+                    "unknown strategy `{s}` (expected one of: {})",
+                    StrategyName::list()
+                )
+            })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cost::CostKind;
+    use crate::identify::{make_strategy, with_unknown_boxes, StrategyOptions};
+    use crate::problem::Problem;
+    use crate::strategies::test_scenes::anchored_gas;
+
+    /// Every name parses back to its strategy, and the strategy built from it runs under that
+    /// name (what the checkpoint records and the report prints).
+    #[test]
+    fn every_name_is_the_strategy_it_builds() {
+        let scene = anchored_gas(&[[0.2, 0.0, 0.0], [0.0, 0.3, 0.0]], false);
+        let traj = scene.simulate(20).expect("simulates");
+        let problem =
+            Problem::new(&with_unknown_boxes(&scene, 4.0, 0), &traj, CostKind::Short).unwrap();
+        for (kind, name) in STRATEGIES {
+            assert_eq!(name.parse::<StrategyName>(), Ok(kind));
+            assert_eq!(kind.to_string(), name);
+            if kind == StrategyName::Auto {
+                continue;
+            }
+            let (strategy, ran) = make_strategy(kind, &problem, &StrategyOptions::default());
+            assert_eq!((strategy.name(), ran), (name, name));
+        }
+        let err = "shrt".parse::<StrategyName>().unwrap_err();
+        assert!(
+            err.contains("output-error") && err.contains("`shrt`"),
+            "{err}"
+        );
+    }
+}
