@@ -185,27 +185,32 @@ impl Prepared {
     }
 
     /// IRLS ([`super::loss`]): the multipliers `√ω(r/s)` at `q` over the first `window`
-    /// frames; whether one moved by more than 0.01 (then the window is fitted again).
-    fn reweight(&self, space: &ParameterSpace, q: &[f64], window: usize, p: &mut Progress) -> bool {
-        let Some(res) = self
+    /// frames (the others kept), and whether one moved by more than 0.01 from `p`'s (then the
+    /// window is fitted again); `None` when the residuals give no scale.
+    fn multipliers(
+        &self,
+        space: &ParameterSpace,
+        q: &[f64],
+        window: usize,
+        p: &Progress,
+    ) -> Option<(Vec<Vec<f64>>, bool)> {
+        let res = self
             .fitter(space)
-            .residuals(q, window, &mut Sens::default())
-        else {
-            return false;
-        };
+            .residuals(q, window, &mut Sens::default())?;
         let scale = loss::robust_scale(res.iter().flatten().copied());
         if scale.is_nan() || scale <= 0.0 {
-            return false;
+            return None;
         }
-        if p.robust.is_empty() {
-            p.robust = self
+        let mut robust = match p.robust.is_empty() {
+            true => self
                 .takes
                 .iter()
                 .map(|t| vec![1.0; t.frames() * t.particles() * 3])
-                .collect();
-        }
+                .collect(),
+            false => p.robust.clone(),
+        };
         let mut moved = false;
-        for (mult, r) in p.robust.iter_mut().zip(&res) {
+        for (mult, r) in robust.iter_mut().zip(&res) {
             for (m, &r) in mult.iter_mut().zip(r) {
                 if r.is_finite() {
                     let next = self.loss.weight(r / scale).sqrt();
@@ -214,7 +219,7 @@ impl Prepared {
                 }
             }
         }
-        moved
+        Some((robust, moved))
     }
 
     /// The largest take's noise level, m.
@@ -308,15 +313,23 @@ impl Prepared {
             true => loss::MAX_REWEIGHTS,
             false => loss::WINDOW_REWEIGHTS,
         };
-        if self.loss != Loss::Squared
-            && end != StageEnd::Diverged
-            && progress.reweights < rounds
-            && self.reweight(space, &q, w, progress)
-        {
-            // The same window again on the new weights.
-            progress.reweights += 1;
-            progress.q = q;
-            return Ok(Step::More);
+        let mut end = end;
+        if self.loss != Loss::Squared && end != StageEnd::Diverged {
+            if let Some((robust, moved)) = self.multipliers(space, &q, w, progress) {
+                if progress.reweights < rounds {
+                    progress.robust = robust;
+                    if moved {
+                        // The same window again on the new weights.
+                        progress.reweights += 1;
+                        progress.q = q;
+                        return Ok(Step::More);
+                    }
+                } else if moved && w >= progress.schedule.longest() && end == StageEnd::Converged {
+                    // The weights had not settled when the rounds ran out: the robust fit's
+                    // own criterion did not hold.
+                    end = StageEnd::Budget;
+                }
+            }
         }
         progress.reweights = 0;
         let mut after = progress

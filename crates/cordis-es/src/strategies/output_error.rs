@@ -69,9 +69,7 @@ impl OutputError {
         };
         let q = progress.best();
         let genome = prepared.genome(&problem.space, q).to_vec();
-        let mut s = problem.scratch();
-        let mut local = vec![0.0; problem.num_particles];
-        let cost = problem.evaluate(&genome, &mut s, &mut local);
+        let cost = problem_cost(problem, &genome);
         let (iterations, rollouts) = progress.counts();
         let where_ = if progress.stopped() { "in" } else { "before" };
         let (position_cost, observed, variables) = prepared.measure(&problem.space, q);
@@ -113,9 +111,7 @@ impl OutputError {
     /// The fit reached the whole take: `e` is the estimate, `staged` the rollouts of its
     /// stages (already counted on the problem).
     fn finished_with(&mut self, problem: &Problem, e: Estimate, staged: usize) {
-        let mut s = problem.scratch();
-        let mut local = vec![0.0; problem.num_particles];
-        let cost = problem.evaluate(&e.genome, &mut s, &mut local);
+        let cost = problem_cost(problem, &e.genome);
         // The final evaluations (the whole take with sensitivities) beyond the stages'.
         problem.set_evals(problem.evals() + e.evaluations.saturating_sub(staged) as u64);
         self.state = State {
@@ -142,6 +138,13 @@ impl OutputError {
         };
         self.prepared = None;
     }
+}
+
+/// The problem's own cost at `genome` (what every strategy's best is compared by).
+fn problem_cost(problem: &Problem, genome: &[f64]) -> f64 {
+    let mut s = problem.scratch();
+    let mut local = vec![0.0; problem.num_particles];
+    problem.evaluate(genome, &mut s, &mut local)
 }
 
 /// Whether `output-error` can run on `problem` (its kinds have exact sensitivities).
