@@ -28,10 +28,12 @@ fi
 (cd "$venv" && "$venv/bin/python" -c 'import cordis; print("python-test: installed cordis", cordis.__version__, "from", cordis.__file__)')
 # The plot extra, for cordis.plot's tests and the examples/ scripts (a wheel: a few seconds).
 "$venv/bin/python" -m pip install --quiet matplotlib
-# MuJoCo, for the scheme-equivalence test (test_mujoco.py) and the prediction score on MuJoCo's
+# MuJoCo, for the MJCF export's replay test (test_mujoco.py) and the prediction score on MuJoCo's
 # own cable (test_mujoco_prediction.py, benches/mujoco_prediction.py: 4.x flexcomp rods and the
 # `discrete` integrator). Required: a test of an installable tool never skips in CI.
 "$venv/bin/python" -m pip install --quiet "mujoco>=4,<5"
+# An independent glTF reader for the export tests (test_export.py): pure Python.
+"$venv/bin/python" -m pip install --quiet pygltflib
 # A third-party C3D writer (pure Python) for the marker-reading tests (test_markers.py).
 "$venv/bin/python" -m pip install --quiet c3d
 # Run from the repository root so that `import cordis` finds the installed package (the source

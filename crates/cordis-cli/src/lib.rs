@@ -62,6 +62,12 @@ enum Command {
         after_help = "Examples:\n  cordis import data/tri --dt 0.01 --out tri.json\n  cordis import walk.trc --out walk.npy\n  cordis import markers.csv --columns frame=Frame,particle=Marker,x=X,y=Y,z=Z --units mm --out markers.npy"
     )]
     Import(commands::import::Args),
+    /// Export a scene to MuJoCo (MJCF) and a motion to glTF 2.0 (Blender, three.js) or a
+    /// trajectory file.
+    #[command(
+        after_help = "Examples:\n  cordis export rigid.json --mjcf rigid.xml\n  cordis export cloth.json --frames 300 --gltf cloth.gltf --out cloth.npy\n  cordis export rigid.json --trajectory rigid.csv --gltf rigid.gltf"
+    )]
+    Export(commands::export::Args),
     /// Write a self-contained HTML page that plays a motion in 3-D (optionally against another).
     #[command(
         after_help = "Example:\n  cordis simulate rigid.json --frames 200 --out rigid.csv\n  cordis render rigid.json --trajectory rigid.csv --compare identified.csv --html rigid.html"
@@ -121,6 +127,7 @@ where
         Command::Discover(a) => commands::discover::run(*a, output),
         Command::Example(a) => commands::example::run(a, output),
         Command::Import(a) => commands::import::run(a, output),
+        Command::Export(a) => commands::export::run(a, output),
         Command::Render(a) => commands::render::run(a, output),
         Command::Check(a) => commands::check::run(a, output),
         Command::Bench(a) => commands::bench::run(a, output),

@@ -38,6 +38,8 @@ fn a_missing_input_file_exits_1_naming_it_for_every_command() {
             "discover", "-t", "r.csv", "--dt", "0.01", "--masses", "nope.txt",
         ],
         vec!["import", "nope", "--dt", "0.01", "-o", "x.json"],
+        vec!["export", "nope.json", "--mjcf", "o.json"],
+        vec!["export", "r.json", "-t", "nope.csv", "--gltf", "o.json"],
         vec!["identify", "nope.json", "-t", "r.csv", "-o", "o.json"],
         vec!["identify", "u.json", "-t", "nope.csv", "-o", "o.json"],
         id(&["--truth", "nope.json"]),
@@ -81,6 +83,14 @@ fn an_unbounded_input_exits_1_with_the_limit_and_bad_content_exits_2() {
     for (args, says) in [
         (&["check", "bad.json"][..], "duplicate key `dt`"),
         (&["cost", "r.json", "-t", "bad.csv"], "bad.csv"),
+        (
+            &["export", "r.json", "-t", "bad.csv", "--gltf", "o.json"],
+            "bad.csv",
+        ),
+        (
+            &["export", "bad.json", "--mjcf", "o.json"],
+            "duplicate key `dt`",
+        ),
         (
             &[
                 "identify", "u.json", "-t", "r.csv", "--truth", "bad.json", "-o", "o.json",

@@ -20,6 +20,7 @@
 pub mod arg;
 pub mod error;
 pub mod examples;
+pub mod export;
 pub mod forces;
 pub mod from_markers;
 pub mod io;

@@ -3,6 +3,7 @@ pub mod check;
 pub mod cost;
 pub mod discover;
 pub mod example;
+pub mod export;
 pub mod identify;
 pub mod import;
 pub mod render;

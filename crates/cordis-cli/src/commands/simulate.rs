@@ -70,7 +70,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
 /// particle and frame) and encoded output do not fit in the machine's memory: an allocation
 /// failure aborts the process, and on Linux an allocation that succeeds on paper can still
 /// exhaust the memory when the frames are written.
-fn check_frames(frames: usize, particles: usize, out: Option<&Path>) -> Result<()> {
+pub(crate) fn check_frames(frames: usize, particles: usize, out: Option<&Path>) -> Result<()> {
     // Bytes per particle and frame of the encoded file, an upper estimate (CSV: the frame and
     // particle numbers and three shortest-round-trip numbers; `.tra`: three numbers).
     let encoded = match out.and_then(|p| TrajectoryFormat::from_path(p).ok()) {
