@@ -11,6 +11,7 @@ import os
 import shutil
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -18,6 +19,7 @@ import pytest
 import cordis
 
 pygltflib = pytest.importorskip("pygltflib")  # python-test.sh installs it: never skipped in CI
+import pygltflib.validator  # noqa: E402
 
 DTYPES = {5121: np.uint8, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
 WIDTH = {"SCALAR": 1, "VEC3": 3, "VEC4": 4}
@@ -76,6 +78,9 @@ def test_gltf_of_the_cloth_motion_has_every_frame_at_float32(tmp_path):
 
     g = pygltflib.GLTF2().load(str(tmp_path / "cloth.gltf"))
     assert g.asset.version == "2.0"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # "a provisional function"
+        assert pygltflib.validator.validate(g, warning=True) == []
     assert len(g.buffers) == 1 and g.buffers[0].uri.startswith("data:"), "self-contained"
     blob = g.get_data_from_buffer_uri(g.buffers[0].uri)
     assert len(blob) == g.buffers[0].byteLength

@@ -16,7 +16,10 @@
 //! than the joints' translations, but three.js skins triangle meshes only, so its lines would
 //! stay still; morph targets animate points and lines in both three.js and Blender (shape
 //! keys). The cost is the weights: `T²` floats, 0.36 MB for 300 frames, 16 MB for 2,000
-//! (positions take `12 N T` bytes); the memory is checked first.
+//! (positions take `12 N T` bytes); the memory is checked first. A reader that ignores morph
+//! targets altogether (trimesh loads the two primitives as a point cloud and a path) sees every
+//! vertex at the zero base; base positions at frame 0 with displacements would fix that, but a
+//! reader's `base + displacement` in float32 is then no longer the trajectory's float32 value.
 //!
 //! Coordinates are written as they are (glTF's +Y is up; the shipped examples' gravity is -Y).
 
