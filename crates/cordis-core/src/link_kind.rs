@@ -17,6 +17,10 @@ pub enum LinkKind {
     NonlinearDrag,
     /// Ternary position link on the angle at the middle particle: energy `½K(cosθ - c0)²`.
     Angle,
+    /// Unary contact with a half-space (ground, table): a visco-elastic buffer pushing along
+    /// the plane's normal while the particle is below it, with regularised Coulomb friction
+    /// (see [`crate::forces::plane`]).
+    Plane,
     /// Spring between every pair of particles of one or two groups closer than `range`.
     Conditional,
     /// Binary local-control muscle (thesis §5.5): a spring plus `G · out · u`, where a neuron's
@@ -36,13 +40,14 @@ pub enum LinkKind {
 }
 
 impl LinkKind {
-    pub const ALL: [LinkKind; 12] = [
+    pub const ALL: [LinkKind; 13] = [
         LinkKind::Spring,
         LinkKind::Damper,
         LinkKind::Anchor,
         LinkKind::Drag,
         LinkKind::NonlinearDrag,
         LinkKind::Angle,
+        LinkKind::Plane,
         LinkKind::Conditional,
         LinkKind::Muscle,
         LinkKind::Tgr,
@@ -60,6 +65,7 @@ impl LinkKind {
             LinkKind::Drag => "drag",
             LinkKind::NonlinearDrag => "nonlinear_drag",
             LinkKind::Angle => "angle",
+            LinkKind::Plane => "plane",
             LinkKind::Conditional => "conditional",
             LinkKind::Muscle => "muscle",
             LinkKind::Tgr => "tgr",
@@ -82,7 +88,7 @@ impl LinkKind {
             | LinkKind::Tgr
             | LinkKind::ForceTransmitter => 2,
             LinkKind::Quadripole | LinkKind::PositionTransmitter => 4,
-            LinkKind::Anchor | LinkKind::Drag | LinkKind::NonlinearDrag => 1,
+            LinkKind::Anchor | LinkKind::Drag | LinkKind::NonlinearDrag | LinkKind::Plane => 1,
             LinkKind::Angle => 3,
             LinkKind::Conditional => 0,
         }
@@ -91,7 +97,7 @@ impl LinkKind {
     /// Scalar parameters of the kind, in parameter-vector order, with their default when the
     /// scene omits them (`None`: required). Units: stiffness N/m (angle: N·m, on a cosine),
     /// lengths m, damping N·s/m, speeds m/s, muscle gain N, threshold dimensionless, tendon
-    /// mass kg.
+    /// mass kg, a plane's friction coefficient dimensionless.
     ///
     /// A `muscle` type's parameter list is longer than its specs: the five scalars are followed
     /// by its neural weights (see [`crate::LinkType::w_len`]).
@@ -111,6 +117,11 @@ impl LinkKind {
             LinkKind::Drag => &[("damping", None)],
             LinkKind::NonlinearDrag => &[("z1", None), ("z2", None), ("v_max", None)],
             LinkKind::Angle => &[("stiffness", None), ("rest_cos", None)],
+            LinkKind::Plane => &[
+                ("stiffness", None),
+                ("damping", Some(0.0)),
+                ("friction", Some(0.0)),
+            ],
             LinkKind::Conditional => &[
                 ("stiffness", None),
                 ("rest_length", None),
@@ -167,6 +178,7 @@ impl LinkKind {
         match self {
             LinkKind::Spring => &["max_elongation"],
             LinkKind::Anchor => &["point"],
+            LinkKind::Plane => &["point", "normal"],
             LinkKind::Conditional => &["groups"],
             LinkKind::Muscle => &["w_len", "w_rate", "observes"],
             LinkKind::Tgr => &["signal"],

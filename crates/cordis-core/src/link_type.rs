@@ -21,8 +21,11 @@ pub struct LinkType {
     /// Provot's critical deformation rate τc (springs only, thesis §4.2).
     pub max_elongation: Option<f64>,
     /// Anchor point in m (anchors only). When absent, each anchor link uses its own `point`, or
-    /// the particle's initial position.
+    /// the particle's initial position. Planes: a point of the surface, m (required).
     pub point: Option<[f64; 3]>,
+    /// Planes only (required): the outward normal of the surface, pointing from the solid into
+    /// the free space; any non-zero length, normalised when the scene is compiled.
+    pub normal: Option<[f64; 3]>,
     /// Particle groups whose pairs a conditional type links (one or two names).
     pub groups: Vec<String>,
     /// Muscles only: the link indices every instance of the type observes, in weight order
@@ -45,10 +48,19 @@ impl LinkType {
                 .collect(),
             max_elongation: None,
             point: None,
+            normal: None,
             groups: Vec::new(),
             observes: None,
             signal: None,
         }
+    }
+
+    /// Sets a plane's surface (builder style): a point on it (m) and its outward normal (any
+    /// non-zero length).
+    pub fn with_surface(mut self, point: [f64; 3], normal: [f64; 3]) -> Self {
+        self.point = Some(point);
+        self.normal = Some(normal);
+        self
     }
 
     /// Sets the driving signal of a TGR type (builder style).

@@ -8,8 +8,9 @@ use crate::forces::conditional::Part;
 use crate::forces::{
     anchor::AnchorPass, angle::AnglePass, conditional::ConditionalPass, damper::DamperPass,
     drag::DragPass, force_transmitter::ForceTransmitterPass, grid::Grid, muscle::MuscleBuf,
-    muscle::MusclePass, nonlinear_drag::NonlinearDragPass, provot::ProvotLink, provot::ProvotPass,
-    quadripole::QuadripolePass, runs_by_type, spring::SpringPass, stateful::Stateful, tgr::TgrPass,
+    muscle::MusclePass, nonlinear_drag::NonlinearDragPass, plane::PlanePass, plane::Surface,
+    provot::ProvotLink, provot::ProvotPass, quadripole::QuadripolePass, runs_by_type,
+    spring::SpringPass, stateful::Stateful, tgr::TgrPass,
 };
 use crate::world::{Clock, OneClock, WorldClock, WorldSteps};
 use crate::{LinkKind, ParamLayout, Scene, Vec3};
@@ -35,13 +36,16 @@ pub struct Plan {
     pub drags: DragPass,
     pub nonlinear_drags: NonlinearDragPass,
     pub angles: AnglePass,
+    /// Contacts with half-spaces ([`crate::forces::plane`]).
+    pub planes: PlanePass,
     pub muscles: MusclePass,
     pub conditionals: Vec<ConditionalPass>,
     /// Passes with state carried between steps (TGR tendons…): see [`Stateful`]. Not part of
     /// [`Plan::forces`]; [`Plan::step`] runs them after it.
     pub stateful: Stateful,
     pub provot: ProvotPass,
-    /// Some pass reads velocities (a damper, a drag, or a damping that is not known to be 0).
+    /// Some pass reads velocities (a damper, a drag, or a damping or a plane's friction that is
+    /// not known to be 0).
     /// When false, [`Plan::velocities`] skips its work, so a parameter vector must keep every
     /// damping that the scene knew to be 0 at 0 (identification only varies unknowns).
     pub needs_velocity: bool,
@@ -98,6 +102,9 @@ impl Plan {
         let mut drag_items = Vec::new();
         let mut nl_items = Vec::new();
         let mut angle_items = Vec::new();
+        let mut plane_items = Vec::new();
+        let worlds = WorldSteps::of(scene);
+        let dt_of = |i: usize| worlds.as_ref().map_or(scene.dt, |w| w.dt[i]);
         let mut muscle_items = Vec::new();
         let mut tgr_items = Vec::new();
         let mut quad_items = Vec::new();
@@ -148,6 +155,11 @@ impl Plan {
                     needs_velocity = true;
                 }
                 LinkKind::Angle => angle_items.push((t, [ps[0], ps[1], ps[2]])),
+                LinkKind::Plane => {
+                    plane_items.push((t, (ps[0], dt_of(l.particles[0]))));
+                    let friction_matters = ty.param("friction").is_some_and(|m| !m.is_known_zero());
+                    needs_velocity |= damping_matters(t) || friction_matters;
+                }
                 LinkKind::Muscle => {
                     muscle_items.push((t, ([ps[0], ps[1]], li)));
                     // Rates feed the damping and the neurons' rate weights.
@@ -197,6 +209,7 @@ impl Plan {
         let nonlinear_drags = NonlinearDragPass { runs, particles };
         let (runs, triples) = runs_by_type(&angle_items, off);
         let angles = AnglePass { runs, triples };
+        let planes = plane_pass(scene, &plane_items, off, layout.mass_offset);
         let muscles = muscle_pass(scene, &muscle_items, off);
         let (runs, pairs) = runs_by_type(&tgr_items, off);
         let signal_of = |r: &crate::forces::Run| {
@@ -262,7 +275,6 @@ impl Plan {
 
         let free: Vec<bool> = scene.particles.iter().map(|p| !p.fixed).collect();
         let x0: Vec<Vec3> = scene.particles.iter().map(|p| Vec3::from(p.pos)).collect();
-        let worlds = WorldSteps::of(scene);
         let x_minus1 = scene
             .particles
             .iter()
@@ -292,6 +304,7 @@ impl Plan {
             drags,
             nonlinear_drags,
             angles,
+            planes,
             muscles,
             conditionals,
             stateful,
@@ -369,6 +382,7 @@ impl Plan {
             + self.drags.particles.len()
             + self.nonlinear_drags.particles.len()
             + self.angles.triples.len()
+            + self.planes.len()
             + self.muscles.len()
             + self.stateful.len()
     }
@@ -414,6 +428,7 @@ impl Plan {
         self.drags.accumulate(p, v, f);
         self.nonlinear_drags.accumulate(p, v, f);
         self.angles.accumulate(p, x, f);
+        self.planes.accumulate(p, x, v, f);
         self.muscles.accumulate(p, x, v, f, muscles);
         for (c, grid) in self.conditionals.iter().zip(grids) {
             c.accumulate(p, x, v, f, grid);
@@ -444,6 +459,7 @@ impl Plan {
                 self.drags.accumulate(p, v, f);
                 self.nonlinear_drags.accumulate(p, v, f);
                 self.angles.accumulate(p, x, f);
+                self.planes.accumulate(p, x, v, f);
                 self.muscles.accumulate(p, x, v, f, mb);
                 conditional_half(f, 0);
             },
@@ -540,6 +556,39 @@ impl Plan {
         } else {
             (0..self.n).find(|&i| !x_prev[i].iter().all(|c| c.abs() <= RUNAWAY))
         }
+    }
+}
+
+/// The plane pass: instances grouped by type, each run with its type's surface (the normal
+/// made a unit vector; validated non-zero).
+fn plane_pass(
+    scene: &Scene,
+    items: &[(usize, (u32, f64))],
+    off: &[usize],
+    mass_offset: usize,
+) -> PlanePass {
+    let (runs, members) = runs_by_type(items, off);
+    let surfaces = runs
+        .iter()
+        .map(|r| {
+            let t = off
+                .iter()
+                .position(|&o| o == r.param)
+                .expect("a run's type");
+            let ty = &scene.types[t];
+            Surface {
+                point: Vec3::from(ty.point.expect("validated: a plane has a point")),
+                normal: crate::forces::plane::unit_normal(ty.normal.expect("validated: a normal"))
+                    .expect("validated: the normal is not zero"),
+            }
+        })
+        .collect();
+    PlanePass {
+        runs,
+        surfaces,
+        particles: members.iter().map(|m| m.0).collect(),
+        dt: members.iter().map(|m| m.1).collect(),
+        mass_offset,
     }
 }
 

@@ -262,14 +262,15 @@ impl Scene {
             }
         }
         if let Some(point) = &t.point {
-            if t.kind != LinkKind::Anchor {
+            if !matches!(t.kind, LinkKind::Anchor | LinkKind::Plane) {
                 return Err(CordisError::scene(
                     format!("{at}.point"),
-                    "only anchors have it",
+                    "only anchors and planes have it",
                 ));
             }
             check_finite3(&format!("{at}.point"), point)?;
         }
+        check_surface(&at, t)?;
         if t.kind == LinkKind::Conditional {
             if !(1..=2).contains(&t.groups.len()) {
                 return Err(CordisError::scene(
@@ -604,6 +605,41 @@ fn check_param(place: &str, p: &Param, sign: Sign) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// A plane type's `point` and `normal`: both present, the normal finite and not zero (it is
+/// normalised, so a zero vector has no direction); other kinds have no `normal`.
+fn check_surface(at: &str, t: &LinkType) -> Result<()> {
+    if t.kind != LinkKind::Plane {
+        if t.normal.is_some() {
+            return Err(CordisError::scene(
+                format!("{at}.normal"),
+                "only planes have it",
+            ));
+        }
+        return Ok(());
+    }
+    for (key, v) in [("point", &t.point), ("normal", &t.normal)] {
+        if v.is_none() {
+            return Err(CordisError::scene(
+                at,
+                format!("a `plane` type needs `{key}` [x, y, z]"),
+            ));
+        }
+    }
+    let normal = t.normal.expect("checked above");
+    check_finite3(&format!("{at}.normal"), &normal)?;
+    if crate::forces::plane::unit_normal(normal).is_none() {
+        return Err(CordisError::scene(
+            format!("{at}.normal"),
+            format!(
+                "must not be the zero vector (it is the plane's outward direction, normalised), \
+                 got [{}, {}, {}]",
+                normal[0], normal[1], normal[2]
+            ),
+        ));
+    }
+    Ok(())
 }
 
 fn check_finite3(place: &str, v: &[f64; 3]) -> Result<()> {

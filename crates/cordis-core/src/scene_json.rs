@@ -142,6 +142,9 @@ impl Scene {
             if let Some(point) = &t.point {
                 o.insert("point".into(), vec3(point));
             }
+            if let Some(normal) = &t.normal {
+                o.insert("normal".into(), vec3(normal));
+            }
             if !t.groups.is_empty() {
                 o.insert("groups".into(), t.groups.clone().into());
             }
@@ -753,6 +756,9 @@ fn read_type(name: &str, v: &Value) -> Result<(LinkType, bool)> {
     }
     if let Some(p) = o.get("point") {
         t.point = Some(vector3(p, &join(&at, "point"))?);
+    }
+    if let Some(n) = o.get("normal") {
+        t.normal = Some(vector3(n, &join(&at, "normal"))?);
     }
     if kind == LinkKind::Conditional {
         let gp = join(&at, "groups");

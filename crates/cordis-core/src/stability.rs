@@ -45,6 +45,13 @@
 //!   `|a|`, `|b|`. The curvature part `K (c - c0) ∇²c` vanishes at rest and is not counted, so
 //!   for angles the bound is that of small motions around the rest angle.
 //! - conditional types: one spring per pair within `range` at the initial positions.
+//! - plane (contact): K and Z along the normal, as an anchor's, counted whether or not the
+//!   particle touches (the bound holds in every contact state). Its friction acts in the
+//!   tangent plane as a damper of slope `m / dt` near rest ([`crate::forces::plane`]: the
+//!   regularisation's `a = m |v_t| / dt`), `g = 2 dt (m/dt) = 2m`, whatever the normal force:
+//!   it alone takes 0.5 of the ratio (at sliding speeds its slope is smaller). The two act in
+//!   orthogonal directions, so the plane's 3×3 block is `g_n n nᵀ + g_t (I - n nᵀ)`, of norm
+//!   `max(g_n, g_t)`, which is what it adds to the particle's row.
 //! - tgr: its link like a spring (K, Z). The tendon (a 1-D mass m_t under K + K_t) is not a
 //!   particle and is not reported: keep `(K + K_t) dt² + 2 Z_t dt < 4 m_t` by hand.
 //! - Provot's elongation limit is a projection, not a force: it only removes energy.
@@ -214,6 +221,18 @@ fn row_sums(plan: &Plan, p: &[f64], ws: &mut StabilityScratch) {
             acc.own[i as usize] += g(0.0, z, i);
         }
     }
+    for r in &plan.planes.runs {
+        let (k, z, mu) = (p[r.param], p[r.param + 1], p[r.param + 2]);
+        for &i in &plan.planes.particles[r.start..r.end] {
+            let normal = g(k, z, i);
+            let tangent = if mu > 0.0 {
+                2.0 * mass[i as usize]
+            } else {
+                0.0
+            };
+            acc.own[i as usize] += normal.max(tangent);
+        }
+    }
     for r in &plan.angles.runs {
         for &[i, j, k] in &plan.angles.triples[r.start..r.end] {
             let w = g(p[r.param], 0.0, i);
@@ -234,16 +253,21 @@ fn row_sums(plan: &Plan, p: &[f64], ws: &mut StabilityScratch) {
 /// two reports (at dt and dt/2) give every particle's `a_i`, `b_i` and its own root. With
 /// several worlds each particle's `dt` is its world's, and every world's `dt` scales with the
 /// main one (the answer is the main `dt`).
+///
+/// A plane's friction adds `max(g_n, 2m)` to its particle's row, not a quadratic in dt: a
+/// scene with one is solved by bisection on the ratio, which grows monotonically with dt
+/// (every term does), to a relative 1e-12 — about 45 reports after the bracket.
 pub fn max_stable_dt(scene: &Scene) -> Result<Option<f64>> {
-    let full = stability(scene)?;
-    let mut half_scene = scene.clone();
-    half_scene.dt = scene.dt / 2.0;
-    // Every world's dt scales with the main one: the answer is the main dt at which the bound
-    // holds when all worlds keep their ratios to it.
-    for w in &mut half_scene.worlds {
-        w.dt /= 2.0;
+    let has_friction = scene.types.iter().enumerate().any(|(ti, t)| {
+        t.kind == crate::LinkKind::Plane
+            && t.param("friction").is_some_and(|m| !m.is_known_zero())
+            && scene.links.iter().any(|l| l.type_index == ti)
+    });
+    if has_friction {
+        return bisected_stable_dt(scene);
     }
-    let half = stability(&half_scene)?;
+    let full = stability(scene)?;
+    let half = stability(&scaled_dt(scene, 0.5))?;
     let mut best: Option<f64> = None;
     for (q1, q2) in full.per_particle.iter().zip(&half.per_particle) {
         let (Some(q1), Some(q2)) = (*q1, *q2) else {
@@ -266,6 +290,38 @@ pub fn max_stable_dt(scene: &Scene) -> Result<Option<f64>> {
         }
     }
     Ok(best)
+}
+
+/// The scene with every world's dt (the main one included) multiplied by `r`.
+fn scaled_dt(scene: &Scene, r: f64) -> Scene {
+    let mut s = scene.clone();
+    s.dt *= r;
+    for w in &mut s.worlds {
+        w.dt *= r;
+    }
+    s
+}
+
+/// [`max_stable_dt`] by bisection on `r = dt'/dt`: `max_ratio(r)` is non-decreasing in r.
+fn bisected_stable_dt(scene: &Scene) -> Result<Option<f64>> {
+    let ratio = |r: f64| stability(&scaled_dt(scene, r)).map(|s| s.max_ratio);
+    let (mut lo, mut hi) = (0.0, 1.0);
+    while ratio(hi)? < 1.0 {
+        lo = hi;
+        hi *= 2.0;
+        if hi > 1e150 || scene.dt * hi > 1e300 {
+            return Ok(None);
+        }
+    }
+    while hi - lo > 1e-12 * hi {
+        let mid = 0.5 * (lo + hi);
+        if ratio(mid)? < 1.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Ok(Some(lo * scene.dt))
 }
 
 /// `a · b` with `0 · ∞ = 0`: a zero stiffness contributes nothing whatever `dt²` is.

@@ -660,3 +660,42 @@ fn degenerate_angle_stays_bounded_and_is_called_unstable() {
     assert!(cordis_core::stability::degenerate_angles(&s).is_empty());
     assert!(stability(&s).unwrap().stable);
 }
+
+/// One mass `m` resting 0.1 m inside a ground plane (normal +z) of stiffness and damping set
+/// by `K dt² / m` and `Z dt / m`, friction `mu`.
+fn grounded(m: f64, dt: f64, kdt2m: f64, zdtm: f64, mu: f64) -> Scene {
+    let mut s = Scene::new(dt);
+    s.add_particle(Particle::new(m, [0.0, 0.0, -0.1]));
+    s.add_type(
+        LinkType::new("ground", LinkKind::Plane)
+            .with("stiffness", kdt2m * m / (dt * dt))
+            .with("damping", zdtm * m / dt)
+            .with("friction", mu)
+            .with_surface([0.0; 3], [0.0, 0.0, 3.0]),
+    );
+    s.add_link("ground", &[0]);
+    s
+}
+
+#[test]
+fn plane_counts_its_buffer_along_the_normal_and_its_friction_across_it() {
+    let (m, dt) = (2.0, 0.01);
+    // No friction: the buffer is an anchor along the normal, `(K dt² + 2 Z dt) / 4m`.
+    let q = stability(&grounded(m, dt, 1.2, 0.3, 0.0)).unwrap().max_ratio;
+    assert_relative_eq!(q, (1.2 + 0.6) / 4.0, max_relative = 1e-12);
+    // Friction: a tangential damper of slope m/dt near rest, 2m/4m = 0.5, in the orthogonal
+    // directions: the block's norm is the larger of the two, not their sum.
+    let q = stability(&grounded(m, dt, 0.4, 0.2, 0.3)).unwrap().max_ratio;
+    assert_relative_eq!(q, 0.5, max_relative = 1e-12);
+    let q = stability(&grounded(m, dt, 2.4, 0.2, 0.3)).unwrap().max_ratio;
+    assert_relative_eq!(q, (2.4 + 0.4) / 4.0, max_relative = 1e-12);
+    // The friction's share does not shrink with dt: max_stable_dt bisects, and puts the
+    // ratio on 1 where the buffer dominates.
+    let mut s = grounded(m, dt, 2.4, 0.2, 0.3);
+    let best = max_stable_dt(&s).unwrap().unwrap();
+    assert!(best > dt);
+    s.dt = best;
+    assert_relative_eq!(stability(&s).unwrap().max_ratio, 1.0, max_relative = 1e-9);
+    // Friction alone (no stiffness, no damping): 0.5 at every dt, any step passes.
+    assert_eq!(max_stable_dt(&grounded(m, dt, 0.0, 0.0, 0.3)).unwrap(), None);
+}

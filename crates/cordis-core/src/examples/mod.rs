@@ -6,6 +6,7 @@
 //! be simulated for. Generated coordinates are rounded to 1e-9 so that a scene written to JSON
 //! and read back is bit-for-bit the same scene.
 
+mod bouncing_ball;
 mod cloth;
 mod fluid;
 mod follower;
@@ -17,6 +18,9 @@ mod random;
 mod rigid;
 mod tadpole;
 
+pub use bouncing_ball::{
+    bouncing_ball, BALL_DAMPING, BALL_FRAMES, BALL_FRICTION, BALL_MASS, BALL_STIFFNESS,
+};
 pub use cloth::{cloth, CLOTH_FRAMES};
 pub use fluid::{fluid, FLUID_FRAMES};
 pub use follower::{
@@ -46,6 +50,7 @@ pub const NAMES: &[&str] = &[
     "tadpole",
     "frog",
     "follower",
+    "bouncing-ball",
 ];
 
 /// The example of that name at its default size, or `None` for a name not in [`NAMES`].
@@ -60,6 +65,7 @@ pub fn by_name(name: &str) -> Option<Scene> {
         "tadpole" => Some(tadpole()),
         "frog" => Some(frog()),
         "follower" => Some(follower()),
+        "bouncing-ball" => Some(bouncing_ball()),
         _ => None,
     }
 }
@@ -76,6 +82,7 @@ pub fn default_frames(name: &str) -> usize {
         "tadpole" => TADPOLE_FRAMES,
         "frog" => FROG_FRAMES,
         "follower" => FOLLOWER_FRAMES,
+        "bouncing-ball" => BALL_FRAMES,
         _ => 0,
     }
 }

@@ -11,6 +11,7 @@ pub mod force_transmitter;
 pub mod grid;
 pub mod muscle;
 pub mod nonlinear_drag;
+pub mod plane;
 pub mod provot;
 pub mod quadripole;
 pub mod spring;

@@ -33,6 +33,7 @@ impl Objective {
         plan.drags.accumulate(p, v, f);
         plan.nonlinear_drags.accumulate(p, v, f);
         plan.angles.accumulate(p, x, f);
+        plan.planes.accumulate(p, x, v, f);
         plan.muscles.accumulate(p, x, v, f, &mut s.core.muscles);
         let passes = plan.conditionals.iter().zip(&mut s.core.grids);
         for (((c, grid), known), g) in passes.zip(&self.obs.pairs).zip(&geo.conditionals) {

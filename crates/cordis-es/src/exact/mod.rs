@@ -142,6 +142,15 @@ pub(crate) fn generic_cols(scene: &Scene) -> Result<Vec<Col>, String> {
                 ))
             }
             LinkKind::Tgr => cols.extend(self::tgr_cols::cols(t)),
+            LinkKind::Plane => {
+                return Err(format!(
+                    "types.{}: a plane's contact force `max(0, K d - Z v_n)` is clamped at 0 and \
+                     its friction is proportional to it, so the short cost is not linear in \
+                     (stiffness, damping, friction): use levenberg-marquardt or an evolution \
+                     strategy",
+                    ty.name
+                ))
+            }
             #[allow(unreachable_patterns)]
             other => {
                 return Err(format!(
