@@ -681,13 +681,19 @@ fn grounded(m: f64, dt: f64, kdt2m: f64, zdtm: f64, mu: f64) -> Scene {
 fn plane_counts_its_buffer_along_the_normal_and_its_friction_across_it() {
     let (m, dt) = (2.0, 0.01);
     // No friction: the buffer is an anchor along the normal, `(K dt² + 2 Z dt) / 4m`.
-    let q = stability(&grounded(m, dt, 1.2, 0.3, 0.0)).unwrap().max_ratio;
+    let q = stability(&grounded(m, dt, 1.2, 0.3, 0.0))
+        .unwrap()
+        .max_ratio;
     assert_relative_eq!(q, (1.2 + 0.6) / 4.0, max_relative = 1e-12);
     // Friction: a tangential damper of slope m/dt near rest, 2m/4m = 0.5, in the orthogonal
     // directions: the block's norm is the larger of the two, not their sum.
-    let q = stability(&grounded(m, dt, 0.4, 0.2, 0.3)).unwrap().max_ratio;
+    let q = stability(&grounded(m, dt, 0.4, 0.2, 0.3))
+        .unwrap()
+        .max_ratio;
     assert_relative_eq!(q, 0.5, max_relative = 1e-12);
-    let q = stability(&grounded(m, dt, 2.4, 0.2, 0.3)).unwrap().max_ratio;
+    let q = stability(&grounded(m, dt, 2.4, 0.2, 0.3))
+        .unwrap()
+        .max_ratio;
     assert_relative_eq!(q, (2.4 + 0.4) / 4.0, max_relative = 1e-12);
     // The friction's share does not shrink with dt: max_stable_dt bisects, and puts the
     // ratio on 1 where the buffer dominates.
@@ -697,5 +703,8 @@ fn plane_counts_its_buffer_along_the_normal_and_its_friction_across_it() {
     s.dt = best;
     assert_relative_eq!(stability(&s).unwrap().max_ratio, 1.0, max_relative = 1e-9);
     // Friction alone (no stiffness, no damping): 0.5 at every dt, any step passes.
-    assert_eq!(max_stable_dt(&grounded(m, dt, 0.0, 0.0, 0.3)).unwrap(), None);
+    assert_eq!(
+        max_stable_dt(&grounded(m, dt, 0.0, 0.0, 0.3)).unwrap(),
+        None
+    );
 }
