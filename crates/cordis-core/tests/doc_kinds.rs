@@ -155,6 +155,10 @@ fn a_required_parameter_left_out_is_refused_and_a_default_is_applied() {
             if kind == LinkKind::Tgr {
                 ty.insert("signal".into(), "s".into());
             }
+            if kind == LinkKind::Plane {
+                ty.insert("point".into(), serde_json::json!([0, 0, 0]));
+                ty.insert("normal".into(), serde_json::json!([0, 0, 1]));
+            }
             let text = serde_json::json!({
                 "dt": 0.01,
                 "particles": [{"mass": 1.0, "pos": [0, 0, 0], "group": "g"}],
