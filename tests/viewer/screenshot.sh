@@ -62,6 +62,13 @@ shoot "$out/spring.html#frame=120" "$out/spring.png"
 shoot "$out/cloth.html#frame=150" "$out/cloth.png"
 shoot "$out/cloth.html#frame=150&mode=side" "$out/cloth-side.png"
 shoot "$out/fluid.html#frame=200" "$out/fluid.png"
+# Ground contact: the bouncing ball over its `plane`, at frame 455, in its first contact
+# (the surface patch and the tick of the penetration are drawn).
+"$cordis" example bouncing-ball --out "$out/ball.json" >/dev/null
+"$cordis" simulate "$out/ball.json" --frames 2000 --out "$out/ball.npy" -q >/dev/null
+"$cordis" render "$out/ball.json" --trajectory "$out/ball.npy" --html "$out/ball.html"
+grep -q '"plane":{' "$out/ball.html" || { echo "FAIL: ball.html has no plane"; exit 1; }
+shoot "$out/ball.html#frame=455" "$out/ball.png"
 # The controls: a copy of the cloth page with tests/viewer/interact.js injected after the
 # viewer's script drives them with synthetic events and reports in <body data-test>.
 python3 - "$out/cloth.html" "$here/interact.js" "$out/interact.html" <<'PY'

@@ -203,7 +203,8 @@ fn groups(scene: &Scene) -> Value {
 }
 
 /// The catalogue with what to draw for each type: segments (particle index pairs) for binary
-/// and angle links, particle–point pairs for anchors, group pairs and range for conditionals.
+/// and angle links, particle–point pairs for anchors, group pairs and range for conditionals,
+/// the surface (a point and the unit normal) and the touching particles for planes.
 fn types(scene: &Scene) -> Vec<Value> {
     let group_names = {
         let mut names: Vec<&str> = Vec::new();
@@ -275,6 +276,18 @@ fn types(scene: &Scene) -> Vec<Value> {
                         .collect();
                     v["groups"] = json!(gi);
                     v["range"] = json!(ty.value("range").map(round6));
+                }
+                LinkKind::Plane => {
+                    let members: Vec<usize> = links.map(|l| l.particles[0]).collect();
+                    let normal = ty
+                        .normal
+                        .and_then(cordis_core::forces::plane::unit_normal)
+                        .map(|n| [n.x, n.y, n.z].map(round6));
+                    v["plane"] = json!({
+                        "point": ty.point.map(|p| p.map(round6)),
+                        "normal": normal,
+                        "members": members,
+                    });
                 }
                 // Drags act on velocities only: nothing to draw; the legend lists them.
                 _ => {}

@@ -262,3 +262,18 @@ fn a_large_scene_gives_a_reasonable_file() {
     let per_value = page.len() as f64 / (200.0 * (side * side) as f64 * 3.0);
     assert!(per_value < 8.0, "{per_value} bytes per coordinate");
 }
+
+#[test]
+fn a_plane_is_sent_with_its_unit_normal_and_its_particles() {
+    let mut s = cordis_core::examples::bouncing_ball();
+    s.types[0].normal = Some([0.0, 0.0, 4.0]);
+    s.types[0].point = Some([0.0, 0.0, -0.25]);
+    let a = s.simulate(20).unwrap();
+    let d = embedded(&render_html(&s, &a, None, "ball").unwrap());
+    let plane = &d["types"][0]["plane"];
+    assert_eq!(d["types"][0]["kind"], "plane");
+    assert_eq!(plane["normal"], serde_json::json!([0.0, 0.0, 1.0]));
+    assert_eq!(plane["point"], serde_json::json!([0.0, 0.0, -0.25]));
+    assert_eq!(plane["members"], serde_json::json!([0]));
+    assert!(d["types"][0].get("segments").is_none());
+}

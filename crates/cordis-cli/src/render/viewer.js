@@ -51,6 +51,13 @@
       t.anchors = ty.anchors;
       t.points = new Float32Array(ty.points.length);
       for (var k = 0; k < ty.points.length; k++) t.points[k] = ty.points[k] - origin[k % 3];
+    } else if (ty.plane && ty.plane.point && ty.plane.normal) {
+      // A contact half-space: drawn as a patch of its surface under the motion.
+      t.plane = {
+        point: ty.plane.point.map(function (c, k) { return c - origin[k]; }),
+        normal: ty.plane.normal, members: ty.plane.members
+      };
+      t.note = "contact surface";
     } else if (ty.kind === "conditional") {
       t.groups = ty.groups;
       t.range = ty.range;
@@ -81,6 +88,8 @@
   var radius = 0.5 * Math.sqrt(ext[0] * ext[0] + ext[1] * ext[1] + ext[2] * ext[2]);
   if (!(radius > 0)) radius = Math.max(D.quant.step * 1e5, 1e-9);
 
+  // A scene with a contact plane has its own ground: the generic floor would double it.
+  var hasPlane = types.some(function (t) { return !!t.plane; });
   var floorHeight = Infinity;
   for (var kf = 0; kf < A.pos.length; kf += 3) {
     var hf = A.pos[kf] * D.up[0] + A.pos[kf + 1] * D.up[1] + A.pos[kf + 2] * D.up[2];
@@ -432,6 +441,73 @@
     }
   }
 
+  // Each visible plane type: a translucent square of its surface (side 2.4 × the motion's
+  // radius) around the motion's centre projected onto it, with a grid, in the type's colour.
+  function drawPlanes(v) {
+    types.forEach(function (t) {
+      if (!t.plane || !t.visible) return;
+      var n = normalize(t.plane.normal), p0 = t.plane.point;
+      var rel = add(centre, scale(p0, -1));
+      var c = add(centre, scale(n, -dot(rel, n)));
+      var a1 = Math.abs(n[0]) < 0.9 ? [1, 0, 0] : [0, 1, 0];
+      a1 = normalize(add(a1, scale(n, -dot(a1, n))));
+      var a2 = cross(n, a1), half = 1.2 * radius, lines = 8;
+      var corner = function (s1, s2) { return add(c, add(scale(a1, s1 * half), scale(a2, s2 * half))); };
+      var q = [corner(-1, -1), corner(1, -1), corner(1, 1), corner(-1, 1)].map(function (x) {
+        return projectPoint(v, x);
+      });
+      ctx.save();
+      ctx.strokeStyle = t.colour;
+      ctx.fillStyle = t.colour;
+      if (q.every(function (x) { return x; })) {
+        ctx.beginPath();
+        ctx.moveTo(q[0][0], q[0][1]);
+        for (var k = 1; k < 4; k++) ctx.lineTo(q[k][0], q[k][1]);
+        ctx.closePath();
+        ctx.globalAlpha = 0.1;
+        ctx.fill();
+      }
+      ctx.globalAlpha = 0.35;
+      ctx.lineWidth = 1;
+      ctx.beginPath();
+      for (var i = -lines; i <= lines; i++) {
+        var f = i / lines;
+        for (var dir = 0; dir < 2; dir++) {
+          var s = dir ? projectSegment(v, corner(f, -1), corner(f, 1))
+            : projectSegment(v, corner(-1, f), corner(1, f));
+          if (s) { ctx.moveTo(s[0][0], s[0][1]); ctx.lineTo(s[1][0], s[1][1]); }
+        }
+      }
+      ctx.stroke();
+      ctx.restore();
+    });
+  }
+
+  // Particles below a plane (in contact): a tick from the particle up to the surface, so
+  // that the penetration the buffer pushes against shows.
+  function drawContacts(v, P, traj) {
+    var base = Math.min(frame, traj.frames - 1) * N * 3, p = traj.pos;
+    types.forEach(function (t) {
+      if (!t.plane || !t.visible) return;
+      var n = normalize(t.plane.normal), p0 = t.plane.point;
+      ctx.beginPath();
+      t.plane.members.forEach(function (i) {
+        var x = [p[base + 3 * i], p[base + 3 * i + 1], p[base + 3 * i + 2]];
+        var depth = dot(add(p0, scale(x, -1)), n);
+        if (!(depth > 0) || !(P.z[i] > 0)) return;
+        var foot = projectPoint(v, add(x, scale(n, depth)));
+        if (!foot) return;
+        ctx.moveTo(P.x[i], P.y[i]);
+        ctx.lineTo(foot[0], foot[1]);
+        ctx.moveTo(foot[0] - 5, foot[1]);
+        ctx.lineTo(foot[0] + 5, foot[1]);
+      });
+      ctx.lineWidth = 2;
+      ctx.strokeStyle = t.colour;
+      ctx.stroke();
+    });
+  }
+
   var pairCache = {};
   function conditionalPairs(which, traj, t, ty, ti) {
     var key = which + ":" + ti + ":" + Math.min(t, traj.frames - 1);
@@ -599,7 +675,8 @@
     ctx.beginPath();
     ctx.rect(x0, y0, w, h);
     ctx.clip();
-    if (hasGravity) drawFloor(v);
+    if (hasGravity && !hasPlane) drawFloor(v);
+    if (hasPlane) drawPlanes(v);
     if (showBHere) {
       // Overlaid, B is dashed and pale under A; alone in its half, it is drawn like A.
       project(v, B, frame, PB);
@@ -611,6 +688,7 @@
     if (showA) {
       project(v, A, frame, PA);
       drawLinks(v, PA, A, "a", false);
+      if (hasPlane) drawContacts(v, PA, A);
       drawParticles(v, PA, false);
     }
     if (label) {
