@@ -101,4 +101,29 @@ ms=$(grep -o 'data-draw-ms="[0-9.]*"' "$out/big.dom" | grep -o '[0-9.]\+' || tru
 echo "big.html: $size bytes; a frame (A and B overlaid, 2 x 14,898 links) built in $ms ms"
 python3 -c "import sys; sys.exit(0 if float('$ms') < 100 else 1)" \
     || { echo "FAIL: drawing a frame took $ms ms"; exit 1; }
+# The identification report (`cordis report`): a fit of the rigid example by output-error
+# (with intervals) to a noisy motion, screenshotted in both themes. No fetch is allowed: the
+# page's Content-Security-Policy blocks any, and Chromium's console reports each blocked one
+# ("… violates the following Content Security Policy directive"), which fails the test.
+"$cordis" example rigid --out "$out/rigid.json" -q
+"$cordis" example rigid --unknowns --out "$out/rigid-u.json" -q
+"$cordis" simulate "$out/rigid.json" --frames 100 --out "$out/rigid.npy" -q >/dev/null
+"$cordis" identify "$out/rigid-u.json" -t "$out/rigid.npy" --strategy output-error --noise 0.001 \
+    --log "$out/rigid-log.csv" --out "$out/rigid-fit.json" --json -q >"$out/rigid-summary.json"
+"$cordis" report "$out/rigid-fit.json" -t "$out/rigid.npy" --log "$out/rigid-log.csv" \
+    --summary "$out/rigid-summary.json" --html "$out/report.html"
+if grep -Eq '(src|href|action)="[a-z]+:|url\((https?:)?//' "$out/report.html"; then
+    echo "FAIL: report.html refers to an outside resource"; exit 1
+fi
+for theme in light dark; do
+    log="$out/report-$theme.log"
+    chromium --headless --disable-gpu --no-sandbox --hide-scrollbars --enable-logging=stderr \
+        --v=0 --log-level=0 --window-size=1100,2400 --virtual-time-budget=2000 \
+        --screenshot="$out/report-$theme.png" "file://$out/report.html#theme=$theme" >"$log" 2>&1 \
+        || { cat "$log"; echo "FAIL: chromium failed on report.html"; exit 1; }
+    if grep -E "Uncaught|SyntaxError|TypeError|ReferenceError|Content Security Policy" "$log"; then
+        echo "FAIL: report.html ($theme) raised an error or tried a fetch"; exit 1
+    fi
+    (cd "$here" && python3 report_check.py "$out/report-$theme.png" "$theme")
+done
 echo "ok: screenshots in $out"

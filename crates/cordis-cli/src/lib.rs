@@ -8,6 +8,7 @@
 
 mod commands;
 pub mod render;
+pub mod report;
 
 use std::ffi::OsString;
 
@@ -73,6 +74,12 @@ enum Command {
         after_help = "Example:\n  cordis simulate rigid.json --frames 200 --out rigid.csv\n  cordis render rigid.json --trajectory rigid.csv --compare identified.csv --html rigid.html"
     )]
     Render(commands::render::Args),
+    /// Identification report: one self-contained HTML page on a model and the motion it was
+    /// fitted to (parameters with intervals, per-marker fits, residuals, convergence, 3-D replay).
+    #[command(
+        after_help = "Example:\n  cordis identify u.json -t obs.csv --log conv.csv --out fit.json --json > fit-summary.json\n  cordis report fit.json -t obs.csv --log conv.csv --summary fit-summary.json --html report.html"
+    )]
+    Report(commands::report::Args),
     /// Stability report: each particle's ratio to the bound 4m > K dt² + 2 Z dt, and a JSON line.
     #[command(after_help = "Example:\n  cordis check rigid.json")]
     Check(commands::check::Args),
@@ -129,6 +136,7 @@ where
         Command::Import(a) => commands::import::run(a, output),
         Command::Export(a) => commands::export::run(a, output),
         Command::Render(a) => commands::render::run(a, output),
+        Command::Report(a) => commands::report::run(a, output),
         Command::Check(a) => commands::check::run(a, output),
         Command::Bench(a) => commands::bench::run(a, output),
         Command::Scene(a) => commands::scene::run(a, output),

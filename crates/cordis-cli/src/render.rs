@@ -305,7 +305,7 @@ fn round6(v: f64) -> f64 {
     format!("{v:.5e}").parse().unwrap_or(v)
 }
 
-fn escape_html(s: &str) -> String {
+pub(crate) fn escape_html(s: &str) -> String {
     let mut out = String::with_capacity(s.len());
     for c in s.chars() {
         match c {

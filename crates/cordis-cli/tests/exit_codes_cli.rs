@@ -39,6 +39,10 @@ fn a_missing_input_file_exits_1_naming_it_for_every_command() {
         ],
         vec!["import", "nope", "--dt", "0.01", "-o", "x.json"],
         vec!["export", "nope.json", "--mjcf", "o.json"],
+        vec!["report", "nope.json", "-t", "r.csv", "--html", "o.json"],
+        vec![
+            "report", "r.json", "-t", "r.csv", "--log", "nope.csv", "--html", "o.json",
+        ],
         vec!["export", "r.json", "-t", "nope.csv", "--gltf", "o.json"],
         vec!["identify", "nope.json", "-t", "r.csv", "-o", "o.json"],
         vec!["identify", "u.json", "-t", "nope.csv", "-o", "o.json"],
@@ -86,6 +90,16 @@ fn an_unbounded_input_exits_1_with_the_limit_and_bad_content_exits_2() {
         (
             &["export", "r.json", "-t", "bad.csv", "--gltf", "o.json"],
             "bad.csv",
+        ),
+        (
+            &["report", "r.json", "-t", "bad.csv", "--html", "o.json"],
+            "bad.csv",
+        ),
+        (
+            &[
+                "report", "r.json", "-t", "r.csv", "--log", "bad.csv", "--html", "o.json",
+            ],
+            "bad.csv:1: the header has no `generation` column",
         ),
         (
             &["export", "bad.json", "--mjcf", "o.json"],

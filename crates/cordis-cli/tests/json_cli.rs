@@ -108,6 +108,38 @@ fn every_subcommand_prints_one_json_object_per_line() {
         (Some(60), Some(1))
     );
     assert!(v["bytes"].as_u64().unwrap() > 1000);
+    let v = one_object(
+        d,
+        &[
+            "report",
+            "rigid.json",
+            "-t",
+            "r.csv",
+            "--html",
+            "report.html",
+        ],
+    );
+    assert_eq!(
+        (v["frames"].as_u64(), v["particles"].as_u64()),
+        (Some(60), Some(15))
+    );
+    let v = one_object(
+        d,
+        &[
+            "export",
+            "rigid.json",
+            "--mjcf",
+            "r.xml",
+            "--frames",
+            "5",
+            "--out",
+            "x.npy",
+        ],
+    );
+    assert_eq!(
+        (v["mjcf"].as_str(), v["frames"].as_u64()),
+        (Some("r.xml"), Some(5))
+    );
 
     // import: the thesis' Annexe 1 files.
     let thesis = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/fixtures/thesis/exemple");

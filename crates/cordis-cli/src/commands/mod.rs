@@ -7,6 +7,7 @@ pub mod export;
 pub mod identify;
 pub mod import;
 pub mod render;
+pub mod report;
 pub mod scene;
 pub mod simulate;
 

@@ -1,0 +1,693 @@
+//! The identification report (`cordis report`, issue 18 Deliver 4): one self-contained HTML
+//! page about a model and the motion it was fitted to.
+//!
+//! [`report_html`] replays the model (the scene from its own initial state, which an
+//! output-error fit estimates) over the observed frames and shows: a data summary (frames,
+//! rate, markers, gaps), the fit (position error, worst particle, and the identification's own
+//! summary when given), the parameter table (with standard errors and intervals when the
+//! estimator gave them: `cordis identify --json`'s line, `solver.uncertainty`), per-marker
+//! observed-vs-model x(t), the residual over time and per particle, the convergence curve
+//! (`identify --log`), and the 3-D replay (the viewer of `cordis render`, embedded with
+//! `srcdoc`). Charts are inline SVG drawn here; light and dark themes follow the system, a
+//! button or `#theme=light|dark`. The Content-Security-Policy forbids every fetch, so the page
+//! works offline and cannot leak.
+//!
+//! The residual of particle i at frame t is `|x_model - x_obs|` over its observed coordinates;
+//! "position RMS" is the root mean square of the coordinate errors over every observed
+//! coordinate (m).
+
+mod svg;
+
+use std::fmt::Write as _;
+
+use cordis_core::{CordisError, LinkKind, Observations, Result, Scene, Simulator, Trajectory};
+
+use crate::render::{escape_html, render_html};
+use svg::{bar_chart, line_chart, Chart, Series};
+
+/// The most marker panels drawn (the worst-fitted first when there are more).
+pub const MAX_MARKER_PANELS: usize = 24;
+/// The most points a series of a chart carries (longer ones are thinned evenly).
+const MAX_POINTS: usize = 400;
+
+/// One row of a convergence log: the generation and its best cost.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ConvergencePoint {
+    pub generation: f64,
+    pub best_cost: f64,
+}
+
+/// What a report is made of.
+pub struct ReportInput<'a> {
+    /// The model: every parameter known (an identified scene).
+    pub scene: &'a Scene,
+    /// The observed motion, NaN where missing; particle i is the scene's particle i (the
+    /// scene may have more: hidden particles).
+    pub observed: &'a Observations,
+    /// The convergence log of the identification, when there is one.
+    pub convergence: Option<&'a [ConvergencePoint]>,
+    /// The identification's summary (`cordis identify --json`'s line), when there is one.
+    pub summary: Option<&'a serde_json::Value>,
+    pub title: &'a str,
+}
+
+/// Reads a convergence log written by `cordis identify --log` (CSV with a header naming
+/// `generation` and `best_cost`, or JSON lines with those keys); errors name `name:line`.
+pub fn parse_convergence(name: &str, text: &str) -> Result<Vec<ConvergencePoint>> {
+    let mut out = Vec::new();
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
+    let Some((_, first)) = lines.next() else {
+        return Err(CordisError::format(name, "empty convergence log"));
+    };
+    let value = |line: usize, what: &str, v: Option<f64>| {
+        v.filter(|v| !v.is_nan()).ok_or_else(|| {
+            CordisError::format(
+                format!("{name}:{}", line + 1),
+                format!("no number for `{what}`"),
+            )
+        })
+    };
+    if first.trim_start().starts_with('{') {
+        for (k, line) in std::iter::once((0, first)).chain(lines) {
+            let v: serde_json::Value = serde_json::from_str(line).map_err(|e| {
+                CordisError::format(format!("{name}:{}", k + 1), format!("invalid JSON: {e}"))
+            })?;
+            out.push(ConvergencePoint {
+                generation: value(k, "generation", v["generation"].as_f64())?,
+                best_cost: value(k, "best_cost", v["best_cost"].as_f64())?,
+            });
+        }
+    } else {
+        let header: Vec<&str> = first.split(',').map(str::trim).collect();
+        let col = |key: &str| {
+            header.iter().position(|h| *h == key).ok_or_else(|| {
+                CordisError::format(
+                    format!("{name}:1"),
+                    format!("the header has no `{key}` column (a `cordis identify --log` file?)"),
+                )
+            })
+        };
+        let (g, c) = (col("generation")?, col("best_cost")?);
+        for (k, line) in lines {
+            let cells: Vec<&str> = line.split(',').map(str::trim).collect();
+            let cell = |i: usize| cells.get(i).and_then(|s| s.parse::<f64>().ok());
+            out.push(ConvergencePoint {
+                generation: value(k, "generation", cell(g))?,
+                best_cost: value(k, "best_cost", cell(c))?,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// The unit of a type's parameter, for the table.
+fn unit(kind: LinkKind, param: &str) -> &'static str {
+    match (kind, param) {
+        (LinkKind::Angle, "stiffness") => "N·m",
+        (_, "stiffness" | "tendon_stiffness") => "N/m",
+        (LinkKind::Quadripole | LinkKind::PositionTransmitter, "damping") => "N/m",
+        (_, "damping" | "tendon_damping" | "z1" | "z2") => "N·s/m",
+        (_, "rest_length" | "range") => "m",
+        (_, "v_max") => "m/s",
+        (_, "tendon_mass") => "kg",
+        (LinkKind::Muscle, "gain") => "N",
+        (LinkKind::Muscle, p) if p.starts_with("w_len") => "1/m",
+        (LinkKind::Muscle, p) if p.starts_with("w_rate") => "s/m",
+        _ => "",
+    }
+}
+
+fn num(v: f64) -> String {
+    if v == 0.0 {
+        "0".into()
+    } else if (1e-3..1e6).contains(&v.abs()) {
+        format!("{v:.6}")
+            .trim_end_matches('0')
+            .trim_end_matches('.')
+            .to_string()
+    } else {
+        format!("{v:.5e}")
+    }
+}
+
+/// Residuals of the model against the observed frames.
+struct Fit {
+    per_frame_rms: Vec<f64>,
+    per_particle_rms: Vec<f64>,
+    rms: f64,
+    max: f64,
+    observed_coordinates: usize,
+}
+
+fn fit(model: &Trajectory, obs: &Observations) -> Fit {
+    let (frames, n) = (obs.frames(), obs.particles());
+    let flat = obs.as_flat();
+    let (mut sum, mut count, mut max) = (0.0, 0usize, 0.0f64);
+    let mut particle_sum = vec![(0.0, 0usize); n];
+    let mut per_frame_rms = Vec::with_capacity(frames);
+    for t in 0..frames {
+        let (mut fs, mut fc) = (0.0, 0usize);
+        for i in 0..n {
+            let x = model.pos(t, i);
+            let (mut s2, mut c) = (0.0, 0usize);
+            for k in 0..3 {
+                let o = flat[(t * n + i) * 3 + k];
+                if o.is_finite() {
+                    s2 += (x[k] - o).powi(2);
+                    c += 1;
+                }
+            }
+            if c > 0 {
+                max = max.max(s2.sqrt());
+                fs += s2;
+                fc += c;
+                particle_sum[i].0 += s2;
+                particle_sum[i].1 += c;
+            }
+        }
+        per_frame_rms.push(if fc > 0 {
+            (fs / fc as f64).sqrt()
+        } else {
+            f64::NAN
+        });
+        sum += fs;
+        count += fc;
+    }
+    Fit {
+        per_frame_rms,
+        per_particle_rms: particle_sum
+            .iter()
+            .map(|&(s, c)| {
+                if c > 0 {
+                    (s / c as f64).sqrt()
+                } else {
+                    f64::NAN
+                }
+            })
+            .collect(),
+        rms: if count > 0 {
+            (sum / count as f64).sqrt()
+        } else {
+            f64::NAN
+        },
+        max,
+        observed_coordinates: count,
+    }
+}
+
+/// Indices `0..len` thinned to at most `MAX_POINTS`, evenly, the last one kept.
+fn thinned(len: usize) -> Vec<usize> {
+    if len <= MAX_POINTS {
+        return (0..len).collect();
+    }
+    let mut v: Vec<usize> = (0..MAX_POINTS)
+        .map(|k| k * (len - 1) / (MAX_POINTS - 1))
+        .collect();
+    v.dedup();
+    v
+}
+
+/// Builds the report page (see the module docs).
+pub fn report_html(input: &ReportInput) -> Result<String> {
+    let (scene, obs) = (input.scene, input.observed);
+    scene.validate()?;
+    if let Some((t, p)) = scene.types.iter().find_map(|t| {
+        t.params
+            .iter()
+            .enumerate()
+            .find(|(_, p)| p.is_unknown())
+            .map(|(k, _)| (t, t.param_name(k)))
+    }) {
+        return Err(CordisError::scene(
+            format!("types.{}.{p}", t.name),
+            "is unknown: a report is about a model; give the identified scene (identify --out)",
+        ));
+    }
+    let n = scene.num_particles();
+    if obs.particles() > n {
+        return Err(CordisError::trajectory(
+            "trajectory",
+            format!("has {} particles, the scene has {n}", obs.particles()),
+        ));
+    }
+    if obs.frames() < 2 {
+        return Err(CordisError::trajectory(
+            "trajectory",
+            "needs at least 2 frames",
+        ));
+    }
+    let frames = obs.frames();
+    let dt = obs.dt.unwrap_or(scene.dt);
+    let model = Simulator::new(scene)?.run(frames)?.with_dt(dt);
+    let fit = fit(&model, obs);
+
+    let mut body = String::new();
+    let _ = write!(
+        body,
+        "<header><h1>{}</h1><button id=\"theme\" type=\"button\">light / dark</button></header>",
+        escape_html(input.title)
+    );
+    summary_section(&mut body, input, &fit, dt);
+    parameter_section(&mut body, input);
+    marker_section(&mut body, input, &model, &fit, dt);
+    residual_section(&mut body, &fit, dt);
+    convergence_section(&mut body, input.convergence);
+    replay_section(&mut body, input, &model)?;
+
+    let mut page = String::with_capacity(body.len() + 4096);
+    page.push_str("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n");
+    page.push_str("<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n");
+    // No network, ever: every fetch is forbidden; the replay is an inline frame (srcdoc).
+    page.push_str(
+        "<meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; \
+         script-src 'unsafe-inline'; style-src 'unsafe-inline'; img-src data:\">\n",
+    );
+    let _ = writeln!(page, "<title>{}</title>", escape_html(input.title));
+    let _ = writeln!(
+        page,
+        "<style>\n{}</style>\n</head>",
+        include_str!("report/report.css")
+    );
+    let _ = writeln!(page, "<body>\n{body}");
+    let _ = writeln!(
+        page,
+        "<script>\n{}</script>\n</body>\n</html>",
+        include_str!("report/report.js")
+    );
+    Ok(page)
+}
+
+fn summary_section(out: &mut String, input: &ReportInput, fit: &Fit, dt: f64) {
+    let (scene, obs) = (input.scene, input.observed);
+    let n = scene.num_particles();
+    let total = obs.frames() * obs.particles() * 3;
+    let missing = obs.missing();
+    let hidden = n - obs.particles()
+        + (0..obs.particles())
+            .filter(|&i| fit.per_particle_rms[i].is_nan())
+            .count();
+    let fixed = scene.particles.iter().filter(|p| p.fixed).count();
+    let worst = fit
+        .per_particle_rms
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.is_finite())
+        .max_by(|a, b| a.1.total_cmp(b.1));
+    let _ = write!(
+        out,
+        "<section id=\"data\"><h2>Data and fit</h2><table class=\"facts\">\
+         <tr><th>frames</th><td>{} ({} s at dt = {} s)</td></tr>\
+         <tr><th>particles</th><td>{n} in the scene ({fixed} fixed), {} in the motion, {hidden} never observed</td></tr>\
+         <tr><th>missing</th><td>{missing} of {total} coordinates ({:.2} %)</td></tr>\
+         <tr><th>links</th><td>{} in {} types</td></tr>\
+         <tr><th>position RMS error</th><td>{} m over {} observed coordinates</td></tr>\
+         <tr><th>largest error</th><td>{} m</td></tr>",
+        obs.frames(),
+        num((obs.frames() - 1) as f64 * dt),
+        num(dt),
+        obs.particles(),
+        100.0 * missing as f64 / total.max(1) as f64,
+        scene.links.len() + scene.couplings.len(),
+        scene.types.len(),
+        num(fit.rms),
+        fit.observed_coordinates,
+        num(fit.max),
+    );
+    if let Some((i, v)) = worst {
+        let _ = write!(
+            out,
+            "<tr><th>worst particle</th><td>{i} (RMS {} m)</td></tr>",
+            num(*v)
+        );
+    }
+    if let Some(s) = input.summary {
+        for key in [
+            "strategy",
+            "stopped_by",
+            "cost",
+            "rmse",
+            "generations",
+            "evals",
+            "seconds",
+        ] {
+            let v = &s[key];
+            let shown = match v {
+                serde_json::Value::Null => continue,
+                serde_json::Value::Number(x) => x.as_f64().map_or(x.to_string(), num),
+                serde_json::Value::String(x) => escape_html(x),
+                other => escape_html(&other.to_string()),
+            };
+            let _ = write!(out, "<tr><th>identify: {key}</th><td>{shown}</td></tr>");
+        }
+    }
+    out.push_str("</table>");
+    if let Some(solver) = input
+        .summary
+        .map(|s| &s["solver"])
+        .filter(|v| v.is_object())
+    {
+        let mut solver = solver.clone();
+        if let Some(o) = solver.as_object_mut() {
+            o.remove("uncertainty");
+        }
+        let text = serde_json::to_string_pretty(&solver).unwrap_or_default();
+        let _ = write!(
+            out,
+            "<details><summary>the solver's report</summary><pre>{}</pre></details>",
+            escape_html(&text)
+        );
+    }
+    out.push_str("</section>");
+}
+
+fn parameter_section(out: &mut String, input: &ReportInput) {
+    let uncertainty: Vec<&serde_json::Value> = input
+        .summary
+        .and_then(|s| s["solver"]["uncertainty"].as_array())
+        .map(|a| a.iter().collect())
+        .unwrap_or_default();
+    let interval = |name: &str| -> String {
+        let Some(u) = uncertainty.iter().find(|u| u["name"] == name) else {
+            return String::new();
+        };
+        let se = u["std_error"].as_f64();
+        let (lo, hi) = (u["interval"][0].as_f64(), u["interval"][1].as_f64());
+        let level = u["level"].as_f64().unwrap_or(0.95) * 100.0;
+        match (se, lo, hi) {
+            (Some(se), Some(lo), Some(hi)) if se.is_finite() => {
+                format!(
+                    "± {} <span class=\"muted\">[{}, {}] ({level:.0} %)</span>",
+                    num(se),
+                    num(lo),
+                    num(hi)
+                )
+            }
+            _ => "not determined".into(),
+        }
+    };
+    out.push_str("<section id=\"parameters\"><h2>Parameters</h2>");
+    if uncertainty.is_empty() {
+        out.push_str(
+            "<p class=\"note\">No intervals: give <code>--summary</code> (the line of \
+             <code>cordis identify --json</code>) from an estimator that computes them \
+             (output-error).</p>",
+        );
+    }
+    out.push_str("<table class=\"params\"><tr><th>type</th><th>kind</th><th>parameter</th><th>value</th><th>unit</th><th>standard error, interval</th></tr>");
+    for t in &input.scene.types {
+        for (k, p) in t.params.iter().enumerate() {
+            let name = t.param_name(k);
+            let _ = write!(
+                out,
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td class=\"num\">{}</td><td>{}</td><td>{}</td></tr>",
+                escape_html(&t.name),
+                t.kind.name(),
+                escape_html(&name),
+                num(p.value()),
+                unit(t.kind, &name),
+                interval(&format!("types.{}.{name}", t.name))
+            );
+        }
+    }
+    for u in &uncertainty {
+        let Some(name) = u["name"].as_str().filter(|n| n.starts_with("particles[")) else {
+            continue;
+        };
+        let i: Option<usize> = name
+            .strip_prefix("particles[")
+            .and_then(|r| r.split(']').next())
+            .and_then(|i| i.parse().ok());
+        let Some(p) = i.and_then(|i| input.scene.particles.get(i)) else {
+            continue;
+        };
+        let _ = write!(
+            out,
+            "<tr><td colspan=\"2\">{}</td><td>mass</td><td class=\"num\">{}</td><td>kg</td><td>{}</td></tr>",
+            escape_html(name.trim_end_matches(".mass")),
+            num(p.mass.value()),
+            interval(name)
+        );
+    }
+    out.push_str("</table></section>");
+}
+
+fn marker_section(out: &mut String, input: &ReportInput, model: &Trajectory, fit: &Fit, dt: f64) {
+    let obs = input.observed;
+    let n = obs.particles();
+    let mut shown: Vec<usize> = (0..n)
+        .filter(|&i| fit.per_particle_rms[i].is_finite() && !input.scene.particles[i].fixed)
+        .collect();
+    let observed_free = shown.len();
+    if shown.len() > MAX_MARKER_PANELS {
+        shown.sort_by(|&a, &b| fit.per_particle_rms[b].total_cmp(&fit.per_particle_rms[a]));
+        shown.truncate(MAX_MARKER_PANELS);
+        shown.sort_unstable();
+    }
+    let _ = write!(
+        out,
+        "<section id=\"markers\"><h2>Observed and model, per marker</h2><p class=\"note\">\
+         x, y, z against time: dots observed, lines the model. {}</p>\
+         <p class=\"legend\"><span class=\"k x\">x</span> <span class=\"k y\">y</span> \
+         <span class=\"k z\">z</span></p><div class=\"grid\">",
+        if shown.len() < observed_free {
+            format!(
+                "The {} worst-fitted of {observed_free} observed free particles.",
+                shown.len()
+            )
+        } else {
+            format!("Every observed free particle ({observed_free}).")
+        }
+    );
+    let frames = thinned(obs.frames());
+    let flat = obs.as_flat();
+    for &i in &shown {
+        let mut series = Vec::new();
+        for (k, class) in ["x", "y", "z"].iter().enumerate() {
+            series.push(Series {
+                class,
+                points: frames
+                    .iter()
+                    .map(|&t| (t as f64 * dt, flat[(t * n + i) * 3 + k]))
+                    .collect(),
+                dots: true,
+            });
+            series.push(Series {
+                class,
+                points: frames
+                    .iter()
+                    .map(|&t| (t as f64 * dt, model.pos(t, i)[k]))
+                    .collect(),
+                dots: false,
+            });
+        }
+        let title = format!("particle {i} (RMS {} m)", num(fit.per_particle_rms[i]));
+        let chart = Chart {
+            width: 330.0,
+            height: 170.0,
+            x_label: "t (s)",
+            y_label: "m",
+            log_y: false,
+            y_from_zero: false,
+            title: &title,
+        };
+        out.push_str(&line_chart(&chart, &series));
+    }
+    out.push_str("</div></section>");
+}
+
+fn residual_section(out: &mut String, fit: &Fit, dt: f64) {
+    let frames = thinned(fit.per_frame_rms.len());
+    let over_time = line_chart(
+        &Chart {
+            width: 680.0,
+            height: 220.0,
+            x_label: "t (s)",
+            y_label: "RMS error (m)",
+            log_y: false,
+            y_from_zero: true,
+            title: "position error over time (RMS over observed coordinates)",
+        },
+        &[Series {
+            class: "model",
+            points: frames
+                .iter()
+                .map(|&t| (t as f64 * dt, fit.per_frame_rms[t]))
+                .collect(),
+            dots: false,
+        }],
+    );
+    let per_particle = bar_chart(
+        &Chart {
+            width: 680.0,
+            height: 220.0,
+            x_label: "particle",
+            y_label: "RMS error (m)",
+            log_y: false,
+            y_from_zero: true,
+            title: "position error per particle (RMS over frames)",
+        },
+        &fit.per_particle_rms,
+    );
+    let _ = write!(
+        out,
+        "<section id=\"residuals\"><h2>Residuals</h2>{over_time}{per_particle}</section>"
+    );
+}
+
+fn convergence_section(out: &mut String, convergence: Option<&[ConvergencePoint]>) {
+    out.push_str("<section id=\"convergence\"><h2>Convergence</h2>");
+    match convergence {
+        Some(rows) if !rows.is_empty() => {
+            let pick = thinned(rows.len());
+            out.push_str(&line_chart(
+                &Chart {
+                    width: 680.0,
+                    height: 220.0,
+                    x_label: "generation",
+                    y_label: "best cost",
+                    log_y: rows.iter().all(|r| r.best_cost > 0.0),
+                    y_from_zero: true,
+                    title: "best cost per generation",
+                },
+                &[Series {
+                    class: "model",
+                    points: pick
+                        .iter()
+                        .map(|&k| (rows[k].generation, rows[k].best_cost))
+                        .collect(),
+                    dots: false,
+                }],
+            ));
+        }
+        _ => out.push_str(
+            "<p class=\"note\">No convergence log: give <code>--log</code> (the file of \
+             <code>cordis identify --log</code>).</p>",
+        ),
+    }
+    out.push_str("</section>");
+}
+
+/// The 3-D replay: the viewer page in an inline frame, the observed motion solid and the model
+/// dashed when the observation is complete, else the model alone.
+fn replay_section(out: &mut String, input: &ReportInput, model: &Trajectory) -> Result<()> {
+    let obs = input.observed;
+    let complete = (obs.missing() == 0 && obs.particles() == input.scene.num_particles())
+        .then(|| obs.clone().into_trajectory())
+        .transpose()?;
+    let (page, note) = match &complete {
+        Some(observed) => (
+            render_html(input.scene, observed, Some(model), input.title)?,
+            "observed solid, model dashed",
+        ),
+        None => (
+            render_html(input.scene, model, None, input.title)?,
+            "the model alone (the observation has gaps or hidden particles)",
+        ),
+    };
+    let _ = write!(
+        out,
+        "<section id=\"replay\"><h2>3-D replay</h2><p class=\"note\">{note}; drag to turn, \
+         the controls are the viewer's (<code>cordis render</code>).</p>\
+         <iframe title=\"3-D replay\" srcdoc=\"{}\"></iframe></section>",
+        escape_html(&page)
+    );
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use cordis_core::examples;
+
+    #[test]
+    fn the_page_has_every_section_and_the_intervals_it_is_given() {
+        let scene = examples::rigid();
+        let observed = Observations::from_trajectory(&scene.simulate(60).unwrap());
+        let summary = serde_json::json!({"strategy": "output-error", "cost": 1e-3,
+            "solver": {"sigma": 1e-3, "uncertainty": [{"name": "types.h_top.stiffness",
+            "std_error": 2.5, "interval": [945.1, 954.9], "level": 0.95}]}});
+        let log =
+            parse_convergence("c.csv", "generation,evals,best_cost\n0,10,5.0\n1,20,0.5\n").unwrap();
+        let page = report_html(&ReportInput {
+            scene: &scene,
+            observed: &observed,
+            convergence: Some(&log),
+            summary: Some(&summary),
+            title: "rigid <fit>",
+        })
+        .unwrap();
+        for id in [
+            "data",
+            "parameters",
+            "markers",
+            "residuals",
+            "convergence",
+            "replay",
+        ] {
+            assert!(page.contains(&format!("<section id=\"{id}\">")), "{id}");
+        }
+        assert!(page.contains("<title>rigid &lt;fit&gt;</title>"));
+        assert!(page.contains("± 2.5 <span class=\"muted\">[945.1, 954.9] (95 %)</span>"));
+        assert!(page.contains("Every observed free particle (15)."));
+        assert!(
+            page.contains("position RMS error</th><td>0 m"),
+            "the model is the truth"
+        );
+        assert!(
+            !page.contains("http://") && !page.contains("https://"),
+            "no network"
+        );
+        assert_eq!(page.matches("<svg ").count(), 15 + 2 + 1);
+    }
+
+    #[test]
+    fn gaps_are_not_errors_and_unknowns_are_refused() {
+        let scene = examples::rigid();
+        let mut flat = scene.simulate(30).unwrap().into_flat();
+        flat[3 * 4..3 * 5].fill(f64::NAN);
+        let observed = Observations::from_flat(30, 15, flat).unwrap();
+        let input = |s| ReportInput {
+            scene: s,
+            observed: &observed,
+            convergence: None,
+            summary: None,
+            title: "t",
+        };
+        let page = report_html(&input(&scene)).unwrap();
+        assert!(page.contains("3 of 1350 coordinates"));
+        assert!(page.contains("the model alone (the observation has gaps"));
+        let unknown = examples::by_name("rigid")
+            .map(|mut s| {
+                s.types[0].params[0] = cordis_core::Param::Unknown(cordis_core::Bounds {
+                    min: 1.0,
+                    max: 2.0,
+                    init: None,
+                });
+                s
+            })
+            .unwrap();
+        let e = report_html(&input(&unknown)).unwrap_err().to_string();
+        assert!(e.starts_with("types.h_bottom.stiffness: is unknown"), "{e}");
+    }
+
+    #[test]
+    fn a_log_without_best_cost_names_its_line() {
+        let e = parse_convergence("c.csv", "generation,evals\n0,1\n")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("c.csv:1: the header has no `best_cost` column"),
+            "{e}"
+        );
+        let e = parse_convergence(
+            "c.jsonl",
+            "{\"generation\": 0, \"best_cost\": 1}\n{\"generation\": 1}\n",
+        )
+        .unwrap_err()
+        .to_string();
+        assert_eq!(e, "c.jsonl:2: no number for `best_cost`");
+    }
+}
