@@ -598,6 +598,22 @@ class IdentifyResult:
     def sigma(self) -> Optional[float]:
         """Noise of the observed positions estimated from the residuals, m; None when not
         estimated."""
+    def write_report(
+        self,
+        path: _PathLike,
+        trajectory: _ArrayLike,
+        visible: Optional[_ArrayLike] = None,
+        title: Optional[str] = None,
+    ) -> None:
+        """Writes the identification report (``cordis report``): one self-contained HTML page
+        on :attr:`scene` and the observed ``trajectory`` ``(T, N, 3)`` (NaN, or ``visible``
+        False, where missing) — data summary, parameters with this run's intervals, per-marker
+        observed vs model, residuals, convergence, the 3-D replay; light and dark themes.
+        Written atomically. (``report`` is the solver's report, hence the name.)
+
+        >>> res = cordis.identify(scene, traj, strategy="output-error")
+        >>> res.write_report("report.html", traj)
+        """
 
 def identify(
     scene: Scene,

@@ -109,6 +109,10 @@ pub struct IdentifyResult {
     /// estimated.
     #[pyo3(get)]
     sigma: Option<f64>,
+    /// The run as `cordis identify --json` prints it, for [`IdentifyResult::write_report`].
+    summary: serde_json::Value,
+    /// Best cost per generation, for the report's convergence chart.
+    convergence: Vec<cordis_cli::report::ConvergencePoint>,
 }
 
 #[pymethods]
@@ -118,6 +122,34 @@ impl IdentifyResult {
     #[allow(non_snake_case)]
     fn HISTORY_COLUMNS() -> Vec<&'static str> {
         HISTORY_COLUMNS.to_vec()
+    }
+
+    /// Writes the identification report (`cordis report`): one self-contained HTML page on
+    /// the identified scene and the observed motion `trajectory` (`(T, N, 3)`, NaN or
+    /// `visible` False where missing), with this run's intervals and convergence.
+    #[pyo3(signature = (path, trajectory, visible = None, title = None))]
+    fn write_report(
+        &self,
+        py: Python<'_>,
+        path: std::path::PathBuf,
+        trajectory: &Bound<'_, PyAny>,
+        visible: Option<&Bound<'_, PyAny>>,
+        title: Option<String>,
+    ) -> PyResult<()> {
+        let observed = crate::trajectory::observations_from_py(trajectory, visible, "trajectory")?;
+        let scene = self.scene.get().core();
+        let title = title.unwrap_or_else(|| format!("identified by {}", self.strategy));
+        py.detach(|| {
+            let page = cordis_cli::report::report_html(&cordis_cli::report::ReportInput {
+                scene: &scene,
+                observed: &observed,
+                convergence: Some(&self.convergence),
+                summary: Some(&self.summary),
+                title: &title,
+            })?;
+            cordis_core::io::write_atomic(&path, page.as_bytes())
+        })
+        .map_err(crate::errors::to_py)
     }
 
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
@@ -705,6 +737,24 @@ fn build_result(py: Python<'_>, outcome: Outcome) -> PyResult<IdentifyResult> {
         None => None,
     };
     let spread = uncertainty_to_py(py, &report)?;
+    let summary = serde_json::json!({
+        "strategy": run.strategy.to_string(),
+        "cost": run.cost,
+        "rmse": run.rmse,
+        "evals": run.evals,
+        "generations": run.generations,
+        "seconds": run.seconds,
+        "stopped_by": stop_text(run.stopped_by),
+        "solver": report.to_json(),
+    });
+    let convergence = run
+        .history
+        .iter()
+        .map(|r| cordis_cli::report::ConvergencePoint {
+            generation: r.generation as f64,
+            best_cost: r.best_cost,
+        })
+        .collect();
     let report = match report.to_json() {
         serde_json::Value::Null => None,
         v => Some(crate::json::to_py(py, &v)?.unbind()),
@@ -746,6 +796,8 @@ fn build_result(py: Python<'_>, outcome: Outcome) -> PyResult<IdentifyResult> {
         intervals: spread.intervals,
         covariance: spread.covariance,
         sigma: spread.sigma,
+        summary,
+        convergence,
     })
 }
 

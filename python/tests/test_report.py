@@ -1,0 +1,48 @@
+"""`IdentifyResult.write_report`: the identification report page from Python (issue 18,
+Deliver 4), the same page as `cordis report` (its browser test is tests/viewer/screenshot.sh)."""
+
+import numpy as np
+import pytest
+
+import cordis
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    truth = cordis.example("rigid")
+    rng = np.random.default_rng(3)
+    observed = truth.simulate(100) + rng.normal(0.0, 1e-3, (100, 15, 3))
+    res = cordis.identify(cordis.example("rigid", unknowns=True), observed,
+                          strategy="output-error")
+    return res, observed
+
+
+def test_the_report_has_every_section_and_this_runs_intervals(tmp_path, fitted):
+    res, observed = fitted
+    res.write_report(tmp_path / "report.html", observed, title="rigid <noisy>")
+    page = (tmp_path / "report.html").read_text()
+    assert page.startswith("<!DOCTYPE html>")
+    assert "<title>rigid &lt;noisy&gt;</title>" in page
+    for section in ("data", "parameters", "markers", "residuals", "convergence", "replay"):
+        assert f'<section id="{section}">' in page, section
+    assert "identify: strategy</th><td>output-error" in page
+    finite = [n for n, s in res.stderr.items() if np.isfinite(s)]
+    assert finite, "output-error gives standard errors"
+    assert page.count("(95 %)") == len(finite)
+    assert page.count("<svg ") == 15 + 3  # a panel per marker, two residual charts, convergence
+    assert "http://" not in page and "https://" not in page
+
+
+def test_gaps_give_the_model_alone_in_the_replay_and_bad_input_raises(tmp_path, fitted):
+    res, observed = fitted
+    gappy = observed.copy()
+    gappy[10:20, 3] = np.nan
+    res.write_report(tmp_path / "gaps.html", gappy)
+    page = (tmp_path / "gaps.html").read_text()
+    assert "30 of 4500 coordinates" in page
+    assert "the model alone (the observation has gaps" in page
+    with pytest.raises(cordis.TrajectoryError, match="has 16 particles, the scene has 15"):
+        res.write_report(tmp_path / "bad.html", np.zeros((5, 16, 3)))
+    assert not (tmp_path / "bad.html").exists()
+    with pytest.raises(ValueError, match=r"shape \(T, N, 3\)"):
+        res.write_report(tmp_path / "bad.html", np.zeros((5, 15)))
