@@ -69,6 +69,8 @@ from ._cordis import (
     cost,
     discover,
     example,
+    export_gltf,
+    export_mjcf,
     identify,
     random_network,
     read_trajectory,
@@ -80,6 +82,8 @@ from .plot import animate
 
 __all__ = [
     "EXAMPLES",
+    "export_gltf",
+    "export_mjcf",
     "ArgumentError",
     "CheckpointError",
     "CordisError",

@@ -45,6 +45,8 @@ __all__ = [
     "LinkTypes",
     "read_trajectory",
     "write_trajectory",
+    "export_mjcf",
+    "export_gltf",
     "example",
     "EXAMPLES",
     "CostReport",
@@ -421,6 +423,24 @@ def read_trajectory(
     delimiter: Optional[str] = None,
     with_dt: Literal[True],
 ) -> Tuple[npt.NDArray[np.float64], Optional[float]]: ...
+
+def export_mjcf(scene: Scene, path: _PathLike) -> None:
+    """Writes MuJoCo's MJCF model of ``scene`` atomically (``cordis export --mjcf``): body
+    ``p{i}`` per particle on slide joints, tendons, semi-implicit Euler equal to the CORDIS
+    step. Kinds MuJoCo cannot express raise SceneError naming them.
+
+    >>> cordis.export_mjcf(cordis.example("rigid"), "rigid.xml")
+    """
+
+def export_gltf(
+    scene: Scene, trajectory: _ArrayLike, path: _PathLike, dt: Optional[float] = None
+) -> None:
+    """Writes a self-contained glTF 2.0 animation of ``trajectory`` ``(T, N, 3)``, a motion of
+    ``scene`` (points and links, one morph target per frame, frames ``dt`` s apart, default
+    the scene's), atomically (``cordis export --gltf``).
+
+    >>> cordis.export_gltf(scene, scene.simulate(200), "motion.gltf")
+    """
 
 def write_trajectory(path: _PathLike, array: _ArrayLike, dt: Optional[float] = None) -> None:
     """Writes positions ``(T, N, 3)`` (any float64-convertible array, m) atomically.

@@ -7,7 +7,7 @@
 //!
 //! Modules: `scene.rs` (core `Scene`), `scene_edit.rs` (its editing views), `unknown.rs`
 //! (`Param::Unknown`), `trajectory.rs` (`cordis_core::io`), `examples.rs`
-//! (`cordis_core::examples`), `cost.rs` (`cordis_es::cost`), `identify.rs` (`cordis_es::problem`,
+//! (`cordis_core::examples`), `export.rs` (`cordis_core::export`: MJCF, glTF), `cost.rs` (`cordis_es::cost`), `identify.rs` (`cordis_es::problem`,
 //! `identify`, `executor`), `evaluator.rs` (`cordis_es::evaluator`: populations evaluated by
 //! a Python executor such as Ray), `discover.rs` (`cordis_es::discover`), `cli.rs` (`cordis_cli`), `errors.rs` (both error enums).
 
@@ -19,6 +19,7 @@ pub mod discover;
 pub mod errors;
 pub mod evaluator;
 pub mod examples;
+pub mod export;
 pub mod from_markers;
 pub mod identify;
 pub mod json;
@@ -39,6 +40,7 @@ fn _cordis(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<scene_edit::TypeView>()?;
     trajectory::register(m)?;
     examples::register(m)?;
+    export::register(m)?;
     cost::register(m)?;
     identify::register(m)?;
     evaluator::register(m)?;

@@ -160,3 +160,22 @@ def test_bad_export_input_is_one_line_and_writes_nothing(tmp_path):
         assert message in lines[0], (message, lines[0])
         assert not gltf.exists() and not xml.exists() and not (tmp_path / "r.npy").exists()
     assert (tmp_path / "rigid.json").read_bytes() == before
+
+
+def test_python_export_writes_the_same_files_as_the_cli(tmp_path):
+    scene = cordis.example("rigid")
+    traj = scene.simulate(30)
+    (tmp_path / "rigid.json").write_text(scene.to_json())
+    cordis.write_trajectory(tmp_path / "rigid.npy", traj)
+    out = run("export", tmp_path / "rigid.json", "--trajectory", tmp_path / "rigid.npy",
+              "--gltf", tmp_path / "cli.gltf", "--mjcf", tmp_path / "cli.xml")
+    assert out.returncode == 0, out.stderr
+    cordis.export_mjcf(scene, tmp_path / "py.xml")
+    cordis.export_gltf(scene, traj, tmp_path / "py.gltf")
+    assert (tmp_path / "py.xml").read_bytes() == (tmp_path / "cli.xml").read_bytes()
+    assert (tmp_path / "py.gltf").read_bytes() == (tmp_path / "cli.gltf").read_bytes()
+    with pytest.raises(cordis.SceneError, match="cannot express angle"):
+        cordis.export_mjcf(cordis.example("horse"), tmp_path / "horse.xml")
+    assert not (tmp_path / "horse.xml").exists()
+    with pytest.raises(cordis.TrajectoryError, match="has 3 particles, the scene has 15"):
+        cordis.export_gltf(scene, np.zeros((4, 3, 3)), tmp_path / "bad.gltf")
