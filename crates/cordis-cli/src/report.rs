@@ -114,6 +114,7 @@ fn unit(kind: LinkKind, param: &str) -> &'static str {
         (_, "v_max") => "m/s",
         (_, "tendon_mass") => "kg",
         (LinkKind::Muscle, "gain") => "N",
+        (LinkKind::Plane, "friction") => "1",
         (LinkKind::Muscle, p) if p.starts_with("w_len") => "1/m",
         (LinkKind::Muscle, p) if p.starts_with("w_rate") => "s/m",
         _ => "",
