@@ -5,6 +5,7 @@ exception classes — cordis.CordisError's (ArgumentError is also a ValueError),
 TypeError/OverflowError/ValueError of a value Python cannot convert — and a result otherwise."""
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -52,10 +53,10 @@ BASE = dict(strategy="thesis", generations=2, population=6, seed=0, time_limit=1
             descent_start=10**6)
 
 IDENTIFY_FLOATS = ["noise", "time_limit", "target_cost", "dt", "stable_spread", "total_mass"]
-# Not yet `stable_horizon`: 10**7 frames or more runs on past `time_limit` (each evaluation
-# simulates the whole horizon; no bound on it is checked) — found by this test, left open.
+# `stable_horizon`: a horizon whose free run (one per evaluation) cannot end within
+# `time_limit` is refused before any work (10**7 frames used to run on past the limit).
 IDENTIFY_INTS = ["generations", "population", "seed", "max_evals", "threads", "islands",
-                 "migrate_every", "migrants", "descent_start", "descent_every"]
+                 "migrate_every", "migrants", "descent_start", "descent_every", "stable_horizon"]
 
 
 @pytest.mark.parametrize("key", IDENTIFY_FLOATS)
@@ -105,6 +106,19 @@ def test_discover_float_keywords(key, value):
     kw = dict(dt=truth.dt, total_mass=8.0)
     kw[key] = value
     well_behaved(lambda: cordis.discover(traj, **kw))
+
+
+def test_a_stable_horizon_beyond_the_time_limit_is_refused_before_any_work(rigid):
+    _, traj, scene = rigid
+    start = time.monotonic()
+    with pytest.raises(ValueError, match=r"stable_horizon: 10000000 frames: one candidate's "
+                       r"free run takes about .* s here .* beyond time_limit 1 s"):
+        cordis.identify(scene, traj, **dict(BASE, stable_horizon=10**7))
+    assert time.monotonic() - start < 5.0
+    # Within the limit it runs, and honours it.
+    start = time.monotonic()
+    r = cordis.identify(scene, traj, **dict(BASE, stable_horizon=1000))
+    assert time.monotonic() - start < 5.0 and r.stopped_by in ("generations", "time_limit")
 
 
 def test_the_checkpoint_docstring_says_when_it_writes():

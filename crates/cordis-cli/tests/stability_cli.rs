@@ -68,7 +68,7 @@ fn simulate_stops_an_unstable_scene_naming_the_frame_and_writes_nothing() {
     assert!(stderr.contains("warning: stability ratio 1.05"), "{stderr}");
     let error = stderr.lines().find(|l| l.starts_with("error:")).unwrap();
     assert!(
-        error.contains("diverged at frame 517, particle 0"),
+        error.contains("diverged at frame 39, particle 0"),
         "{error}"
     );
     assert!(!out_path.exists());

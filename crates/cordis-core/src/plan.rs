@@ -12,6 +12,7 @@ use crate::forces::{
     provot::ProvotLink, provot::ProvotPass, quadripole::QuadripolePass, runs_by_type,
     spring::SpringPass, stateful::Stateful, tgr::TgrPass,
 };
+use crate::runaway::Runaway;
 use crate::world::{Clock, OneClock, WorldClock, WorldSteps};
 use crate::{LinkKind, ParamLayout, Scene, Vec3};
 
@@ -55,6 +56,10 @@ pub struct Plan {
     /// Large scenes split their force passes in two fixed halves, summed in a fixed order
     /// (see [`Split`]); small ones take the sequential path.
     pub split: Option<Split>,
+    /// The divergence guard of the scene's own start (`x(0)`, its velocities): what
+    /// [`Plan::scratch`] gives a simulation; a caller starting elsewhere (observed motion)
+    /// sets [`Scratch::runaway`] to its own.
+    pub runaway: Runaway,
 }
 
 /// The two halves of a large scene's force work. Half 0 holds the first half of the springs,
@@ -88,6 +93,9 @@ pub struct Scratch {
     pub state: Vec<f64>,
     /// Index n of the frame the next [`Plan::step`] starts from (signals read `t = n dt`).
     pub frame: usize,
+    /// The divergence guard [`Plan::step`] applies at frame `frame` (the plan's own unless the
+    /// caller set one for another start).
+    pub runaway: Runaway,
 }
 
 impl Plan {
@@ -290,6 +298,7 @@ impl Plan {
                 }
             })
             .collect();
+        let runaway = start_runaway(scene, &x0, worlds.as_ref());
         Ok(Plan {
             n: scene.particles.len(),
             dt: scene.dt,
@@ -311,6 +320,7 @@ impl Plan {
             provot,
             needs_velocity,
             has_gravity: scene.gravity != [0.0; 3],
+            runaway,
             split: None,
         }
         .with_split())
@@ -362,6 +372,7 @@ impl Plan {
             muscles: MuscleBuf::new(self.muscles.len()),
             state: vec![0.0; self.stateful.state_len()],
             frame: 0,
+            runaway: self.runaway,
         }
     }
 
@@ -372,6 +383,15 @@ impl Plan {
         s.frame = 0;
         s.state.resize(self.stateful.state_len(), 0.0);
         self.stateful.reset(p, &self.x0, &mut s.state);
+    }
+
+    /// The divergence guard of a start given as observed frames of this plan's particles
+    /// (NaN where a marker is missing), each world's steps counted as in the plan's own.
+    pub fn runaway_of<F: AsRef<[Vec3]>>(
+        &self,
+        frames: impl IntoIterator<Item = F> + Clone,
+    ) -> Runaway {
+        runaway_of(self.dt, self.worlds.as_ref(), frames)
     }
 
     /// Number of link instances (conditional pairs not counted: they change every step).
@@ -496,7 +516,7 @@ impl Plan {
                 .accumulate(p, n, dt, x, &s.v, &mut s.f, &mut s.state);
         }
         s.frame += 1;
-        let bad = self.integrate(p, x, x_prev, &s.f);
+        let bad = self.integrate(p, x, x_prev, &s.f, (&s.runaway, s.frame));
         std::mem::swap(x, x_prev);
         self.provot.apply(p, x, &self.free);
         bad
@@ -504,15 +524,23 @@ impl Plan {
 
     /// Writes x(n+1) into `x_prev` (so a swap completes the step): `2x - x_prev + dt² (F/m + g)`
     /// for free particles (each with its world's dt; gravity on the main world only), `x` for
-    /// fixed ones.
-    fn integrate(&self, p: &[f64], x: &[Vec3], x_prev: &mut [Vec3], f: &[Vec3]) -> Option<usize> {
+    /// fixed ones. Returns the first particle beyond the guard `runaway` at frame `steps`.
+    fn integrate(
+        &self,
+        p: &[f64],
+        x: &[Vec3],
+        x_prev: &mut [Vec3],
+        f: &[Vec3],
+        (runaway, steps): (&Runaway, usize),
+    ) -> Option<usize> {
         // Gravity is read from `p` even when the scene had none: the plan must follow any
         // parameter vector of its layout, and adding a zero vector costs what skipping did.
         let o = self.layout.gravity_offset;
         let g = Vec3::new(p[o], p[o + 1], p[o + 2]);
+        let guard = (runaway, runaway.limit(steps, g.norm()));
         match &self.worlds {
-            None => self.integrate_with(OneClock::new(self.dt, g), p, x, x_prev, f),
-            Some(steps) => self.integrate_worlds(WorldClock { steps, g }, p, x, x_prev, f),
+            None => self.integrate_with(OneClock::new(self.dt, g), p, x, x_prev, f, guard),
+            Some(steps) => self.integrate_worlds(WorldClock { steps, g }, p, x, x_prev, f, guard),
         }
     }
 
@@ -527,8 +555,9 @@ impl Plan {
         x: &[Vec3],
         x_prev: &mut [Vec3],
         f: &[Vec3],
+        guard: (&Runaway, f64),
     ) -> Option<usize> {
-        self.integrate_with(clock, p, x, x_prev, f)
+        self.integrate_with(clock, p, x, x_prev, f, guard)
     }
 
     #[inline(always)]
@@ -539,6 +568,7 @@ impl Plan {
         x: &[Vec3],
         x_prev: &mut [Vec3],
         f: &[Vec3],
+        (runaway, limit): (&Runaway, f64),
     ) -> Option<usize> {
         let m = &p[self.layout.mass_offset..self.layout.mass_offset + self.n];
         let mut finite = true;
@@ -548,13 +578,13 @@ impl Plan {
             } else {
                 x[i]
             };
-            finite &= next.iter().all(|c| c.abs() <= RUNAWAY);
+            finite &= runaway.within(&next, limit);
             x_prev[i] = next;
         }
         if finite {
             None
         } else {
-            (0..self.n).find(|&i| !x_prev[i].iter().all(|c| c.abs() <= RUNAWAY))
+            (0..self.n).find(|&i| !runaway.within(&x_prev[i], limit))
         }
     }
 }
@@ -619,5 +649,34 @@ fn muscle_pass(scene: &Scene, items: &[(usize, ([u32; 2], usize))], off: &[usize
     }
 }
 
-/// A coordinate beyond this (m), or a non-finite one, means the simulation has diverged.
-pub const RUNAWAY: f64 = 1e100;
+/// The guard of the scene's start (see [`crate::runaway`]): the bounding box of `x(0)`, the
+/// fastest initial velocity.
+fn start_runaway(scene: &Scene, x0: &[Vec3], worlds: Option<&WorldSteps>) -> Runaway {
+    let fastest = scene
+        .particles
+        .iter()
+        .map(|p| Vec3::from(p.vel).norm())
+        .fold(0.0, f64::max);
+    Runaway {
+        speed: fastest,
+        ..runaway_of(scene.dt, worlds, [x0])
+    }
+}
+
+/// [`Runaway::of_motion`] with the worlds' steps: the launch speed at the smallest, time at the
+/// largest (a particle of a finer world has moved for less time), speeds measured at the
+/// smallest (so never underestimated).
+fn runaway_of<F: AsRef<[Vec3]>>(
+    dt: f64,
+    worlds: Option<&WorldSteps>,
+    frames: impl IntoIterator<Item = F> + Clone,
+) -> Runaway {
+    let (min_dt, max_dt) = worlds.map_or((dt, dt), |w| {
+        let fold = |f: fn(f64, f64) -> f64, init| w.dts.iter().copied().fold(init, f);
+        (fold(f64::min, f64::INFINITY), fold(f64::max, 0.0))
+    });
+    Runaway {
+        dt: max_dt,
+        ..Runaway::of_motion(frames, min_dt)
+    }
+}

@@ -81,7 +81,7 @@ impl Simulator {
             self.scratch.state.copy_from_slice(&self.undo_state);
             self.scratch.frame -= 1;
             self.frame -= 1;
-            return Err(diverged(self.frame + 1, i));
+            return Err(self.diverged(self.frame + 1, i));
         }
         Ok(())
     }
@@ -97,6 +97,23 @@ impl Simulator {
         )
     }
 
+    /// The error of a step to `frame` that put `particle` beyond the guard
+    /// ([`crate::runaway`]), with the limit it crossed.
+    fn diverged(&self, frame: usize, particle: usize) -> CordisError {
+        let o = self.plan.layout.gravity_offset;
+        let g = Vec3::from_column_slice(&self.params[o..o + 3]).norm();
+        let limit = self.scratch.runaway.limit(frame, g);
+        CordisError::Diverged {
+            frame,
+            particle,
+            message: format!(
+                "position is not finite or beyond {limit:.3e} m of the start's centre (10^6 \
+                 times the scene's size and reach at its speeds); reduce dt or stiffness (see \
+                 `cordis check`)"
+            ),
+        }
+    }
+
     /// Frames x(0)…x(T-1) from the current state (frame 0 of the result is the current x).
     pub fn run(&mut self, frames: usize) -> Result<Trajectory> {
         let n = self.plan.n;
@@ -107,21 +124,11 @@ impl Simulator {
         traj.set_frame(0, &self.x);
         for t in 1..frames {
             if let Some(i) = self.step_unchecked() {
-                return Err(diverged(self.frame, i));
+                return Err(self.diverged(self.frame, i));
             }
             traj.set_frame(t, &self.x);
         }
         Ok(traj)
-    }
-}
-
-fn diverged(frame: usize, particle: usize) -> CordisError {
-    CordisError::Diverged {
-        frame,
-        particle,
-        message: "position is not finite or beyond 1e100 m; reduce dt or stiffness \
-                  (see `cordis check`)"
-            .into(),
     }
 }
 

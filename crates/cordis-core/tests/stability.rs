@@ -90,9 +90,14 @@ fn anchor_at_4_2_is_unstable_with_ratio_1_05_and_diverges_naming_the_frame() {
         panic!("expected a divergence")
     };
     assert_eq!(particle, 0);
-    // Growth per step |λ| = (2.2 + √0.84) / 2 from x0 = 1 m to 1e100 m.
+    // Growth per step |λ| = (2.2 + √0.84) / 2 from x0 = 1 m to the guard relative to the start
+    // (a still point of size 1 m, the floor, at x = 1): 10⁶ (1 + 2n) m at frame n.
     let lambda = (2.2 + 0.84_f64.sqrt()) / 2.0;
-    let predicted = (1e100_f64).ln() / lambda.ln();
+    let guard = |n: f64| 1e6 * (1.0 + 2.0 * n);
+    let predicted = (1..10_000)
+        .map(|n| n as f64)
+        .find(|&n| lambda.powf(n) > guard(n))
+        .unwrap();
     assert!(
         (frame as f64 - predicted).abs() < 5.0,
         "frame {frame}, predicted {predicted:.1}"
@@ -102,7 +107,7 @@ fn anchor_at_4_2_is_unstable_with_ratio_1_05_and_diverges_naming_the_frame() {
     assert!(t
         .as_flat()
         .iter()
-        .all(|v| v.is_finite() && v.abs() <= 1e100));
+        .all(|v| v.is_finite() && (v - 1.0).abs() <= guard(frame as f64)));
     assert!(s.simulate(frame + 1).is_err());
 }
 
@@ -488,9 +493,32 @@ fn a_failed_step_leaves_the_state_as_it_was() {
 }
 
 #[test]
+fn the_divergence_guard_is_relative_to_the_scene_wherever_it_lies() {
+    // The unstable anchor (λ = 1.558 per step) diverges at the frame the relative guard
+    // predicts, 12 times earlier than at the old absolute 1e100 m (frame 519), and at the same
+    // frame when the whole scene lies 1e9 m away: the guard is measured from the scene's
+    // centre, not from the origin.
+    let frame_of = |s: &Scene| match s.simulate(5000) {
+        Err(CordisError::Diverged { frame, .. }) => frame,
+        other => panic!("expected a divergence, got {other:?}"),
+    };
+    let near = anchored(2.0, 0.01, 4.2, 0.0);
+    let mut far = near.clone();
+    far.particles[0].pos[1] += 1e9;
+    far.links[0].point = Some([0.0, 1e9, 0.0]);
+    let frame = frame_of(&near);
+    assert!(frame < 519 / 10, "{frame}");
+    assert_eq!(frame_of(&far), frame);
+    let Err(e) = near.simulate(5000) else {
+        unreachable!()
+    };
+    assert!(e.to_string().contains("of the start's centre"), "{e}");
+}
+
+#[test]
 fn legitimate_long_free_fall_is_not_a_divergence() {
-    // 1e6 s of free fall at 1e3 m/s² ends ~5e14 m away: far beyond any relative criterion
-    // tied to the scene's extent (1 m), well within the absolute 1e100 m.
+    // 1e6 s of free fall at 1e3 m/s² ends ~5e14 m away: far beyond any criterion tied to the
+    // scene's extent (1 m) alone, within the guard that grows with the time, speed and gravity.
     let mut s = Scene::new(10.0);
     s.gravity = [0.0, 0.0, -1e3];
     s.add_particle(Particle::new(1.0, [0.0, 0.0, 0.0]).with_vel([3e5, 0.0, 0.0]));

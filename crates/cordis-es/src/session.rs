@@ -255,6 +255,7 @@ impl Session {
             loss: req.loss,
         };
         check_memory(&req, &problem, &options)?;
+        check_horizon_time(&req, &problem)?;
         let (strategy, ran) = match req.islands {
             Some(c) => make_islands(req.strategy, &problem, &options, c)
                 .map_err(|e| CostError::invalid(req.opt("islands"), e))?,
@@ -336,14 +337,18 @@ impl Session {
         }
         let mut warnings = self.warnings;
         warnings.extend(report.warnings());
-        if let Some(h) = self.problem.stable_horizon() {
-            if !result.cost.is_finite() {
-                warnings.push(format!(
+        if !result.cost.is_finite() {
+            warnings.push(match self.problem.stable_horizon() {
+                Some(h) => format!(
                     "stable horizon {}: every candidate evaluated was rejected as unstable \
                      (widen the budget, or narrow the boxes)",
                     h.frames
-                ));
-            }
+                ),
+                None => "every candidate evaluated diverged (cost inf: its motion left the \
+                         observed one's size and speeds a millionfold, or was not finite); \
+                         widen the budget, or narrow the boxes"
+                    .to_string(),
+            });
         }
         Ok(Outcome {
             result,
@@ -627,6 +632,41 @@ fn check_memory(
 }
 
 const GIB: f64 = 1024.0 * 1024.0 * 1024.0;
+
+/// The longest one evaluation's free run may take without a time limit, s: a day.
+pub const MAX_FREE_RUN_SECONDS: f64 = 24.0 * 3600.0;
+
+/// Refuses a stable horizon whose free run, one per evaluation, cannot end within the time
+/// limit (or within [`MAX_FREE_RUN_SECONDS`] without one): the run would spend its whole
+/// budget inside its first evaluation and stop long past the limit (`time_limit` is checked
+/// between generations). The time of a frame is measured here on the start parameters
+/// (about 2 ms of probing), so a refusal says what this machine does.
+fn check_horizon_time(req: &IdentifyRequest, problem: &Problem) -> Result<(), CostError> {
+    let Some(frames) = req.stable_horizon else {
+        return Ok(());
+    };
+    let per_frame = crate::stable::seconds_per_frame(problem, &problem.space.base, frames);
+    let needed = per_frame * frames as f64;
+    let (limit, what) = match req.time_limit {
+        Some(t) => (t, format!("{} {t} s", req.opt("time_limit"))),
+        None => (
+            MAX_FREE_RUN_SECONDS,
+            "a day (no time limit given)".to_string(),
+        ),
+    };
+    if needed > limit {
+        return Err(CostError::invalid(
+            req.opt("stable_horizon"),
+            format!(
+                "{frames} frames: one candidate's free run takes about {} s here ({:.3e} s per \
+                 frame, measured), beyond {what}; lower it",
+                cordis_core::arg::short(needed),
+                per_frame
+            ),
+        ));
+    }
+    Ok(())
+}
 
 /// Memory the run may use, bytes: `MemAvailable` on Linux, else 16 GiB.
 fn available_memory() -> f64 {

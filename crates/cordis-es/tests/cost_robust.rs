@@ -259,3 +259,35 @@ fn batch_equals_sequential_and_is_identical_for_1_and_2_threads() {
         }
     }
 }
+
+#[test]
+fn runaway_rollouts_below_the_cap_stay_ranked_by_how_far_they_ran() {
+    // One particle on an anchor 1 m away, observed at K dt²/m = 1 (stable). Candidates at 4.2
+    // and 4.6 grow by 1.56 and 1.94 per step: ~1e11 m and ~1e17 m at frame 59, finite, below
+    // the cap, far beyond the simulator's relative guard. The long cost keeps them finite and
+    // in order, so that a search over wide boxes, where every first candidate runs away, can
+    // climb out (cost/rollout.rs: the thesis strategy's wide-box results depend on it).
+    use cordis_core::{LinkKind, LinkType, Particle, Scene};
+    let anchored = |kdt2m: f64| {
+        let mut s = Scene::new(0.01);
+        s.add_particle(Particle::new(1.0, [1.0, 0.0, 0.0]));
+        s.add_type(LinkType::new("a", LinkKind::Anchor).with("stiffness", kdt2m / 1e-4));
+        s.add_link("a", &[0]);
+        s.links[0].point = Some([0.0; 3]);
+        s
+    };
+    let truth = anchored(1.0);
+    let traj = truth.simulate(60).unwrap();
+    assert!(
+        anchored(4.2).simulate(60).is_err(),
+        "beyond the simulator's guard"
+    );
+    let obj = Objective::new(&truth, &traj, CostKind::Long).unwrap();
+    let cost = |k: f64| obj.report(&anchored(k).param_values()).unwrap().total;
+    let (slow, fast) = (cost(4.2), cost(4.6));
+    assert!(slow.is_finite() && slow > 1e20, "{slow}");
+    assert!(fast.is_finite() && fast > 1e6 * slow, "{fast} vs {slow}");
+    assert_eq!(cost(1.0), 0.0);
+    // Beyond the cap (or not finite) it is +inf, as ever.
+    assert_inf_never_nan(&obj, &anchored(100.0).param_values(), "K dt²/m = 100");
+}

@@ -2,7 +2,6 @@
 //! ([`crate::problem::stable`]): no observed frame is used after the first two.
 
 use super::objective::{CostScratch, Objective};
-use cordis_core::plan::RUNAWAY;
 use cordis_core::Vec3;
 
 impl Objective {
@@ -19,7 +18,8 @@ impl Objective {
     /// frame 1 has them, hidden state — TGR tendons… — driven along frame 0 then carried) from
     /// the observed frames 0 and 1 up to frame `frames - 1`, as `simulate --frames` would;
     /// returns the first frame at which a free particle's position is not finite or beyond
-    /// [`cordis_core::plan::RUNAWAY`], or the free particles' spread exceeds `limit` (m).
+    /// the observed motion's divergence guard ([`cordis_core::runaway`], growing with the
+    /// time run), or the free particles' spread exceeds `limit` (m).
     pub(crate) fn free_run_diverges(
         &self,
         p: &[f64],
@@ -37,10 +37,11 @@ impl Objective {
         let hold = self.obs.frame(1);
         for t in 2..frames {
             self.rollout_step(p, t - 1, mg, hold, s);
+            let bound = self.runaway.limit(t - 1, mg.1.norm());
             let runaway = self
                 .free
                 .iter()
-                .any(|&i| !s.x[i].iter().all(|c| c.abs() <= RUNAWAY));
+                .any(|&i| !self.runaway.within(&s.x[i], bound));
             if runaway {
                 return Some(t);
             }

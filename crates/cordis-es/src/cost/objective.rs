@@ -9,7 +9,7 @@ use super::linear::LinearShortCost;
 use super::observed::Observed;
 use crate::error::CostError;
 use cordis_core::plan::Scratch;
-use cordis_core::{Plan, Scene, Trajectory, Vec3};
+use cordis_core::{Plan, Runaway, Scene, Trajectory, Vec3};
 use std::sync::OnceLock;
 
 /// A cost function ready to evaluate: built once per (scene, trajectory, kind), then evaluated
@@ -28,8 +28,10 @@ use std::sync::OnceLock;
 ///   and [`Objective::evaluate`].
 /// - `terms` counts (predicted frame, free particle) pairs — particles, not coordinates — so
 ///   `rmse = sqrt(C / terms)` is the root-mean-square prediction error of a particle, in m.
-/// - Never NaN: a prediction that is not finite (or beyond [`cordis_core::plan::RUNAWAY`] in
-///   a rollout) makes that particle's local cost and the global cost `+inf`.
+/// - Never NaN: a prediction that is not finite (or, in a rollout, beyond
+///   [`cordis_core::runaway::CAP`] = 1e100 m of the observed motion's centre: see
+///   `rollout.rs` for why not the relative guard) makes that particle's local cost and the
+///   global cost `+inf`.
 /// - Speed: a one-step window on a linear-in-parameter scene is evaluated from its
 ///   precomputed quadratic form ([`LinearShortCost`]: O(θ²) for the total, equal to the
 ///   generic path to rounding); otherwise the geometry of springs and known-range conditional
@@ -54,6 +56,9 @@ pub struct Objective {
     pub(crate) generation: usize,
     /// Stateful passes advanced along the observed frames (see [`HiddenState`]).
     pub(crate) hidden: Vec<Box<dyn HiddenState>>,
+    /// The divergence guard of the observed motion ([`cordis_core::runaway`]): its centre
+    /// anchors the rollouts' cap, its relative limit the stable horizon's free run.
+    pub(crate) runaway: Runaway,
 }
 
 /// Per-evaluation buffers, one per thread ([`Objective::scratch`]); an evaluation allocates
@@ -108,6 +113,7 @@ impl Objective {
         let plan = Plan::compile(scene)?;
         let obs = Observed::new(scene, &plan, traj)?;
         let free = (0..plan.n).filter(|&i| plan.free[i]).collect();
+        let runaway = plan.runaway_of((0..obs.frames).map(|t| obs.frame(t)));
         let mut hidden: Vec<Box<dyn HiddenState>> = Vec::new();
         if !plan.stateful.is_empty() {
             hidden.push(Box::new(PlanStateful {
@@ -130,6 +136,7 @@ impl Objective {
             geometry_budget: GEOMETRY_BUDGET_BYTES,
             generation: 0,
             hidden,
+            runaway,
             plan,
         })
     }

@@ -313,6 +313,7 @@ impl<'a, 'b> Mf<'a, 'b> {
         let mut sc = scratch.take().unwrap_or_else(|| plan.scratch());
         plan.reset_state(p, &mut sc);
         sc.frame = 0;
+        sc.runaway = tangent.runaway;
         let mut ok = true;
         for t in 0..frames {
             for (i, xi) in x.iter().enumerate() {

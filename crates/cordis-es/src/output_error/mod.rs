@@ -311,8 +311,9 @@ pub fn cramer_rao_takes(
         return Err(CostError::length("truths", takes.len(), truths.len()));
     }
     let truth = truths[0];
-    let tangent = Tangent::new(truth)?;
+    let mut tangent = Tangent::new(truth)?;
     check_takes(truth, &tangent, takes)?;
+    tangent.guard_by(takes);
     let slots: Vec<usize> = space.unknowns.iter().map(|u| u.slot).collect();
     let cols = tangent.columns(&slots);
     check_memory(&tangent, &cols, takes.len())?;

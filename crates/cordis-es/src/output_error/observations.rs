@@ -208,6 +208,18 @@ impl Take {
         self.weights[k]
     }
 
+    /// The positions of frame `t` (m), NaN where a coordinate is missing.
+    pub fn positions(&self, t: usize) -> Vec<Vec3> {
+        (0..self.particles)
+            .map(|i| {
+                Vec3::from_fn(|c, _| match self.at(t, i, c) {
+                    (y, w) if w > 0.0 => y,
+                    _ => f64::NAN,
+                })
+            })
+            .collect()
+    }
+
     /// Whether particle `i` is observed at some frame (any coordinate).
     pub fn tracks(&self, i: usize) -> bool {
         (0..self.frames).any(|t| (0..3).any(|c| self.at(t, i, c).1 > 0.0))

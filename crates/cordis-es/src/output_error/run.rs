@@ -127,8 +127,9 @@ impl Prepared {
         takes: Vec<Take>,
         config: &Config,
     ) -> Result<Self, CostError> {
-        let tangent = Tangent::new(scene)?;
+        let mut tangent = Tangent::new(scene)?;
         super::check_takes(scene, &tangent, &takes)?;
+        tangent.guard_by(&takes);
         super::check_config(config)?;
         let slots: Vec<usize> = space.unknowns.iter().map(|u| u.slot).collect();
         let cols = tangent.columns(&slots);

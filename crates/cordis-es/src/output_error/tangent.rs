@@ -35,8 +35,9 @@
 //! vectorises).
 
 use cordis_core::plan::{Plan, Scratch};
-use cordis_core::{LinkKind, Scene, Vec3};
+use cordis_core::{LinkKind, Runaway, Scene, Vec3};
 
+use super::observations::Take;
 use crate::error::CostError;
 
 /// No column: a known parameter.
@@ -48,6 +49,9 @@ pub(crate) struct Tangent {
     pub plan: Plan,
     /// Free particles in scene order.
     pub free: Vec<usize>,
+    /// The divergence guard of every rollout ([`cordis_core::runaway`]): the scene's start,
+    /// merged with the takes' motion by [`Tangent::guard_by`]. A rollout beyond it diverged.
+    pub runaway: Runaway,
 }
 
 /// What a rollout calls at every frame n: `(n, x(n), S(n))`.
@@ -85,7 +89,24 @@ impl Tangent {
         Self::supports(scene)?;
         let plan = Plan::compile(scene)?;
         let free: Vec<usize> = (0..plan.n).filter(|&i| plan.free[i]).collect();
-        Ok(Tangent { plan, free })
+        let runaway = plan.runaway;
+        Ok(Tangent {
+            plan,
+            free,
+            runaway,
+        })
+    }
+
+    /// Bounds the rollouts by the observed motion of `takes` too (a model that goes 10⁶ times
+    /// beyond the size and speeds of what was observed has run away: its cost is `+inf`, not
+    /// a finite number of 10⁴⁴ m that a fit could hand back as an estimate).
+    pub fn guard_by(&mut self, takes: &[Take]) {
+        for take in takes {
+            let seen = self
+                .plan
+                .runaway_of((0..take.frames()).map(|t| take.positions(t)));
+            self.runaway = self.runaway.merge(seen);
+        }
     }
 
     /// Whether every kind `scene` uses has a tangent here (an error naming the first that has
@@ -167,6 +188,7 @@ impl Tangent {
         let mut scratch = buf.scratch.take().unwrap_or_else(|| plan.scratch());
         plan.reset_state(p, &mut scratch);
         scratch.frame = 0;
+        scratch.runaway = self.runaway;
         let width = cols.map_or(0, |c| c.len);
         if let Some(c) = cols {
             self.init_sensitivities(c, buf);

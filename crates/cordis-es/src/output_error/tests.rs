@@ -131,3 +131,61 @@ fn check(sens: &[f64], a: &[f64], b: &[f64], step: f64, rows: usize, width: usiz
         );
     }
 }
+
+/// One particle on an anchor 1 m away, `k = K dt²/m` (dt = 10 ms, m = 1 kg): the scheme grows by
+/// `λ = (2 - k + √(k² - 4k)) / 2` per step above k = 4 (1.558 at k = 4.2).
+fn anchored(kdt2m: f64) -> Scene {
+    let mut s = Scene::new(0.01);
+    s.add_particle(cordis_core::Particle::new(1.0, [1.0, 0.0, 0.0]));
+    s.add_type(LinkType::new("a", LinkKind::Anchor).with("stiffness", kdt2m / 1e-4));
+    s.add_link("a", &[0]);
+    s.links[0].point = Some([0.0; 3]);
+    s
+}
+
+#[test]
+fn a_runaway_replay_costs_infinity_though_its_positions_stay_finite() {
+    // The MuJoCo cable's output-error fit ended on a model that replayed to 5e44 m, finite and
+    // below the old absolute 1e100 m guard, so `Fitter::cost` was finite and the model came
+    // back as an estimate. The guard is now relative to the observed motion.
+    use super::fit::Fitter;
+    use crate::space::ParameterSpace;
+    let truth = anchored(1.0);
+    let traj = truth.simulate(60).unwrap();
+    let mut guess = truth.clone();
+    guess.types[0].params[0] = Param::Unknown(Bounds {
+        min: 1.0,
+        max: 1e6,
+        init: None,
+    });
+    let takes = vec![super::observations::Take::complete(&traj)];
+    let mut tangent = Tangent::new(&guess).unwrap();
+    let space = ParameterSpace::from_scene(&guess);
+    let base = guess.param_values();
+    let runaway_k = 4.2 / 1e-4;
+    let mut q = vec![space.unknowns[0].to_internal(runaway_k)];
+    q.extend(state_of(&truth, &tangent));
+    let mut p = base.clone();
+    p[space.unknowns[0].slot] = runaway_k;
+    // Without a relative guard (the cap alone) the replay runs to the end, finite.
+    let own = tangent.runaway;
+    tangent.runaway = cordis_core::Runaway::default();
+    let x = positions(&tangent, &p, &q[1..], 60);
+    let far = x.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+    assert!(far.is_finite() && far > 1e10 && far < 1e100, "{far}");
+    tangent.runaway = own;
+    tangent.guard_by(&takes);
+    let fitter = Fitter {
+        cols: tangent.columns(&[space.unknowns[0].slot]),
+        tangent: &tangent,
+        unknowns: &space.unknowns,
+        base: &base,
+        takes: &takes,
+    };
+    assert_eq!(fitter.cost(&q, 60, &mut Sens::default()), f64::INFINITY);
+    // The true stiffness is no runaway: its cost is the exact fit's.
+    let mut q_true = q.clone();
+    q_true[0] = space.unknowns[0].to_internal(1.0 / 1e-4);
+    let c = fitter.cost(&q_true, 60, &mut Sens::default());
+    assert!(c < 1e-20, "{c}");
+}

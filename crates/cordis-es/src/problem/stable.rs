@@ -7,8 +7,9 @@
 //! 1. its stability bound ([`cordis_core::stability`], Gershgorin on the linearised scheme)
 //!    exceeds 1 — checked first, O(links); or
 //! 2. its free run from the observed frames 0 and 1 diverges within `frames` frames: a
-//!    position not finite or beyond [`cordis_core::plan::RUNAWAY`], or the free particles'
-//!    spread about their centroid beyond `spread` times the largest the observed frames show.
+//!    position not finite or beyond the observed motion's guard ([`cordis_core::runaway`]),
+//!    or the free particles' spread about their centroid beyond `spread` times the largest
+//!    the observed frames show.
 //!
 //! The spread test is what catches a network that comes apart without blowing up numerically
 //! (a particle drifting away at constant speed, a floppy model unfolding): the thesis'
@@ -84,4 +85,25 @@ pub enum Rejection {
     Bound(f64),
     /// The free run diverged at this frame.
     Diverged(usize),
+}
+
+/// Seconds one frame of the free run takes here, measured on the parameters `p` (runs of 16,
+/// 32, … frames until one lasts 2 ms or reaches `frames`; a run that diverges counts the frames
+/// it ran): what [`crate::session`] compares a horizon with before any work.
+pub(crate) fn seconds_per_frame(problem: &super::Problem, p: &[f64], frames: usize) -> f64 {
+    let mut s = problem.objective.scratch();
+    let limit = problem.guard.map_or(f64::INFINITY, |g| g.limit);
+    let mut probe = 16usize.min(frames.max(3));
+    loop {
+        let start = std::time::Instant::now();
+        let ran = problem
+            .objective
+            .free_run_diverges(p, probe, limit, &mut s)
+            .unwrap_or(probe);
+        let seconds = start.elapsed().as_secs_f64();
+        if seconds >= 2e-3 || probe >= frames || ran < probe {
+            return seconds / ran.max(1) as f64;
+        }
+        probe = (2 * probe).min(frames);
+    }
 }
