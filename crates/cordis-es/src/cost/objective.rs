@@ -28,9 +28,9 @@ use std::sync::OnceLock;
 ///   and [`Objective::evaluate`].
 /// - `terms` counts (predicted frame, free particle) pairs — particles, not coordinates — so
 ///   `rmse = sqrt(C / terms)` is the root-mean-square prediction error of a particle, in m.
-/// - Never NaN: a prediction that is not finite (or, in a rollout, beyond
-///   [`cordis_core::runaway::CAP`] = 1e100 m of the observed motion's centre: see
-///   `rollout.rs` for why not the relative guard) makes that particle's local cost and the
+/// - Never NaN: a prediction that is not finite (or, in a rollout, a coordinate beyond
+///   [`cordis_core::runaway::CAP`] = 1e100 m: see `rollout.rs` for why not the relative
+///   guard) makes that particle's local cost and the
 ///   global cost `+inf`.
 /// - Speed: a one-step window on a linear-in-parameter scene is evaluated from its
 ///   precomputed quadratic form ([`LinearShortCost`]: O(θ²) for the total, equal to the
@@ -56,8 +56,8 @@ pub struct Objective {
     pub(crate) generation: usize,
     /// Stateful passes advanced along the observed frames (see [`HiddenState`]).
     pub(crate) hidden: Vec<Box<dyn HiddenState>>,
-    /// The divergence guard of the observed motion ([`cordis_core::runaway`]): its centre
-    /// anchors the rollouts' cap, its relative limit the stable horizon's free run.
+    /// The divergence guard of the observed motion ([`cordis_core::runaway`]), for the stable
+    /// horizon's free run.
     pub(crate) runaway: Runaway,
 }
 

@@ -73,9 +73,8 @@ impl Objective {
 
     /// Calls `score(t, i, e)` for every free particle i of every frame t predicted by a window of
     /// `h` steps starting at each `t0` in `starts` (from the observed frames t0-1, t0-2). A
-    /// window stops at the first runaway step (a position not finite or beyond
-    /// [`cordis_core::runaway::CAP`] = 1e100 m of the observed motion's centre), after scoring
-    /// its runaway particles `+inf`.
+    /// window stops at the first runaway step (a coordinate not finite or beyond
+    /// [`cordis_core::runaway::CAP`] = 1e100 m), after scoring its runaway particles `+inf`.
     ///
     /// Not the relative guard of the simulator and the free run (10⁶ times the observed size
     /// and speeds), on purpose: a search over wide boxes starts among candidates that all run
@@ -117,7 +116,7 @@ impl Objective {
                 let mut diverged = false;
                 for &i in &self.free {
                     let x = &s.x[i];
-                    if self.runaway.within(x, CAP) {
+                    if x.iter().all(|c| c.abs() <= CAP) {
                         score(i, super::short::squared_error(x, &obs[i]));
                     } else {
                         score(i, f64::INFINITY);
