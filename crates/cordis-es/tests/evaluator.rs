@@ -147,7 +147,8 @@ fn a_failing_evaluator_stops_the_run_naming_the_generation() {
     let mut problem = rigid_problem().with_evaluator(failing);
     let (mut s, _) = make_strategy(StrategyName::Thesis, &problem, &options());
     let err = executor::run(&mut problem, s.as_mut(), &config(1, 10), &mut [], None)
-        .expect_err("the evaluator failed");
+        .expect_err("the evaluator failed")
+        .to_string();
     assert!(
         err.contains("generation 3") && err.contains("worker lost"),
         "{err}"

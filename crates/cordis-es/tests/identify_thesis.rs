@@ -106,7 +106,7 @@ fn resume_refuses_another_seed() {
     let mut strategy = Thesis::new(ThesisConfig::default());
     let err =
         executor::run(&mut rigid_problem(), &mut strategy, &other, &mut [], None).unwrap_err();
-    assert!(err.contains("seed 5"), "{err}");
+    assert!(err.to_string().contains("seed 5"), "{err}");
 }
 
 #[test]
@@ -211,6 +211,11 @@ fn resume_reads_only_the_checkpoints_history_rows() {
     let kept: String = rows.lines().take(10).map(|l| format!("{l}\n")).collect();
     std::fs::write(&history, kept).unwrap();
     let err = resume(&mut rigid_problem()).unwrap_err();
+    assert!(
+        matches!(err, cordis_es::CostError::Resume { .. }),
+        "{err:?}"
+    );
+    let err = err.to_string();
     assert!(
         err.contains("run.json.history")
             && err.contains("has 10 history rows, the checkpoint needs 41"),

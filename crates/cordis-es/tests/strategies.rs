@@ -162,7 +162,7 @@ fn resuming_another_strategys_checkpoint_is_an_error() {
         ..generations(1, 4)
     };
     let err = executor::run(&mut problem, other.as_mut(), &second, &mut [], None).unwrap_err();
-    assert!(err.contains("cmaes"), "{err}");
+    assert!(err.to_string().contains("cmaes"), "{err}");
     let _ = std::fs::remove_file(&path);
 }
 

@@ -199,16 +199,16 @@ const CHECKPOINT_FORMAT: &str = "cordis-checkpoint/1";
 /// is exact from any checkpoint; a kill loses at most this much more work.
 const CHECKPOINT_INTERVAL: Duration = Duration::from_secs(1);
 
-/// Runs `strategy` on `problem` until a stop rule, an observer or `interrupt` says stop; the
-/// error as one line ([`run_typed`] keeps its kind).
+/// Runs `strategy` on `problem` until a stop rule, an observer or `interrupt` says stop (the
+/// same as [`run_typed`], kept for its callers).
 pub fn run(
     problem: &mut Problem,
     strategy: &mut dyn Strategy,
     config: &RunConfig,
     observers: &mut [&mut dyn Observer],
     interrupt: Option<&AtomicBool>,
-) -> Result<RunResult, String> {
-    run_typed(problem, strategy, config, observers, interrupt).map_err(|e| e.to_string())
+) -> Result<RunResult, CostError> {
+    run_typed(problem, strategy, config, observers, interrupt)
 }
 
 /// Where a run starts: generation, evaluations and seconds before it, history so far.
