@@ -15,8 +15,11 @@
 //! **Why morph targets.** Skinning the segments to one joint per particle would store no more
 //! than the joints' translations, but three.js skins triangle meshes only, so its lines would
 //! stay still; morph targets animate points and lines in both three.js and Blender (shape
-//! keys). The cost is the weights: `T²` floats, 0.36 MB for 300 frames, 16 MB for 2,000
-//! (positions take `12 N T` bytes); the memory is checked first. A reader that ignores morph
+//! keys). The weights are `T²` floats, all zero but one per keyframe, so they are a **sparse
+//! accessor** (glTF 2.0 §3.6.2.3, read by three.js and Blender): `T` indices `k (T + 1)` and
+//! `T` ones over an implicit zero array, 8 bytes a frame instead of `4 T` (positions take
+//! `12 N` a frame); the memory is checked first. More than 65,535 frames are refused (the
+//! indices are u32). A reader that ignores morph
 //! targets altogether (trimesh loads the two primitives as a point cloud and a path) sees every
 //! vertex at the zero base; base positions at frame 0 with displacements would fix that, but a
 //! reader's `base + displacement` in float32 is then no longer the trajectory's float32 value.
@@ -55,7 +58,7 @@ pub fn drawn_pairs(scene: &Scene) -> Vec<[usize; 2]> {
 /// Bytes the glTF of `frames` frames of `particles` particles holds before base64 encoding.
 fn raw_bytes(frames: usize, particles: usize, pairs: usize) -> f64 {
     let (t, n) = (frames as f64, particles as f64);
-    12.0 * n * (t + 1.0) + 4.0 * t * (t + 1.0) + 8.0 * pairs as f64
+    12.0 * n * (t + 1.0) + 12.0 * t + 8.0 * pairs as f64
 }
 
 /// The glTF JSON text of `traj`, a motion of `scene`, with frames `dt` seconds apart.
@@ -72,6 +75,12 @@ pub fn to_gltf(scene: &Scene, traj: &Trajectory, dt: f64) -> Result<String> {
     )?;
     if n == 0 {
         return Err(CordisError::scene("particles", "no particle to draw"));
+    }
+    if frames > usize::from(u16::MAX) {
+        return Err(CordisError::trajectory(
+            "trajectory",
+            format!("has {frames} frames, a glTF animation here takes at most 65535"),
+        ));
     }
     let mut buf: Vec<u8> = Vec::with_capacity(raw as usize);
     let mut views = Vec::new();
@@ -148,16 +157,23 @@ pub fn to_gltf(scene: &Scene, traj: &Trajectory, dt: f64) -> Result<String> {
     );
     let times = accessors.len() - 1;
 
-    // The weights: keyframe k is the one-hot e_k.
+    // The weights: keyframe k is the one-hot e_k, i.e. a one at k T + k of T² zeros.
     let start = buf.len();
     for k in 0..frames {
-        for j in 0..frames {
-            buf.extend_from_slice(&(if j == k { 1.0f32 } else { 0.0 }).to_le_bytes());
-        }
+        buf.extend_from_slice(&((k * frames + k) as u32).to_le_bytes());
     }
-    let weights_view = view(&mut views, &buf, start, None);
-    accessors.push(json!({"bufferView": weights_view, "componentType": 5126,
-        "count": frames * frames, "type": "SCALAR"}));
+    let indices_view = view(&mut views, &buf, start, None);
+    let start = buf.len();
+    for _ in 0..frames {
+        buf.extend_from_slice(&1.0f32.to_le_bytes());
+    }
+    let ones_view = view(&mut views, &buf, start, None);
+    accessors.push(
+        json!({"componentType": 5126, "count": frames * frames, "type": "SCALAR",
+        "sparse": {"count": frames,
+            "indices": {"bufferView": indices_view, "componentType": 5125},
+            "values": {"bufferView": ones_view}}}),
+    );
     let weights = accessors.len() - 1;
 
     // One target per frame, in one buffer view.
