@@ -573,10 +573,12 @@ class IdentifyResult:
     def truth(self) -> Optional[Dict[str, float]]:
         """True value of each unknown when ``truth`` was given."""
     @property
-    def cost(self) -> float: ...
+    def cost(self) -> float:
+        """The cost the strategy minimised at its estimate, m²: the chosen cost kind's, or for
+        ``output-error`` the replay's weighted squared position residuals over the takes."""
     @property
     def rmse(self) -> float:
-        """sqrt(cost / terms), m."""
+        """sqrt(cost / terms), m (``output-error``: per observed coordinate)."""
     @property
     def history(self) -> npt.NDArray[np.float64]:
         """One row per generation, columns :attr:`HISTORY_COLUMNS` (NaN error without truth)."""

@@ -162,8 +162,11 @@ def test_scene_from_markers_on_the_soft_block_is_fitted_as_it_is():
     assert [bool(p.get("fixed")) for p in d["particles"]] == [i < 9 for i in range(27)]
     assert scene.has_unknowns
     res = cordis.identify(scene, markers)
-    assert res.strategy == "output-error" and res.stopped_by == "converged"
-    assert res.rmse < 0.005  # the markers' noise is 1 mm per coordinate
+    # Not the truth's network (uniform masses, one type per length family): its replay stays
+    # 1.2 mm RMS against the markers' 1 mm noise, and the run says so instead of "converged".
+    assert res.strategy == "output-error" and res.stopped_by == "strategy_budget"
+    assert res.report is not None and res.report["end"] == "above_noise"
+    assert 0.001 < res.rmse < 0.0015
     per_link = cordis.scene_from_markers(markers, 0.01, 0.54, neighbours=6, types="link")
     d = per_link.to_dict()
     assert len(d["types"]) == len(d["links"])

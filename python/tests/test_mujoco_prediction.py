@@ -53,7 +53,9 @@ def test_mujoco_cable_is_not_a_cordis_motion(cable):
 def test_output_error_replay_beats_constant_velocity(noisy_rows):
     oe, cv = noisy_rows["output-error:stable"], noisy_rows["constant-velocity"]
     assert "error" not in oe, oe.get("error")
-    assert oe["stopped_by"] == "converged", oe
+    # The cable is no mass-spring network: its best replay may stay above the noise level,
+    # which the fit reports (strategy_budget, end "above_noise") instead of "converged".
+    assert oe["stopped_by"] in ("converged", "strategy_budget"), oe
     assert oe["predict_rms_m"] < 0.25 * cv["predict_rms_m"], (oe, cv)
 
 

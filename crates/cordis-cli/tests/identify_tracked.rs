@@ -67,6 +67,11 @@ fn gaps_in_a_csv_are_missing_observations_and_the_estimate_comes_with_intervals(
     assert!(s["param_error_pct"].as_f64().unwrap() < 5.0, "{s}");
     let why = s["solver"]["chosen_because"].as_str().unwrap();
     assert!(why.contains("missing"), "{why}");
+    // cost and rmse are what the fit minimised, the replay's residuals: about the 1 mm noise
+    // (the short cost's rmse on these markers is far above it).
+    let (cost, rmse) = (s["cost"].as_f64().unwrap(), s["rmse"].as_f64().unwrap());
+    assert_eq!(cost, s["solver"]["position_cost"].as_f64().unwrap(), "{s}");
+    assert!((0.8e-3..1.2e-3).contains(&rmse), "{s}");
     let u = s["solver"]["uncertainty"].as_array().unwrap();
     assert_eq!(u.len(), 9);
     for p in u {

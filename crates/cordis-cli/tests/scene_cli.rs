@@ -68,7 +68,18 @@ fn from_markers_on_the_soft_block_gives_a_scene_identify_fits() {
     let line = String::from_utf8_lossy(&out.stdout);
     let summary: serde_json::Value = serde_json::from_str(line.lines().last().unwrap()).unwrap();
     assert_eq!(summary["strategy"], "output-error", "{summary}");
-    assert_eq!(summary["stopped_by"], "converged", "{summary}");
+    // The network built on the markers is not the truth's (uniform masses, one type per
+    // length family): its best replay stays 1.2 mm RMS against the markers' 1 mm noise, which
+    // the run says instead of calling it converged.
+    assert_eq!(summary["solver"]["end"], "above_noise", "{summary}");
+    assert_eq!(summary["stopped_by"], "strategy_budget", "{summary}");
+    let rmse = summary["rmse"].as_f64().unwrap();
+    assert!((1.0e-3..1.5e-3).contains(&rmse), "{summary}");
+    assert!(
+        stderr(&out).contains("above the data's noise level"),
+        "{}",
+        stderr(&out)
+    );
     // The families are the truth's types in increasing length: edge, face, body.
     let fit = json(&d.join("fit.json"));
     let mut worst = [0.0f64; 3];

@@ -210,8 +210,12 @@ impl Fitter<'_> {
 
     /// Root mean square of the weighted residuals over `window` frames, m.
     pub fn rms(&self, q: &[f64], window: usize, buf: &mut Sens) -> f64 {
-        let count: usize = self
-            .takes
+        (self.cost(q, window, buf) / self.observed_in(window).max(1) as f64).sqrt()
+    }
+
+    /// The observed coordinates in the first `window` frames of every take.
+    pub fn observed_in(&self, window: usize) -> usize {
+        self.takes
             .iter()
             .map(|t| {
                 let frames = window.min(t.frames());
@@ -223,8 +227,7 @@ impl Fitter<'_> {
                     })
                     .sum::<usize>()
             })
-            .sum();
-        (self.cost(q, window, buf) / count.max(1) as f64).sqrt()
+            .sum()
     }
 
     /// Largest weighted observed coordinate, m: the scale of rounding.
@@ -287,6 +290,10 @@ pub(crate) enum StageEnd {
     /// The run was told to stop (Ctrl-C, a time limit) before the stage ended: `q` holds the
     /// best point so far.
     Interrupted,
+    /// The whole take's stage met its criterion with residuals above the data's noise level
+    /// ([`super::windows`]), every restart too: a wrong basin, or a model that cannot follow
+    /// the motion. Not converged.
+    AboveNoise,
 }
 
 /// Counters of a fit.

@@ -1799,27 +1799,21 @@ mod tests {
             gtol: 1e-10,
         };
         let config = super::super::Config::default();
-        let noise = fit
-            .takes
-            .iter()
-            .map(super::super::start::noise_level)
-            .fold(0.0, f64::max);
         let mut qd = s.q.clone();
         let mut counts = Counts::default();
         let mut buf = Sens::default();
         let never = || false;
-        super::super::grow_windows(&fit, &mut qd, &config, noise, &mut |q, w| {
+        super::super::grow_windows(&fit, &mut qd, &config, &mut |q, w| {
             fit::lm_stage(&fit, q, w, set, &mut counts, &mut buf, &never)
         })
         .unwrap();
         let mut qm = s.q.clone();
         let (mut mcounts, mut cgc) = (Counts::default(), CgCounts::default());
         let longest = fit.takes.iter().map(Take::frames).max().unwrap();
-        let (end, windows) =
-            super::super::grow_windows(&fit, &mut qm, &config, noise, &mut |q, w| {
-                super::stage(&fit, q, w, longest, set, &mut mcounts, &mut cgc, &never)
-            })
-            .unwrap();
+        let (end, windows) = super::super::grow_windows(&fit, &mut qm, &config, &mut |q, w| {
+            super::stage(&fit, q, w, longest, set, &mut mcounts, &mut cgc, &never)
+        })
+        .unwrap();
         let e = super::finish(
             &fit,
             qm,
@@ -1827,7 +1821,10 @@ mod tests {
             cgc,
             end,
             windows,
-            vec![noise; 2],
+            fit.takes
+                .iter()
+                .map(super::super::start::noise_level)
+                .collect(),
             "test".into(),
         )
         .unwrap();

@@ -165,10 +165,15 @@ pub(crate) fn grow_windows(
     fitter: &Fitter<'_>,
     q: &mut Vec<f64>,
     config: &Config,
-    noise: f64,
     stage: &mut dyn FnMut(&mut Vec<f64>, usize) -> StageEnd,
 ) -> Result<(StageEnd, Vec<usize>), CostError> {
-    let mut schedule = windows::Schedule::new(fitter, config.first_window, noise);
+    let (noise, samples) = fitter
+        .takes
+        .iter()
+        .map(start::noise_level_and_samples)
+        .fold((0.0, 0), |a, b| if b.0 > a.0 { b } else { a });
+    let robust = config.loss != Loss::Squared;
+    let mut schedule = windows::Schedule::new(fitter, config.first_window, noise, samples, robust);
     loop {
         let end = stage(q, schedule.next);
         let mut after = schedule.after(fitter, q, end, &mut Sens::default())?;
@@ -242,6 +247,7 @@ pub(crate) fn end_text(end: StageEnd) -> &'static str {
         StageEnd::Budget => "budget",
         StageEnd::Stalled | StageEnd::Diverged => "stalled",
         StageEnd::Interrupted => "interrupted",
+        StageEnd::AboveNoise => "above_noise",
     }
 }
 

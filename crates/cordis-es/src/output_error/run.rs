@@ -28,6 +28,10 @@ use crate::strategy::bits;
 /// the heuristic start, and 2 of 5 random restarts reach the noise level.
 const MAX_RESTARTS: usize = 6;
 
+/// Relative residual difference under which two stuck attempts count as one optimum (see
+/// [`Prepared::unstick`]): a wrong basin from another random start lands elsewhere.
+const SAME_OPTIMUM: f64 = 0.01;
+
 /// What a fit reads and never changes.
 pub struct Prepared {
     scene: Scene,
@@ -39,6 +43,8 @@ pub struct Prepared {
     large: bool,
     /// Noise level of each take read from its third differences, m.
     noise_level: Vec<f64>,
+    /// How many third differences each take's noise level was read from.
+    noise_samples: Vec<usize>,
     set: LmSettings,
     first_window: usize,
     loss: Loss,
@@ -65,9 +71,9 @@ pub struct Progress {
     /// The initial states the fit started from (restarts start from them too).
     #[serde(with = "bits")]
     states0: Vec<f64>,
-    /// The first attempt where it got stuck: what the fit goes on from when no restart is
-    /// left (its start was the informed one).
-    first_stuck: Option<Box<Stuck>>,
+    /// Of the attempts stuck so far, the one with the smallest residuals: what the fit goes on
+    /// from when no restart is left.
+    best_stuck: Option<Box<Stuck>>,
     /// The robust loss's weight multipliers per take (the take's layout; empty: all 1).
     #[serde(with = "nested_bits")]
     robust: Vec<Vec<f64>>,
@@ -99,6 +105,16 @@ struct Stuck {
     #[serde(with = "bits")]
     q: Vec<f64>,
     schedule: Schedule,
+}
+
+impl Stuck {
+    /// The stuck attempt with the smaller residual rms of the two (`self` on a tie).
+    fn better(self: Box<Self>, other: Box<Stuck>) -> Box<Stuck> {
+        match other.schedule.last_rms() < self.schedule.last_rms() {
+            true => other,
+            false => self,
+        }
+    }
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -139,7 +155,7 @@ impl Prepared {
         } else {
             super::check_memory(&tangent, &cols, takes.len())?;
         }
-        let noise_level = takes.iter().map(start::noise_level).collect();
+        let (noise_level, noise_samples) = takes.iter().map(start::noise_level_and_samples).unzip();
         Ok(Prepared {
             scene: scene.clone(),
             tangent,
@@ -147,6 +163,7 @@ impl Prepared {
             cols,
             large,
             noise_level,
+            noise_samples,
             set: LmSettings {
                 max_iterations: config.max_iterations,
                 ftol: config.ftol,
@@ -223,9 +240,19 @@ impl Prepared {
         Some((robust, moved))
     }
 
-    /// The largest take's noise level, m.
-    fn noise(&self) -> f64 {
-        self.noise_level.iter().cloned().fold(0.0, f64::max)
+    /// The schedule of a fit from its first window, on the noisiest take's noise level.
+    fn schedule(&self, fitter: &Fitter<'_>) -> Schedule {
+        let noisiest = (0..self.noise_level.len())
+            .max_by(|&a, &b| self.noise_level[a].total_cmp(&self.noise_level[b]));
+        let (noise, samples) =
+            noisiest.map_or((0.0, 0), |k| (self.noise_level[k], self.noise_samples[k]));
+        Schedule::new(
+            fitter,
+            self.first_window,
+            noise,
+            samples,
+            self.loss != Loss::Squared,
+        )
     }
 
     /// The fit's start: `config.start` (and `config.start_states`) or the short-cost start
@@ -259,11 +286,11 @@ impl Prepared {
         Ok(Progress {
             states0: q[space.dim()..].to_vec(),
             restarts: 0,
-            first_stuck: None,
+            best_stuck: None,
             robust: Vec::new(),
             reweights: 0,
             q,
-            schedule: Schedule::new(&fitter, self.first_window, self.noise()),
+            schedule: self.schedule(&fitter),
             counts: Counts::default(),
             cg: CgCounts::default(),
             start: start_note,
@@ -350,7 +377,8 @@ impl Prepared {
     }
 
     /// A stuck fit (a wrong basin) restarts from [`start::restart_genome`] while restarts are
-    /// left; then it goes on from the first attempt's stuck window, as if never restarted.
+    /// left and the restarts do not repeat one optimum; then it goes on from the stuck attempt
+    /// with the smallest residuals, settled (no more stepping back).
     fn unstick(
         &self,
         space: &ParameterSpace,
@@ -358,24 +386,33 @@ impl Prepared {
         q: &mut Vec<f64>,
     ) -> Result<After, CostError> {
         let fitter = self.fitter(space);
-        if progress.restarts < MAX_RESTARTS {
-            if progress.first_stuck.is_none() {
-                progress.first_stuck = Some(Box::new(Stuck {
-                    q: q.clone(),
-                    schedule: progress.schedule.clone(),
-                }));
-            }
+        let this = Box::new(Stuck {
+            q: q.clone(),
+            schedule: progress.schedule.clone(),
+        });
+        // Two attempts stuck at the same window with the same residuals are the same optimum:
+        // a model that cannot follow the motion there, not a basin another start leaves.
+        let repeated = progress.best_stuck.as_ref().is_some_and(|b| {
+            let (a, c) = (b.schedule.last_rms(), this.schedule.last_rms());
+            b.schedule.stuck_window() == this.schedule.stuck_window()
+                && (a - c).abs() <= SAME_OPTIMUM * a.min(c)
+        });
+        let best = match progress.best_stuck.take() {
+            Some(best) => best.better(this),
+            None => this,
+        };
+        if progress.restarts < MAX_RESTARTS && !repeated {
+            progress.best_stuck = Some(best);
             progress.restarts += 1;
             *q = start::restart_genome(&self.scene, space, &self.takes[0], progress.restarts);
             q.extend_from_slice(&progress.states0);
             fitter.project(q);
-            progress.schedule = Schedule::new(&fitter, self.first_window, self.noise());
+            progress.schedule = self.schedule(&fitter);
             return Ok(After::Stage);
         }
-        if let Some(first) = progress.first_stuck.take() {
-            *q = first.q;
-            progress.schedule = first.schedule;
-        }
+        *q = best.q;
+        progress.schedule = best.schedule;
+        progress.schedule.settle();
         progress.schedule.keep_going(q)
     }
 
@@ -535,10 +572,7 @@ impl Progress {
 
     /// Where the fit started, and its restarts.
     pub fn start_note(&self) -> String {
-        match (
-            self.restarts,
-            self.restarts == MAX_RESTARTS && self.first_stuck.is_none(),
-        ) {
+        match (self.restarts, self.schedule.settled()) {
             (0, _) => self.start.clone(),
             (r, false) => format!(
                 "{}; restarted {r} time(s) from seeded points in the boxes (a window stuck above \
@@ -546,7 +580,8 @@ impl Progress {
                 self.start
             ),
             (r, true) => format!(
-                "{}; {r} restarts all stuck above the noise level: went on from the first start",
+                "{}; {r} restart(s) stuck above the noise level as the first start did: went \
+                 on from the attempt with the smallest residuals",
                 self.start
             ),
         }

@@ -15,6 +15,13 @@ use crate::strategies::least_squares;
 /// `20 σ²`. The median of `(Δ³x)²` (divided by 0.455, the median of χ²₁) keeps the estimate
 /// robust to the motion's own sharp moments and to outliers. 0 for noiseless smooth motion.
 pub fn noise_level(take: &Take) -> f64 {
+    noise_level_and_samples(take).0
+}
+
+/// [`noise_level`] and the number of third differences it was read from (its precision: the
+/// median's relative standard deviation is `1.17/√n` for independent samples, about `2/√n`
+/// for these overlapping ones, whose neighbours correlate at −0.75).
+pub fn noise_level_and_samples(take: &Take) -> (f64, usize) {
     let mut sq = Vec::new();
     for i in 0..take.particles() {
         for c in 0..3 {
@@ -29,11 +36,11 @@ pub fn noise_level(take: &Take) -> f64 {
         }
     }
     if sq.is_empty() {
-        return 0.0;
+        return (0.0, 0);
     }
     sq.sort_by(f64::total_cmp);
     let median = sq[sq.len() / 2];
-    (median / 0.455 / 20.0).sqrt()
+    ((median / 0.455 / 20.0).sqrt(), sq.len())
 }
 
 /// The starting genome: the short cost's exact minimum on smoothed, gap-filled positions when

@@ -328,12 +328,16 @@ pub fn run_typed(
     let (genome, cost) = strategy.best();
     let mut params = problem.space.base.clone();
     problem.space.fill_params(genome, &mut params);
+    let (cost, rmse) = match strategy.own_cost() {
+        Some((own, terms)) => (own, (own / terms.max(1) as f64).sqrt()),
+        None => (cost, problem.rmse(cost)),
+    };
     Ok(RunResult {
         strategy: strategy.name(),
         genome: genome.to_vec(),
         params,
         cost,
-        rmse: problem.rmse(cost),
+        rmse,
         evals: problem.evals(),
         generations: generation,
         seconds,

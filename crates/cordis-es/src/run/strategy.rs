@@ -102,6 +102,14 @@ pub trait Strategy: Send {
         Err(format!("strategy `{}` cannot run on islands", self.name()))
     }
 
+    /// When the strategy minimises a cost of its own instead of the problem's (output-error:
+    /// the replay's weighted squared position residuals over the whole takes, m²), that cost
+    /// at [`Strategy::best`] and its number of terms: the run summary's `cost` and `rmse` are
+    /// then these, what the estimate was chosen by. `None`: the problem's cost.
+    fn own_cost(&self) -> Option<(f64, usize)> {
+        None
+    }
+
     /// What the strategy wants the run summary to say beside the numbers (an exact solver's
     /// condition number and warnings, a local solver's restarts); empty for nothing.
     fn report(&self) -> crate::report::Report {

@@ -191,12 +191,20 @@ impl OutputErrorReport {
             undetermined_directions: e.undetermined.clone(),
             undetermined,
             unconverged: (!e.converged).then(|| {
-                format!(
-                    "output-error: the last window ({} frames) ended by {} before its \
-                     tolerances held",
-                    e.windows.last().copied().unwrap_or(0),
-                    e.end
-                )
+                let window = e.windows.last().copied().unwrap_or(0);
+                match e.end {
+                    "above_noise" => format!(
+                        "output-error: the fit of the whole take ({window} frames) leaves \
+                         residuals (σ̂ {:.3e} m) above the data's noise level ({:.3e} m) from \
+                         every start: a wrong basin, or a model that cannot follow this motion",
+                        e.sigma,
+                        e.noise_level.iter().cloned().fold(0.0, f64::max)
+                    ),
+                    end => format!(
+                        "output-error: the last window ({window} frames) ended by {end} before \
+                         its tolerances held"
+                    ),
+                }
             }),
             chosen_because: None,
             uncertainty_computed: !e.stderr.iter().any(|s| s.is_nan()),
@@ -300,6 +308,11 @@ impl Strategy for OutputError {
 
     fn best(&self) -> (&[f64], f64) {
         (&self.state.genome, self.state.cost)
+    }
+
+    fn own_cost(&self) -> Option<(f64, usize)> {
+        let r = &self.state.report;
+        (self.state.error.is_none() && r.observed > 0).then_some((r.position_cost, r.observed))
     }
 
     fn stats(&self) -> GenerationStats {
