@@ -1,0 +1,9 @@
+#![no_main]
+//! C3D (through c3dio, its header checked first) through `parse_markers` (`io/markers.rs`): observations or a placed error.
+use cordis_core::io::InputFormat;
+use libfuzzer_sys::fuzz_target;
+
+#[path = "markers_check.rs"]
+mod markers_check;
+
+fuzz_target!(|data: &[u8]| markers_check::check(InputFormat::C3d, "fuzz.c3d", data));
