@@ -754,6 +754,10 @@ class DiscoverResult:
     @property
     def notes(self) -> List[str]:
         """How the answer was reached."""
+    @property
+    def undetermined(self) -> List[Dict[str, Any]]:
+        """What the data cannot decide, by name: ``what`` (``masses``…), ``particles``,
+        ``links``, ``why`` (each also raised with ``warnings.warn``)."""
 
 def scene_from_markers(
     markers: _ArrayLike,
@@ -792,6 +796,7 @@ def discover(
     noise_level: float = 0.0,
     threshold_scale: float = 1.0,
     type_tolerance: float = 1e-3,
+    gravity: Optional[Tuple[float, float, float]] = None,
 ) -> DiscoverResult:
     """Proposes a spring network (links, masses, gravity, types) from positions alone
     (GIL released). Give ``total_mass`` (kg, moving particles) or every particle's ``masses``.

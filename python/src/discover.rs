@@ -40,6 +40,10 @@ pub struct DiscoverResult {
     /// How the answer was reached.
     #[pyo3(get)]
     notes: Vec<String>,
+    /// What the data cannot decide, by name: `what` (`masses`, `gravity`…), `particles`,
+    /// `links`, `why` (also raised as warnings).
+    #[pyo3(get)]
+    undetermined: Py<PyAny>,
 }
 
 #[pymethods]
@@ -59,12 +63,14 @@ impl DiscoverResult {
 }
 
 fn to_py(py: Python<'_>, d: Discovery) -> PyResult<DiscoverResult> {
+    crate::identify::warn_all(py, &d.warnings())?;
     let json =
         |v: serde_json::Value| -> PyResult<Py<PyAny>> { Ok(crate::json::to_py(py, &v)?.unbind()) };
     Ok(DiscoverResult {
         links: json(serde_json::to_value(&d.links).unwrap_or_default())?,
         near_misses: json(serde_json::to_value(&d.near_misses).unwrap_or_default())?,
         solver: json(serde_json::to_value(&d.solver).unwrap_or_default())?,
+        undetermined: json(serde_json::to_value(&d.undetermined).unwrap_or_default())?,
         scene: Py::new(py, Scene::from_core(d.scene))?,
         radius: d.radius,
         candidates: d.candidates,
@@ -79,13 +85,15 @@ fn to_py(py: Python<'_>, d: Discovery) -> PyResult<DiscoverResult> {
 /// stiffnesses share one scale. `max_range` (m) bounds the candidate pairs (default 2.2 × the
 /// median nearest-neighbour distance); `noise_level` (m) > 0 smooths the positions first;
 /// `threshold_scale` multiplies the selection threshold; `type_tolerance` is the relative
-/// tolerance under which two links are of one type. See docs/discover.md.
+/// tolerance under which two links are of one type; `gravity` (m/s², `[x, y, z]`) when known,
+/// else it is estimated. `res.undetermined` names what the data cannot decide (also raised as
+/// warnings). See docs/discover.md.
 ///
 /// >>> truth = cordis.random_network(1, 12, 3)
 /// >>> traj = truth.simulate(300)
 /// >>> res = cordis.discover(traj, truth.dt, total_mass=12.3)   # doctest: +SKIP
 #[pyfunction]
-#[pyo3(signature = (traj, dt, total_mass = None, masses = None, max_range = None, noise_level = 0.0, threshold_scale = 1.0, type_tolerance = 1e-3))]
+#[pyo3(signature = (traj, dt, total_mass = None, masses = None, max_range = None, noise_level = 0.0, threshold_scale = 1.0, type_tolerance = 1e-3, gravity = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn discover(
     py: Python<'_>,
@@ -97,6 +105,7 @@ pub fn discover(
     noise_level: f64,
     threshold_scale: f64,
     type_tolerance: f64,
+    gravity: Option<[f64; 3]>,
 ) -> PyResult<DiscoverResult> {
     let dt = check_dt(dt, "dt")?;
     let traj = traj_from_py(traj, "traj")?;
@@ -107,6 +116,7 @@ pub fn discover(
         noise_level,
         threshold_scale,
         type_tolerance,
+        gravity,
     };
     let d = py
         .detach(|| core_discover(&traj, dt, &opt))

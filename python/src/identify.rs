@@ -634,7 +634,7 @@ fn attach<'py>(
 }
 
 /// `warnings.warn` for each line the CLI prints as `warning:`.
-fn warn_all(py: Python<'_>, lines: &[String]) -> PyResult<()> {
+pub(crate) fn warn_all(py: Python<'_>, lines: &[String]) -> PyResult<()> {
     let warnings = py.import("warnings")?;
     for w in lines {
         warnings.call_method1("warn", (w.as_str(), py.get_type::<PyUserWarning>(), 2))?;

@@ -37,6 +37,14 @@ pub struct Args {
     /// Relative tolerance under which two links are of one type.
     #[arg(long, default_value_t = 1e-3)]
     type_tolerance: f64,
+    /// Gravity when known, m/s²: `X,Y,Z` (default: estimated, shared by every particle).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        num_args = 3,
+        allow_negative_numbers = true
+    )]
+    gravity: Option<Vec<f64>>,
     /// Where to write the proposed scene (JSON; stdout when absent).
     #[arg(long, short = 'o')]
     out: Option<PathBuf>,
@@ -82,6 +90,11 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         bail!("--total-mass or --masses: masses and stiffnesses are only determined up to a common scale");
     }
     let masses = a.masses.as_deref().map(read_masses).transpose()?;
+    let gravity = match a.gravity.as_deref() {
+        None => None,
+        Some(&[x, y, z]) if [x, y, z].iter().all(|v| v.is_finite()) => Some([x, y, z]),
+        Some(g) => bail!("--gravity: three finite numbers X,Y,Z in m/s², got {g:?}"),
+    };
     let opt = DiscoverOptions {
         total_mass: a.total_mass,
         masses,
@@ -89,6 +102,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         noise_level: a.noise_level,
         threshold_scale: a.threshold_scale,
         type_tolerance: a.type_tolerance,
+        gravity,
     };
     let start = Instant::now();
     let d = discover(&traj, dt, &opt)?;
@@ -102,6 +116,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         "links": d.links,
         "near_misses": d.near_misses,
         "solver": d.solver,
+        "undetermined": d.undetermined,
         "notes": d.notes,
         "seconds": seconds,
     });
@@ -144,7 +159,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         for n in &d.notes {
             eprintln!("note: {n}");
         }
-        for w in d.solver.warnings() {
+        for w in d.warnings() {
             eprintln!("warning: {w}");
         }
     }

@@ -17,6 +17,7 @@ mod muscle;
 mod random;
 mod rigid;
 mod tadpole;
+mod varied;
 
 pub use bouncing_ball::{
     bouncing_ball, BALL_DAMPING, BALL_FRAMES, BALL_FRICTION, BALL_MASS, BALL_STIFFNESS,
@@ -36,6 +37,7 @@ pub use rigid::{rigid, RIGID_FRAMES};
 pub use tadpole::{
     tadpole, tadpole_vmax_bracket, tadpole_with, TADPOLE_BODY_LENGTH, TADPOLE_FRAMES,
 };
+pub use varied::{varied_network, VariedCase, VariedKinds, VARIED_MAX_RANK};
 
 use crate::{LinkKind, LinkType, Scene};
 

@@ -50,6 +50,8 @@ pub struct DiscoverOptions {
     pub threshold_scale: f64,
     /// Relative tolerance under which two links' parameters are taken as equal (one type).
     pub type_tolerance: f64,
+    /// Gravity, m/s², when known; estimated otherwise.
+    pub gravity: Option<[f64; 3]>,
 }
 
 impl Default for DiscoverOptions {
@@ -61,6 +63,7 @@ impl Default for DiscoverOptions {
             noise_level: 0.0,
             threshold_scale: 1.0,
             type_tolerance: 1e-3,
+            gravity: None,
         }
     }
 }
@@ -94,6 +97,35 @@ pub struct NearMiss {
     pub threshold: f64,
 }
 
+/// Something the data cannot decide, by name: the particles or links it concerns.
+#[derive(Clone, Debug, Serialize)]
+pub struct Undetermined {
+    /// What is not determined: `masses`, `links`, `gravity`.
+    pub what: String,
+    pub particles: Vec<usize>,
+    pub links: Vec<[usize; 2]>,
+    pub why: String,
+}
+
+impl Undetermined {
+    /// One line for a terminal.
+    pub fn line(&self) -> String {
+        let mut names = Vec::new();
+        if !self.particles.is_empty() {
+            names.push(format!("particles {:?}", self.particles));
+        }
+        if !self.links.is_empty() {
+            names.push(format!("links {:?}", self.links));
+        }
+        format!(
+            "{} of {}: not determined ({})",
+            self.what,
+            names.join(", "),
+            self.why
+        )
+    }
+}
+
 /// The answer of [`discover`].
 #[derive(Clone, Debug)]
 pub struct Discovery {
@@ -113,7 +145,22 @@ pub struct Discovery {
     pub rmse: f64,
     /// The exact solver's report of the catalogue refit.
     pub solver: ExactReport,
+    /// What the data cannot decide (empty when everything is determined).
+    pub undetermined: Vec<Undetermined>,
+    /// What a user should know about the data (noisy positions, an estimated noise level).
+    pub data_warnings: Vec<String>,
     pub notes: Vec<String>,
+}
+
+impl Discovery {
+    /// One line per thing a user should know, for a terminal (the CLI's `warning:` lines,
+    /// Python's `warnings.warn`): the data's, what is not determined, the refit's.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut w = self.data_warnings.clone();
+        w.extend(self.undetermined.iter().map(Undetermined::line));
+        w.extend(self.solver.warnings());
+        w
+    }
 }
 
 fn bad(place: &str, msg: impl Into<String>) -> CostError {
@@ -195,8 +242,17 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
         f64::MAX,
         "relative",
     )?;
+    if let Some(g) = opt.gravity {
+        if let Some(c) = g.iter().position(|v| !v.is_finite()) {
+            return Err(bad(
+                &format!("gravity[{c}]"),
+                "must be a finite number of m/s²",
+            ));
+        }
+    }
     let scale = traj.scale().max(f64::MIN_POSITIVE);
     let mut notes = Vec::new();
+    let data_warnings: Vec<String> = Vec::new();
 
     // Stage 1: fixed particles and candidates.
     let fixed = candidates::fixed_particles(traj, (3.0 * opt.noise_level).max(1e-12 * scale));
@@ -235,8 +291,20 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
         None => candidates::default_radius(&x0)
             .ok_or_else(|| bad("trajectory", "the particles of the first frame coincide"))?,
     };
-    check_candidates(traj, &x0, &free, &fixed, radius, opt.max_range.is_some())?;
-    let cands = candidates::pairs_within(&x0, &fixed, radius);
+    let place = if opt.max_range.is_some() {
+        "max_range"
+    } else {
+        "trajectory"
+    };
+    let within = candidates::degrees_within(&x0, &fixed, radius);
+    check_candidates(traj, &within, &free, radius, place)?;
+    let cands = candidates::candidate_pairs(&x0, &fixed, radius, opt.max_range.is_none());
+    let mut degree = vec![0; n];
+    for ([i, j], _) in &cands {
+        degree[*i] += 1;
+        degree[*j] += 1;
+    }
+    check_candidates(traj, &degree, &free, radius, place)?;
     let pairs: Vec<[usize; 2]> = cands.iter().map(|(p, _)| *p).collect();
     if pairs.is_empty() {
         return Err(bad(
@@ -256,7 +324,24 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
     } else {
         1.0
     };
-    let mut sel = select::select(&locals, pairs.len(), opt.threshold_scale * scale, floor);
+    let threshold = opt.threshold_scale * scale;
+    let gravity = match opt.gravity {
+        Some(g) => Some(Vector3::from(g)),
+        None => {
+            let first = select::select(&locals, pairs.len(), threshold, floor, None);
+            let g = select::shared_gravity(&locals, &first.fits, &first.active);
+            if g.is_none() {
+                notes.push(
+                    "gravity is not determined apart from the links (every particle's links \
+                     can stand in for some direction of it): estimated per particle, where it \
+                     trades off with the pull of fixed particles (give --gravity)"
+                        .into(),
+                );
+            }
+            g
+        }
+    };
+    let mut sel = select::select(&locals, pairs.len(), threshold, floor, gravity);
     let kept: Vec<usize> = (0..pairs.len()).filter(|&p| sel.active[p]).collect();
     if kept.is_empty() {
         return Err(bad(
@@ -275,6 +360,8 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
     }
 
     // Stage 4: masses.
+    let mut undetermined = Vec::new();
+    let mut mass_groups: Vec<Vec<usize>> = Vec::new();
     let masses = match &opt.masses {
         Some(ms) => ms.clone(),
         None => {
@@ -287,12 +374,14 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
                 &free,
                 opt.total_mass.unwrap_or(1.0),
             )?;
-            if groups > 1 {
+            if groups.len() > 1 {
                 notes.push(format!(
-                    "the links split the moving particles into {groups} groups without a link \
+                    "the links split the moving particles into {} groups without a link \
                      between two moving particles: their mass ratios come only from the \
-                     catalogue refit (shared types)"
+                     catalogue refit (shared types)",
+                    groups.len()
                 ));
+                mass_groups = groups;
             }
             m
         }
@@ -469,6 +558,12 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
         }
     };
     let rmse = problem.rmse(cost);
+    undetermined.extend(undetermined_mass_groups(
+        &mass_groups,
+        &scene,
+        &solver,
+        &free,
+    ));
 
     let links = kept
         .iter()
@@ -516,8 +611,70 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
         cost,
         rmse,
         solver,
+        undetermined,
+        data_warnings,
         notes,
     })
+}
+
+/// The mass groups (particles joined by links between moving particles; the largest first
+/// or not, any order) whose scale the catalogue refit could not measure: a group whose links'
+/// types include one the refit reports undetermined (a type no other group shares, so only
+/// `K/m` is seen). Such a group's masses are named, and so is every other moving particle's,
+/// since the given total is shared with them (issue 20: a particle hanging from a fixed one
+/// by a link of its own type took 3.3 × its mass, and the total's remainder moved every
+/// other mass by 3 %).
+fn undetermined_mass_groups(
+    groups: &[Vec<usize>],
+    scene: &Scene,
+    solver: &ExactReport,
+    free: &[bool],
+) -> Vec<Undetermined> {
+    if groups.len() < 2 {
+        return Vec::new();
+    }
+    let unmeasured = |group: &Vec<usize>| {
+        scene
+            .links
+            .iter()
+            .filter(|l| l.particles.iter().any(|i| group.contains(i)))
+            .any(|l| {
+                let prefix = format!("types.{}.", scene.types[l.type_index].name);
+                solver.undetermined.iter().any(|u| u.starts_with(&prefix))
+            })
+            || solver.error.is_some()
+    };
+    let bad: Vec<&Vec<usize>> = groups.iter().filter(|g| unmeasured(g)).collect();
+    if bad.is_empty() {
+        return Vec::new();
+    }
+    let named: Vec<usize> = bad.iter().flat_map(|g| g.iter().copied()).collect();
+    let mut out: Vec<Undetermined> = bad
+        .iter()
+        .map(|g| Undetermined {
+            what: "masses".into(),
+            particles: (*g).clone(),
+            links: Vec::new(),
+            why: "joined to the other moving particles only through fixed particles, by \
+                  links of types no other group shares: only stiffness / mass is measured"
+                .into(),
+        })
+        .collect();
+    let rest: Vec<usize> = (0..free.len())
+        .filter(|&i| free[i] && !named.contains(&i))
+        .collect();
+    if !rest.is_empty() {
+        out.push(Undetermined {
+            what: "masses".into(),
+            particles: rest,
+            links: Vec::new(),
+            why: format!(
+                "their ratios are measured, but the given total is shared with particles \
+                 {named:?}, whose masses are not"
+            ),
+        });
+    }
+    out
 }
 
 /// Refuses, before any pair is stored, candidate sets the selection cannot use or hold (issue
@@ -528,18 +685,11 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
 /// factors' memory, which grows as pairs² per particle, against the memory available.
 fn check_candidates(
     traj: &Trajectory,
-    x0: &[Vec3],
+    degree: &[usize],
     free: &[bool],
-    fixed: &[bool],
     radius: f64,
-    radius_given: bool,
+    place: &str,
 ) -> Result<(), CostError> {
-    let degree = candidates::degrees_within(x0, fixed, radius);
-    let place = if radius_given {
-        "max_range"
-    } else {
-        "trajectory"
-    };
     let rows = 3 * (traj.frames() - 2);
     let worst = (0..degree.len())
         .filter(|&i| free[i])
@@ -560,7 +710,7 @@ fn check_candidates(
             ));
         }
     }
-    let bytes = select::memory_bytes(&degree, free, rayon::current_num_threads());
+    let bytes = select::memory_bytes(degree, free, rayon::current_num_threads());
     cordis_core::arg::fits_in_memory(
         place,
         bytes,
@@ -584,7 +734,7 @@ fn masses_from_ratios(
     at: &[Vec<(usize, usize)>],
     free: &[bool],
     total: f64,
-) -> Result<(Vec<f64>, usize), CostError> {
+) -> Result<(Vec<f64>, Vec<Vec<usize>>), CostError> {
     let n = free.len();
     // Edges (i, j, log ρ, weight).
     let mut edges = Vec::new();
@@ -631,11 +781,6 @@ fn masses_from_ratios(
         let (a, b) = (find(&mut parent, i), find(&mut parent, j));
         parent[a] = b;
     }
-    let roots: std::collections::HashSet<usize> = (0..n)
-        .filter(|&i| free[i])
-        .map(|i| find(&mut parent, i))
-        .collect();
-    let groups = roots.len();
     // (i ← j) x_j - x_i = r: Laplacian L x = Bᵀ W r, solved by preconditioned CG.
     let mut diag = vec![0.0; n];
     let mut rhs = vec![0.0; n];
@@ -715,5 +860,11 @@ fn masses_from_ratios(
     if m.iter().any(|v| !v.is_finite()) {
         return Err(bad("masses", "the mass ratios are not finite"));
     }
+    let mut by_root: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
+    for i in (0..n).filter(|&i| free[i]) {
+        by_root.entry(find(&mut parent, i)).or_default().push(i);
+    }
+    let mut groups: Vec<Vec<usize>> = by_root.into_values().collect();
+    groups.sort();
     Ok((m, groups))
 }

@@ -148,79 +148,195 @@ pub fn rounding_floor(traj: &Trajectory, dt: f64) -> f64 {
 /// Relative singular-value cutoff of the column-equilibrated local solves.
 const RANK_TOL: f64 = 1e-12;
 
-/// Least squares of the local equation on the pairs with `active[q]`.
-pub fn fit(local: &Local, active: &[bool], floor: f64) -> Fit {
-    let m = local.pairs.len();
-    let k = local.factor.ncols() - 1;
-    let mut cols: Vec<usize> = vec![0, 1, 2];
-    for q in (0..m).filter(|&q| active[q]) {
-        cols.extend([3 + 3 * q, 4 + 3 * q, 5 + 3 * q]);
-    }
-    let r = &local.factor;
-    let mut a = DMatrix::zeros(k + 1, cols.len());
+/// A least-squares solve on some columns of a factor.
+struct Solved {
+    /// The solution and `W` (`W Wᵀ` the unscaled covariance), in the columns' own units.
+    x: DVector<f64>,
+    w: DMatrix<f64>,
+    /// Residual sum of squares.
+    rss: f64,
+    /// Some singular value fell under the rank cutoff: the columns are not independent.
+    deficient: bool,
+}
+
+/// Column-equilibrated SVD least squares of `rhs` on the factor's columns `cols`.
+fn solve(r: &DMatrix<f64>, cols: &[usize], rhs: &DVector<f64>) -> Solved {
+    let rows = r.nrows();
+    let mut a = DMatrix::zeros(rows, cols.len());
     let mut scale = vec![1.0; cols.len()];
     for (c, &col) in cols.iter().enumerate() {
         let norm = r.column(col).norm();
         scale[c] = if norm > 0.0 { 1.0 / norm } else { 1.0 };
-        for row in 0..=k {
+        for row in 0..rows {
             a[(row, c)] = r[(row, col)] * scale[c];
         }
     }
-    let rhs: DVector<f64> = r.column(k).into_owned();
-    let yy = rhs.norm_squared();
-    let svd = a.clone().svd(true, true);
-    let (u, vt, sv) = (
-        svd.u.unwrap_or_else(|| DMatrix::zeros(k + 1, cols.len())),
-        svd.v_t
-            .unwrap_or_else(|| DMatrix::zeros(cols.len(), cols.len())),
-        svd.singular_values,
-    );
-    let smax = sv.max();
     let mut x = DVector::zeros(cols.len());
-    // W = V Σ⁻¹: the covariance (unscaled) is W Wᵀ.
     let mut w = DMatrix::zeros(cols.len(), cols.len());
-    for s in 0..sv.len() {
-        if sv[s] <= RANK_TOL * smax || sv[s] == 0.0 {
-            continue;
-        }
-        let coef = u.column(s).dot(&rhs) / sv[s];
-        for c in 0..cols.len() {
-            x[c] += vt[(s, c)] * coef;
-            w[(c, s)] = vt[(s, c)] / sv[s];
+    let mut deficient = false;
+    // Known gravity and no active pair: nothing to solve (an SVD of no columns).
+    if !cols.is_empty() {
+        let svd = a.clone().svd(true, true);
+        let (u, vt, sv) = (
+            svd.u.unwrap_or_else(|| DMatrix::zeros(rows, cols.len())),
+            svd.v_t
+                .unwrap_or_else(|| DMatrix::zeros(cols.len(), cols.len())),
+            svd.singular_values,
+        );
+        let smax = sv.iter().copied().fold(0.0, f64::max);
+        for s in 0..sv.len() {
+            if sv[s] <= RANK_TOL * smax || sv[s] == 0.0 {
+                deficient = true;
+                continue;
+            }
+            let coef = u.column(s).dot(rhs) / sv[s];
+            for c in 0..cols.len() {
+                x[c] += vt[(s, c)] * coef;
+                w[(c, s)] = vt[(s, c)] / sv[s];
+            }
         }
     }
-    let rss = (&a * &x - &rhs).norm_squared();
-    let dof = local.rows.saturating_sub(cols.len()).max(1) as f64;
-    let sigma2 = (rss.max(1e-30 * yy).max(f64::MIN_POSITIVE) / dof).max(floor);
+    let rss = (&a * &x - rhs).norm_squared();
     for (c, s) in scale.iter().enumerate() {
         x[c] *= s;
         for v in w.row_mut(c).iter_mut() {
             *v *= s;
         }
     }
+    Solved {
+        x,
+        w,
+        rss,
+        deficient,
+    }
+}
+
+/// Least squares of the local equation on the pairs with `active[q]`; with `gravity` known
+/// (m/s²) the intercepts are not unknowns: their columns times `g` leave the right-hand side.
+///
+/// A pair's Wald statistic is the cost increase when it is removed only when the columns are
+/// independent. When they are not (a pair that others can stand in for, such as two links to
+/// fixed particles whose constant ends the intercepts absorb), the pseudo-inverse's
+/// "covariance" made every one of them look significant (issue 20: spurious links to fixed
+/// particles with l0 = 0 kept at 1e21 × the threshold); the score is then the cost increase
+/// itself, from a solve without the pair, so a pair the others can replace scores 0.
+pub fn fit(local: &Local, active: &[bool], floor: f64, gravity: Option<Vector3<f64>>) -> Fit {
+    let m = local.pairs.len();
+    let k = local.factor.ncols() - 1;
+    let pair_cols = |q: usize| [3 + 3 * q, 4 + 3 * q, 5 + 3 * q];
+    let base: Vec<usize> = if gravity.is_some() {
+        Vec::new()
+    } else {
+        vec![0, 1, 2]
+    };
+    let mut cols = base.clone();
+    for q in (0..m).filter(|&q| active[q]) {
+        cols.extend(pair_cols(q));
+    }
+    let r = &local.factor;
+    let mut rhs: DVector<f64> = r.column(k).into_owned();
+    if let Some(g) = gravity {
+        for c in 0..3 {
+            rhs -= r.column(c) * g[c];
+        }
+    }
+    let yy = rhs.norm_squared();
+    let sol = solve(r, &cols, &rhs);
+    let dof = local.rows.saturating_sub(cols.len()).max(1) as f64;
+    let sigma2 = (sol.rss.max(1e-30 * yy).max(f64::MIN_POSITIVE) / dof).max(floor);
+    let (x, w) = (&sol.x, &sol.w);
+    let (gravity, mut c) = match gravity {
+        Some(g) => (g, 0),
+        None => (Vector3::new(x[0], x[1], x[2]), 3),
+    };
     let mut out = Fit {
         beta: vec![Vector3::zeros(); m],
         cov: vec![Matrix3::zeros(); m],
         wald: vec![0.0; m],
-        gravity: Vector3::new(x[0], x[1], x[2]),
+        gravity,
         sigma2,
     };
-    let mut c = 3;
     for q in (0..m).filter(|&q| active[q]) {
         let b = Vector3::new(x[c], x[c + 1], x[c + 2]);
         let wq = w.rows(c, 3);
         let cov: Matrix3<f64> = (wq * wq.transpose()).fixed_view::<3, 3>(0, 0).into_owned();
-        let wald = cov
-            .try_inverse()
-            .map(|ci| (b.transpose() * ci * b)[0] / sigma2)
-            .filter(|v| v.is_finite())
-            .unwrap_or(0.0);
+        let wald = if sol.deficient {
+            let without: Vec<usize> = cols
+                .iter()
+                .copied()
+                .filter(|col| !pair_cols(q).contains(col))
+                .collect();
+            (solve(r, &without, &rhs).rss - sol.rss) / sigma2
+        } else {
+            cov.try_inverse()
+                .map(|ci| (b.transpose() * ci * b)[0] / sigma2)
+                .unwrap_or(0.0)
+        };
         out.beta[q] = b;
         out.cov[q] = cov * sigma2;
-        out.wald[q] = wald.max(0.0);
+        out.wald[q] = if wald.is_finite() { wald.max(0.0) } else { 0.0 };
         c += 3;
     }
     out
+}
+
+/// Gravity shared by every particle (m/s²) from the fits with intercepts of the first
+/// selection: each particle's intercepts `g_i` weighted by their information `N_i = E_Gᵀ E_G`,
+/// `E_G` the intercept columns projected off the particle's `active` pair columns:
+/// `g = (Σ N_i)⁻¹ Σ N_i g_i`. A direction that a particle's pairs can stand in for (two links
+/// to fixed particles: their constant ends differ by a constant force, so its `g_i` there is
+/// arbitrary) has no weight for that particle, and the others determine it. (Solving the
+/// projected right-hand sides instead lost 2.5e-7 of g to cancellation on a noiseless draw,
+/// enough to make every pair significant.) `None` when some direction of g is seen by no
+/// particle apart from its links.
+pub fn shared_gravity(locals: &[Local], fits: &[Fit], active: &[bool]) -> Option<Vector3<f64>> {
+    let parts: Vec<Matrix3<f64>> = locals
+        .par_iter()
+        .map(|loc| {
+            let r = &loc.factor;
+            let mut cols = Vec::new();
+            for (q, &p) in loc.pairs.iter().enumerate() {
+                if active[p] {
+                    cols.extend([3 + 3 * q, 4 + 3 * q, 5 + 3 * q]);
+                }
+            }
+            let residual = |target: usize| -> DVector<f64> {
+                let t: DVector<f64> = r.column(target).into_owned();
+                let sol = solve(r, &cols, &t);
+                let mut e = t;
+                for (c, &col) in cols.iter().enumerate() {
+                    e -= r.column(col) * sol.x[c];
+                }
+                e
+            };
+            let eg = [residual(0), residual(1), residual(2)];
+            let mut n = Matrix3::zeros();
+            for a in 0..3 {
+                for b in 0..3 {
+                    n[(a, b)] = eg[a].dot(&eg[b]);
+                }
+            }
+            n
+        })
+        .collect();
+    let (mut n, mut v) = (Matrix3::zeros(), Vector3::zeros());
+    for (ni, f) in parts.iter().zip(fits) {
+        n += ni;
+        v += ni * f.gravity;
+    }
+    let eig = n.symmetric_eigen();
+    let (lo, hi) = eig
+        .eigenvalues
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), &e| {
+            (lo.min(e), hi.max(e))
+        });
+    if !(hi > 0.0 && lo > 1e-12 * hi) {
+        return None;
+    }
+    n.try_inverse()
+        .map(|ni| ni * v)
+        .filter(|g| g.iter().all(|c| c.is_finite()))
 }
 
 /// The outcome of the selection.
@@ -239,7 +355,14 @@ pub struct Selection {
 
 /// Backward group selection (module docs); `threshold_scale` multiplies the BIC threshold;
 /// `floor` is the least residual variance per row, (m/s²)² (see [`rounding_floor`]).
-pub fn select(locals: &[Local], num_pairs: usize, threshold_scale: f64, floor: f64) -> Selection {
+/// `gravity`, when known (m/s²), replaces every particle's intercepts (see [`fit`]).
+pub fn select(
+    locals: &[Local],
+    num_pairs: usize,
+    threshold_scale: f64,
+    floor: f64,
+    gravity: Option<Vector3<f64>>,
+) -> Selection {
     let mut active = vec![true; num_pairs];
     let mut threshold = vec![0.0; num_pairs];
     // Where each pair sits: (local index, position in it).
@@ -263,7 +386,7 @@ pub fn select(locals: &[Local], num_pairs: usize, threshold_scale: f64, floor: f
             .filter(|(l, _)| dirty[*l])
             .map(|(l, loc)| {
                 let act: Vec<bool> = loc.pairs.iter().map(|&p| active[p]).collect();
-                (l, fit(loc, &act, floor))
+                (l, fit(loc, &act, floor, gravity))
             })
             .collect();
         for (l, f) in updated {

@@ -1,0 +1,238 @@
+//! Structure discovery on networks of a generator it was not calibrated on (issue 20):
+//! `cordis_core::examples::varied_network` — degrees 1–6, pre-stress, planar and 3-D, gravity
+//! on and off, fixed particles, dampers, anchors.
+
+use std::collections::HashSet;
+
+use cordis_core::examples::{varied_network, VariedKinds};
+use cordis_core::{Scene, Trajectory};
+use cordis_es::discover::{discover, DiscoverOptions, Discovery};
+use cordis_es::identify::add_noise;
+
+const FRAMES: usize = 300;
+
+/// The pairs discovery can see: links between two particles, not both fixed.
+fn true_pairs(scene: &Scene) -> HashSet<[usize; 2]> {
+    scene
+        .links
+        .iter()
+        .filter(|l| l.particles.len() == 2)
+        .filter(|l| !l.particles.iter().all(|&i| scene.particles[i].fixed))
+        .map(|l| {
+            let (a, b) = (l.particles[0], l.particles[1]);
+            [a.min(b), a.max(b)]
+        })
+        .collect()
+}
+
+fn found_pairs(scene: &Scene) -> HashSet<[usize; 2]> {
+    true_pairs(scene)
+}
+
+fn free_total(scene: &Scene) -> f64 {
+    scene
+        .particles
+        .iter()
+        .filter(|p| !p.fixed)
+        .map(|p| p.mass.value())
+        .sum()
+}
+
+struct Outcome {
+    missing: Vec<[usize; 2]>,
+    extra: Vec<[usize; 2]>,
+    links: usize,
+    worst_mass: f64,
+    d: Discovery,
+}
+
+fn survey_one(truth: &Scene, traj: &Trajectory, noise: f64, given: bool) -> Outcome {
+    let opt = DiscoverOptions {
+        total_mass: Some(free_total(truth)),
+        noise_level: if given { noise } else { 0.0 },
+        ..DiscoverOptions::default()
+    };
+    let d = discover(traj, truth.dt, &opt).unwrap();
+    let (want, got) = (true_pairs(truth), found_pairs(&d.scene));
+    let mut missing: Vec<_> = want.difference(&got).copied().collect();
+    let mut extra: Vec<_> = got.difference(&want).copied().collect();
+    missing.sort();
+    extra.sort();
+    let worst_mass = truth
+        .particles
+        .iter()
+        .zip(&d.scene.particles)
+        .filter(|(p, _)| !p.fixed)
+        .map(|(p, q)| (p.mass.value() - q.mass.value()).abs() / p.mass.value())
+        .fold(0.0, f64::max);
+    Outcome {
+        missing,
+        extra,
+        links: want.len(),
+        worst_mass,
+        d,
+    }
+}
+
+/// Per-network verdicts of a survey.
+#[derive(Default, Debug)]
+struct Rates {
+    networks: usize,
+    exact_links: usize,
+    exact_masses: usize,
+    /// Networks whose every mass off by more than 0.1 % is named in `undetermined`.
+    wrong_masses_named: usize,
+    silently_wrong: Vec<u64>,
+    links: usize,
+    found: usize,
+    extra: usize,
+}
+
+fn survey(seeds: std::ops::Range<u64>, kinds: VariedKinds, noise: f64, print: bool) -> Rates {
+    let mut r = Rates::default();
+    for seed in seeds {
+        let (truth, case) = varied_network(seed, kinds);
+        let traj = truth.simulate(FRAMES).unwrap();
+        let sigma = noise * traj.scale();
+        let obs = if noise > 0.0 {
+            add_noise(&traj, sigma, seed)
+        } else {
+            traj.clone()
+        };
+        let o = survey_one(&truth, &obs, sigma, true);
+        let flagged: HashSet<usize> =
+            o.d.undetermined
+                .iter()
+                .filter(|u| u.what == "masses")
+                .flat_map(|u| u.particles.iter().copied())
+                .collect();
+        let wrong: Vec<usize> = (0..truth.num_particles())
+            .filter(|&i| !truth.particles[i].fixed)
+            .filter(|&i| {
+                let (a, b) = (
+                    truth.particles[i].mass.value(),
+                    o.d.scene.particles[i].mass.value(),
+                );
+                (a - b).abs() > 1e-3 * a
+            })
+            .collect();
+        let exact = o.missing.is_empty() && o.extra.is_empty();
+        r.networks += 1;
+        r.exact_links += exact as usize;
+        r.exact_masses += (exact && wrong.is_empty()) as usize;
+        let named = wrong.iter().all(|i| flagged.contains(i));
+        r.wrong_masses_named += (!wrong.is_empty() && named) as usize;
+        if !exact || !named {
+            r.silently_wrong.push(seed);
+        }
+        r.links += o.links;
+        r.found += o.links - o.missing.len();
+        r.extra += o.extra.len();
+        if print {
+            println!(
+                "seed {seed} n {} {case:?} links {} missing {:?} extra {:?} worst mass {:.2e} \
+                 wrong masses {wrong:?} named {:?}",
+                truth.num_particles(),
+                o.links,
+                o.missing,
+                o.extra,
+                o.worst_mass,
+                o.d.undetermined
+                    .iter()
+                    .map(|u| u.line())
+                    .collect::<Vec<_>>()
+            );
+        }
+    }
+    r
+}
+
+/// Issue 20's acceptance on a CI-sized survey: 40 noiseless spring networks of the varied
+/// generator (degrees 1–6, pre-stress, planar and 3-D, gravity on and off, fixed particles).
+/// Every network gets the exact link set; every mass off by more than 0.1 % is named as not
+/// determined; at least 90 % of the networks get every mass within 0.1 %.
+#[test]
+fn noiseless_varied_networks_are_exact_or_named_as_not_determined() {
+    let r = survey(0..40, VariedKinds::SPRINGS, 0.0, false);
+    assert!(r.silently_wrong.is_empty(), "silently wrong: {r:?}");
+    assert_eq!(r.exact_links, r.networks, "{r:?}");
+    assert!(r.exact_masses * 10 >= r.networks * 9, "{r:?}");
+}
+
+/// The full survey (BENCHMARKS.md): `COUNT=200 NOISE=1e-4 cargo test --release -p cordis-es
+/// --test discover_varied varied_survey -- --ignored --nocapture` (KINDS=springs for springs
+/// only; PRINT=1 for every network).
+#[test]
+#[ignore]
+fn varied_survey() {
+    let env = |k: &str, d: f64| {
+        std::env::var(k)
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(d)
+    };
+    let noise = env("NOISE", 0.0);
+    let first = env("FIRST", 0.0) as u64;
+    let count = env("COUNT", 100.0) as u64;
+    let kinds = match std::env::var("KINDS").as_deref() {
+        Ok("springs") => VariedKinds::SPRINGS,
+        _ => VariedKinds::ALL,
+    };
+    let t0 = std::time::Instant::now();
+    let r = survey(first..first + count, kinds, noise, env("PRINT", 0.0) > 0.0);
+    println!(
+        "{kinds:?} noise {noise:e}: {} networks, exact links {} ({:.1} %), exact links and \
+         masses {} ({:.1} %), wrong masses all named {}, silently wrong {} {:?}; links found \
+         {:.2} %, extra {:.2} % of {}; {:.1} s",
+        r.networks,
+        r.exact_links,
+        100.0 * r.exact_links as f64 / r.networks as f64,
+        r.exact_masses,
+        100.0 * r.exact_masses as f64 / r.networks as f64,
+        r.wrong_masses_named,
+        r.silently_wrong.len(),
+        r.silently_wrong,
+        100.0 * r.found as f64 / r.links as f64,
+        100.0 * r.extra as f64 / r.links as f64,
+        r.links,
+        t0.elapsed().as_secs_f64()
+    );
+}
+
+#[test]
+#[ignore]
+fn varied_debug() {
+    let seed: u64 = std::env::var("SEED").unwrap().parse().unwrap();
+    let (truth, case) = varied_network(seed, VariedKinds::SPRINGS);
+    let traj = truth.simulate(FRAMES).unwrap();
+    let o = survey_one(&truth, &traj, 0.0, true);
+    println!("{case:?} missing {:?} extra {:?}", o.missing, o.extra);
+    for (i, p) in truth.particles.iter().enumerate() {
+        let deg: Vec<usize> = truth
+            .links
+            .iter()
+            .filter(|l| l.particles.contains(&i))
+            .map(|l| l.particles[0] + l.particles[1] - i)
+            .collect();
+        println!(
+            "p{i} fixed {} m {:.3} -> {:.3} links {deg:?}",
+            p.fixed,
+            p.mass.value(),
+            o.d.scene.particles[i].mass.value()
+        );
+    }
+    for l in &o.d.links {
+        println!(
+            "{:?} {} K {:.4} l0 {:.4} Z {:.4} score {:.3e} thr {:.1}",
+            l.particles, l.type_name, l.stiffness, l.rest_length, l.damping, l.score, l.threshold
+        );
+    }
+    for t in &truth.types {
+        println!(
+            "truth type {} {:?}",
+            t.name,
+            t.params.iter().map(|p| p.value()).collect::<Vec<_>>()
+        );
+    }
+    println!("notes {:?} solver {:?}", o.d.notes, o.d.solver);
+}
