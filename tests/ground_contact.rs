@@ -326,3 +326,56 @@ fn solvers_without_a_plane_refuse_it_by_name_and_auto_takes_levenberg_marquardt(
     let (_, ran) = make_strategy(StrategyName::Auto, &problem, &StrategyOptions::default());
     assert_eq!(ran, "levenberg-marquardt");
 }
+
+#[test]
+fn the_horse_lands_on_the_ground_and_stays_on_it() {
+    let scene = examples::horse_ground();
+    let report = cordis_core::stability(&scene).expect("valid");
+    assert!(report.stable, "stability ratio {}", report.max_ratio);
+    let frames = examples::HORSE_GROUND_FRAMES;
+    let traj = scene.simulate(frames).expect("the horse simulates");
+    let ground = examples::GROUND_HEIGHT;
+    let k = examples::GROUND_STIFFNESS;
+    // Each marker's deepest sinking against what a lone mass m landing at the speed v it had
+    // on entering the ground would reach on a spring K: v √(m/K) (damping and the short
+    // contact with gravity make it less; the links to the rest of the body may push more).
+    let (mut touching, mut worst) = (0, (0.0_f64, 0.0_f64, 0usize));
+    for i in 0..scene.num_particles() {
+        let m = scene.particles[i].mass.value();
+        let (mut deepest, mut entry_speed, mut bound) = (0.0_f64, 0.0_f64, 0.0_f64);
+        for t in 1..frames {
+            let (y0, y1) = (traj.pos(t - 1, i)[1], traj.pos(t, i)[1]);
+            if y0 >= ground && y1 < ground {
+                entry_speed = (y0 - y1) / scene.dt;
+            }
+            let depth = ground - y1;
+            if depth > deepest {
+                deepest = depth;
+                bound = entry_speed * (m / k).sqrt();
+            }
+        }
+        if ground - traj.pos(frames - 1, i)[1] > 0.0 {
+            touching += 1;
+        }
+        if deepest > worst.0 {
+            worst = (deepest, bound, i);
+        }
+        assert!(
+            deepest <= bound.max(1e-3),
+            "marker {i}: sank {deepest} m, v √(m/K) = {bound} m"
+        );
+    }
+    let (deepest, bound, marker) = worst;
+    eprintln!("deepest: marker {marker}, {deepest:.4} m (v √(m/K) = {bound:.4} m)");
+    let start_height: f64 = traj.pos(0, 7)[1] - ground; // midback
+    let end_height: f64 = traj.pos(frames - 1, 7)[1] - ground;
+    eprintln!(
+        "horse: {touching} markers touching at the end, midback from {start_height:.3} to \
+         {end_height:.3} m above the ground"
+    );
+    assert!(touching >= 3, "{touching} markers on the ground");
+    assert!(
+        end_height < start_height,
+        "fell: {start_height} -> {end_height}"
+    );
+}

@@ -43,6 +43,16 @@ def test_unknown_masses_without_a_total_say_to_pass_total_mass(rigid):
     assert r.strategy == "least-squares" and r.param_error_pct < 1e-6
 
 
+def test_a_total_mass_is_refused_by_the_strategies_that_would_ignore_it(rigid):
+    truth, traj, scene = rigid
+    masses = with_unknown_masses(scene)
+    total = sum(p.mass for p in truth.particles if not p.fixed)
+    for strategy in ["thesis", "cmaes", "levenberg-marquardt"]:
+        with pytest.raises(ValueError, match=f"total_mass: is honoured by least-squares and "
+                                             f"hybrid only .* `{strategy}` would ignore it"):
+            cordis.identify(masses, traj, strategy=strategy, total_mass=total, generations=2)
+
+
 def test_an_exact_solver_on_a_muscle_is_refused_before_any_work():
     truth = cordis.example("muscle")
     traj = truth.simulate(100)

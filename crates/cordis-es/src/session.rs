@@ -584,6 +584,20 @@ fn check(req: &IdentifyRequest, ran: &str, problem: &Problem) -> Result<(), Cost
             .replace("--strategy", &req.opt("strategy")),
         ));
     }
+    // Only the exact solvers put Σm = M into their solve; every other strategy would run as if
+    // the total were not given (issue 19 item 7): refused by name rather than ignored.
+    let honours_total = matches!(ran, "least-squares" | "hybrid");
+    if req.total_mass.is_some() && !honours_total {
+        return Err(CostError::invalid(
+            req.opt("total_mass"),
+            format!(
+                "is honoured by least-squares and hybrid only (they constrain the free masses' \
+                 sum in their solve); `{ran}` would ignore it: use {} least-squares or hybrid, \
+                 or leave it out",
+                req.opt("strategy")
+            ),
+        ));
+    }
     if req.total_mass.is_none() {
         let split = exact::split(problem);
         if split.free_masses {
@@ -593,8 +607,17 @@ fn check(req: &IdentifyRequest, ran: &str, problem: &Problem) -> Result<(), Cost
                         &place,
                         format!(
                             "masses and forces are unknown together and only their ratios show \
-                             in the motion: pass {} (kg), or make a mass or a force known",
-                            req.opt("total_mass")
+                             in the motion: pass {} (kg){}, or make a mass or a force known",
+                            req.opt("total_mass"),
+                            if honours_total {
+                                String::new()
+                            } else {
+                                format!(
+                                    " with {} least-squares or hybrid (the strategies that \
+                                     honour it)",
+                                    req.opt("strategy")
+                                )
+                            }
                         ),
                     ));
                 }

@@ -13,6 +13,7 @@ mod follower;
 mod frog;
 mod horse;
 mod horse_gait;
+mod horse_ground;
 mod muscle;
 mod random;
 mod rigid;
@@ -31,6 +32,10 @@ pub use follower::{
 pub use frog::{frog, frog_heading, frog_with, FROG_FRAMES};
 pub use horse::{horse, HORSE_FRAMES};
 pub use horse_gait::{horse_gait, GAIT_GAIN, GAIT_RATE_WEIGHT};
+pub use horse_ground::{
+    horse_ground, GROUND_DAMPING, GROUND_FRICTION, GROUND_HEIGHT, GROUND_STIFFNESS,
+    HORSE_GROUND_FRAMES,
+};
 pub use muscle::{muscle, MUSCLE_FRAMES, MUSCLE_GAIN};
 pub use random::{random_network, tracked_network};
 pub use rigid::{rigid, RIGID_FRAMES};
@@ -53,6 +58,7 @@ pub const NAMES: &[&str] = &[
     "frog",
     "follower",
     "bouncing-ball",
+    "horse-ground",
 ];
 
 /// The example of that name at its default size, or `None` for a name not in [`NAMES`].
@@ -68,6 +74,7 @@ pub fn by_name(name: &str) -> Option<Scene> {
         "frog" => Some(frog()),
         "follower" => Some(follower()),
         "bouncing-ball" => Some(bouncing_ball()),
+        "horse-ground" => Some(horse_ground()),
         _ => None,
     }
 }
@@ -85,6 +92,7 @@ pub fn default_frames(name: &str) -> usize {
         "frog" => FROG_FRAMES,
         "follower" => FOLLOWER_FRAMES,
         "bouncing-ball" => BALL_FRAMES,
+        "horse-ground" => HORSE_GROUND_FRAMES,
         _ => 0,
     }
 }
