@@ -668,7 +668,7 @@ fn check_horizon_time(req: &IdentifyRequest, problem: &Problem) -> Result<(), Co
     let Some(frames) = req.stable_horizon else {
         return Ok(());
     };
-    let per_frame = crate::stable::seconds_per_frame(problem, &problem.space.base, frames);
+    let per_frame = problem.seconds_per_frame(&problem.space.base, frames);
     let needed = per_frame * frames as f64;
     let (limit, what) = match req.time_limit {
         Some(t) => (t, format!("{} {t} s", req.opt("time_limit"))),

@@ -86,24 +86,3 @@ pub enum Rejection {
     /// The free run diverged at this frame.
     Diverged(usize),
 }
-
-/// Seconds one frame of the free run takes here, measured on the parameters `p` (runs of 16,
-/// 32, … frames until one lasts 2 ms or reaches `frames`; a run that diverges counts the frames
-/// it ran): what [`crate::session`] compares a horizon with before any work.
-pub(crate) fn seconds_per_frame(problem: &super::Problem, p: &[f64], frames: usize) -> f64 {
-    let mut s = problem.objective.scratch();
-    let limit = problem.guard.map_or(f64::INFINITY, |g| g.limit);
-    let mut probe = 16usize.min(frames.max(3));
-    loop {
-        let start = std::time::Instant::now();
-        let ran = problem
-            .objective
-            .free_run_diverges(p, probe, limit, &mut s)
-            .unwrap_or(probe);
-        let seconds = start.elapsed().as_secs_f64();
-        if seconds >= 2e-3 || probe >= frames || ran < probe {
-            return seconds / ran.max(1) as f64;
-        }
-        probe = (2 * probe).min(frames);
-    }
-}
