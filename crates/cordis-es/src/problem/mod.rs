@@ -209,7 +209,7 @@ impl Problem {
         let mut probe = 16usize.min(frames.max(3));
         loop {
             let start = std::time::Instant::now();
-            let ran = problem
+            let ran = self
                 .objective
                 .free_run_diverges(p, probe, limit, &mut s)
                 .unwrap_or(probe);
