@@ -1535,8 +1535,8 @@ pub(crate) fn finish(
     let covariance = super::uncertainty::physical(&cov_q, &chain);
     let correlation = super::uncertainty::correlation(&covariance);
     let params = fitter.params(&q);
-    let (stderr, intervals) = super::spread(fitter, &params, &covariance);
-    let states = super::take_states(fitter, &q);
+    let (stderr, intervals) = super::summary::spread(fitter, &params, &covariance);
+    let states = super::summary::take_states(fitter, &q);
     let missing = cgc.unconverged - solves_before;
     let note = format!(
         "{start}; matrix-free Gauss–Newton ({variables} variables > {DENSE_MAX_COLUMNS} dense \
@@ -1566,7 +1566,7 @@ pub(crate) fn finish(
         correlation,
         undetermined: Vec::new(),
         converged: end == StageEnd::Converged,
-        end: super::end_text(end),
+        end: super::summary::end_text(end),
         iterations: counts.iterations,
         evaluations: counts.evaluations,
         windows,

@@ -11,13 +11,16 @@
 use cordis_core::Scene;
 use serde::{Deserialize, Serialize};
 
+use super::checks::{check_memory, check_takes};
+use super::config::{check_config, Config};
 use super::fit::{self, Counts, Fitter, LmSettings, StageEnd};
 use super::loss::{self, Loss};
 use super::matrix_free::{self, CgCounts};
 use super::observations::Take;
+use super::start;
+use super::summary::{self, Estimate};
 use super::tangent::{Columns, Sens, Tangent};
 use super::windows::{After, Schedule};
-use super::{start, Config, Estimate};
 use crate::error::CostError;
 use crate::space::ParameterSpace;
 use crate::strategy::bits;
@@ -144,16 +147,16 @@ impl Prepared {
         config: &Config,
     ) -> Result<Self, CostError> {
         let mut tangent = Tangent::new(scene)?;
-        super::check_takes(scene, &tangent, &takes)?;
+        check_takes(scene, &tangent, &takes)?;
         tangent.guard_by(&takes);
-        super::check_config(config)?;
+        check_config(config)?;
         let slots: Vec<usize> = space.unknowns.iter().map(|u| u.slot).collect();
         let cols = tangent.columns(&slots);
         let large = cols.len > matrix_free::DENSE_MAX_COLUMNS;
         if large {
             matrix_free::check_memory(&tangent, &takes)?;
         } else {
-            super::check_memory(&tangent, &cols, takes.len())?;
+            check_memory(&tangent, &cols, takes.len())?;
         }
         let (noise_level, noise_samples) = takes.iter().map(start::noise_level_and_samples).unzip();
         Ok(Prepared {
@@ -469,7 +472,7 @@ impl Prepared {
         let ne = fitter
             .normal(&p.q, p.schedule.longest(), &mut Sens::default())
             .ok_or_else(|| CostError::mismatch("fit", "the model diverged at its estimate"))?;
-        Ok(super::summarise(
+        Ok(summary::summarise(
             &fitter,
             scene,
             p.q.clone(),
@@ -534,7 +537,7 @@ impl Prepared {
 
     /// Each take's `[x0, v0]` per free particle at `q`.
     pub fn states(&self, space: &ParameterSpace, q: &[f64]) -> Vec<Vec<f64>> {
-        super::take_states(&self.fitter(space), q)
+        summary::take_states(&self.fitter(space), q)
     }
 }
 

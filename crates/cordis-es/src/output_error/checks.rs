@@ -1,0 +1,91 @@
+//! Up-front refusals of an output-error fit: takes that do not fit the scene or leave a
+//! particle's initial state unestimable, and fits that would not fit in memory.
+
+use std::collections::VecDeque;
+
+use cordis_core::Scene;
+
+use crate::error::CostError;
+
+use super::observations::Take;
+use super::tangent::{self, Tangent};
+
+/// Every take fits the scene, has 3 frames, and every free particle it does not observe is
+/// tied by links to one it observes (or to a fixed one): otherwise nothing can estimate that
+/// particle's initial state.
+pub(crate) fn check_takes(
+    scene: &Scene,
+    tangent: &Tangent,
+    takes: &[Take],
+) -> Result<(), CostError> {
+    if takes.is_empty() {
+        return Err(CostError::mismatch("trajectory", "no take given"));
+    }
+    let n = scene.num_particles();
+    let mut adj = vec![Vec::new(); n];
+    for l in &scene.links {
+        if let [a, b] = l.particles[..] {
+            adj[a].push(b);
+            adj[b].push(a);
+        }
+    }
+    for (k, take) in takes.iter().enumerate() {
+        if take.particles() != n {
+            return Err(CostError::mismatch(
+                format!("take {k}"),
+                format!("has {} particles, the scene {n}", take.particles()),
+            ));
+        }
+        if take.frames() < 3 {
+            return Err(CostError::mismatch(
+                format!("take {k}"),
+                format!("has {} frames, at least 3 are needed", take.frames()),
+            ));
+        }
+        let mut seen: Vec<bool> = (0..n).map(|i| take.tracks(i)).collect();
+        let mut queue: VecDeque<usize> = (0..n).filter(|&i| seen[i]).collect();
+        while let Some(i) = queue.pop_front() {
+            for &j in &adj[i] {
+                if !seen[j] {
+                    seen[j] = true;
+                    queue.push_back(j);
+                }
+            }
+        }
+        if let Some(&i) = tangent.free.iter().find(|&&i| !seen[i]) {
+            return Err(CostError::mismatch(
+                format!("take {k}, particle {i}"),
+                "has no visible frame and no link to an observed particle: \
+                 its initial state cannot be estimated",
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Refuses fits whose sensitivity matrices and normal equations would not fit in memory.
+pub(crate) fn check_memory(
+    tangent: &Tangent,
+    cols: &tangent::Columns,
+    takes: usize,
+) -> Result<(), CostError> {
+    const LIMIT: f64 = 8.0 * (1u64 << 30) as f64;
+    let rows = 3.0 * tangent.plan.n as f64;
+    let width = cols.len as f64;
+    let total = cols.theta as f64 + takes as f64 * (cols.len - cols.theta) as f64;
+    let bytes = 8.0 * (6.0 * rows * width + 2.0 * width * width + total * total);
+    if bytes > LIMIT {
+        return Err(CostError::mismatch(
+            "output-error",
+            format!(
+                "needs about {:.1} GB for {} sensitivity columns over {} coordinates \
+                 (limit {:.0} GB)",
+                bytes / 1e9,
+                cols.len,
+                rows,
+                LIMIT / 1e9
+            ),
+        ));
+    }
+    Ok(())
+}

@@ -1,0 +1,62 @@
+//! Options of the output-error fit and their validation.
+
+use crate::error::CostError;
+
+use super::loss::Loss;
+
+/// Options of the output-error fit.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Config {
+    /// Frames of the first window (each later window doubles it).
+    pub first_window: usize,
+    /// Levenberg–Marquardt iterations per window.
+    pub max_iterations: usize,
+    /// scipy's tolerances, for every window.
+    pub ftol: f64,
+    pub xtol: f64,
+    pub gtol: f64,
+    /// Starting genome (internal coordinates); `None`: the short-cost start ([`start`]).
+    pub start: Option<Vec<f64>>,
+    /// Starting initial state per take (`[x0, v0]` per free particle); `None`: from the data.
+    pub start_states: Option<Vec<Vec<f64>>>,
+    /// The loss on each residual ([`loss`]: squared, or robust against outliers).
+    pub loss: Loss,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            first_window: 16,
+            max_iterations: 100,
+            ftol: 1e-10,
+            xtol: 1e-10,
+            gtol: 1e-10,
+            start: None,
+            start_states: None,
+            loss: Loss::Squared,
+        }
+    }
+}
+
+/// Every option is in its range: a window of at least 3 frames, at least one iteration, finite
+/// tolerances ≥ 0.
+pub(crate) fn check_config(c: &Config) -> Result<(), CostError> {
+    if c.first_window < 3 {
+        return Err(CostError::mismatch(
+            "first_window",
+            format!("must be at least 3 frames, got {}", c.first_window),
+        ));
+    }
+    if c.max_iterations == 0 {
+        return Err(CostError::mismatch("max_iterations", "must be at least 1"));
+    }
+    for (name, v) in [("ftol", c.ftol), ("xtol", c.xtol), ("gtol", c.gtol)] {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(CostError::mismatch(
+                name,
+                format!("must be a finite number ≥ 0, got {v}"),
+            ));
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,162 @@
+//! What an output-error fit reports: the [`Estimate`] and how it is assembled from the fit's
+//! last normal equations (σ̂ from the residuals, the covariance, intervals, undetermined
+//! directions by name).
+
+use cordis_core::Scene;
+use nalgebra::DMatrix;
+
+use super::fit::{self, Counts, Fitter, StageEnd};
+use super::loss::Loss;
+use super::observations::Take;
+use super::uncertainty;
+
+/// The result of [`estimate`].
+#[derive(Clone, Debug)]
+pub struct Estimate {
+    /// Internal coordinates of the unknowns ([`crate::space`]).
+    pub genome: Vec<f64>,
+    /// The scene's whole parameter vector at the estimate.
+    pub params: Vec<f64>,
+    /// Per take: `[x0, v0]` per free particle (m, m/s), free particles in scene order.
+    pub states: Vec<Vec<f64>>,
+    /// Weighted sum of squared position residuals, m².
+    pub cost: f64,
+    /// Estimated noise of a unit-weight coordinate, m: `√(C / (m - P))`.
+    pub sigma: f64,
+    /// Noise level read from the data before the fit (third differences), m, per take.
+    pub noise_level: Vec<f64>,
+    /// Observed coordinates m and fit variables P.
+    pub observed: usize,
+    pub variables: usize,
+    /// Standard error per unknown in its physical unit (inf: not determined; NaN: not
+    /// computed, when the matrix-free path's solve for it did not converge — the strategy
+    /// then reports no uncertainty rather than a NaN).
+    pub stderr: Vec<f64>,
+    /// 95 % interval per unknown (`value ± 1.96 stderr`).
+    pub intervals: Vec<(f64, f64)>,
+    /// Covariance of the unknowns (physical units), row-major dim × dim.
+    pub covariance: DMatrix<f64>,
+    pub correlation: DMatrix<f64>,
+    /// Directions the data do not determine, each by the names of the variables it moves.
+    pub undetermined: Vec<Vec<String>>,
+    /// The last window's Levenberg–Marquardt met its own criterion (ftol, xtol or gtol).
+    pub converged: bool,
+    /// How the last window ended: `converged`, `budget` or `stalled`.
+    pub end: &'static str,
+    pub iterations: usize,
+    pub evaluations: usize,
+    /// The windows, frames.
+    pub windows: Vec<usize>,
+    /// Where the fit started (short-cost solve or heuristic, and why).
+    pub start: String,
+    /// The loss, and with a robust one the observed coordinates it weighs at less than half
+    /// (ω < 0.5: outliers).
+    pub loss: Loss,
+    pub downweighted: usize,
+}
+
+/// The [`Estimate`] at `q` from the fit's normal equations `ne` there.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn summarise(
+    fitter: &Fitter<'_>,
+    scene: &Scene,
+    q: Vec<f64>,
+    ne: fit::Normal,
+    noise_level: Vec<f64>,
+    counts: Counts,
+    end: StageEnd,
+    windows: Vec<usize>,
+    start: String,
+) -> Estimate {
+    let observed: usize = fitter.takes.iter().map(Take::observed).sum();
+    let variables = fitter.len();
+    let dof = observed.saturating_sub(variables).max(1);
+    let sigma2 = ne.cost / dof as f64;
+    let (cov_q, dirs) = uncertainty::covariance(&ne.h, sigma2);
+    let chain = fitter.chain(&q);
+    let covariance = uncertainty::physical(&cov_q, &chain);
+    let correlation = uncertainty::correlation(&covariance);
+    let params = fitter.params(&q);
+    let dim = fitter.theta();
+    let (stderr, intervals) = spread(fitter, &params, &covariance);
+    let names = variable_names(fitter, scene);
+    let undetermined = dirs
+        .iter()
+        .map(|d| d.iter().map(|&a| names[a].clone()).collect())
+        .collect();
+    let states = take_states(fitter, &q);
+    Estimate {
+        genome: q[..dim].to_vec(),
+        params,
+        states,
+        cost: ne.cost,
+        sigma: sigma2.sqrt(),
+        noise_level,
+        observed,
+        variables,
+        stderr,
+        intervals,
+        covariance,
+        correlation,
+        undetermined,
+        converged: end == StageEnd::Converged,
+        end: end_text(end),
+        iterations: counts.iterations,
+        evaluations: counts.evaluations,
+        windows,
+        start,
+        loss: Loss::Squared,
+        downweighted: 0,
+    }
+}
+
+/// How the last window ended, as reported.
+pub(crate) fn end_text(end: StageEnd) -> &'static str {
+    match end {
+        StageEnd::Converged => "converged",
+        StageEnd::Budget => "budget",
+        StageEnd::Stalled | StageEnd::Diverged => "stalled",
+        StageEnd::Interrupted => "interrupted",
+        StageEnd::AboveNoise => "above_noise",
+    }
+}
+
+/// Standard errors (the covariance's diagonal) and 95 % intervals `θ̂ ± 1.96 se`.
+pub(crate) fn spread(
+    fitter: &Fitter<'_>,
+    params: &[f64],
+    covariance: &DMatrix<f64>,
+) -> (Vec<f64>, Vec<(f64, f64)>) {
+    let stderr: Vec<f64> = (0..fitter.theta())
+        .map(|a| covariance[(a, a)].sqrt())
+        .collect();
+    let intervals = stderr
+        .iter()
+        .zip(fitter.unknowns)
+        .map(|(se, u)| (params[u.slot] - 1.96 * se, params[u.slot] + 1.96 * se))
+        .collect();
+    (stderr, intervals)
+}
+
+/// Each take's `[x0, v0]` block of the fit's variables.
+pub(crate) fn take_states(fitter: &Fitter<'_>, q: &[f64]) -> Vec<Vec<f64>> {
+    let (dim, ns) = (fitter.theta(), fitter.state_len());
+    (0..fitter.takes.len())
+        .map(|k| q[dim + k * ns..dim + (k + 1) * ns].to_vec())
+        .collect()
+}
+
+/// Names of the fit's variables: the unknowns', then `take K: particles[i].x0.x` etc.
+fn variable_names(fitter: &Fitter<'_>, _scene: &Scene) -> Vec<String> {
+    let mut names: Vec<String> = fitter.unknowns.iter().map(|u| u.name.clone()).collect();
+    for k in 0..fitter.takes.len() {
+        for &i in &fitter.tangent.free {
+            for what in ["x0", "v0"] {
+                for c in ["x", "y", "z"] {
+                    names.push(format!("take {k}: particles[{i}].{what}.{c}"));
+                }
+            }
+        }
+    }
+    names
+}
