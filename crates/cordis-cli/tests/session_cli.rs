@@ -134,6 +134,7 @@ fn out_of_range_options_are_one_line_naming_them_not_a_panic() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     rigid(d);
+    std::fs::write(d.join("huge.gene"), "population=100000000000\n").unwrap();
     for (args, named) in [
         (&["--time-limit", "inf"][..], "--time-limit"),
         (&["--time-limit", "NaN"], "--time-limit"),
@@ -145,6 +146,35 @@ fn out_of_range_options_are_one_line_naming_them_not_a_panic() {
             "--population",
         ),
         (&["--total-mass=-1"], "--total-mass"),
+        // Issue 17's low cases: NaN noise added nothing, NaN dt was accepted, a NaN target
+        // ignored, a population of 0 ran.
+        (&["--noise", "NaN"], "--noise: must be a standard deviation"),
+        (&["--dt", "NaN"], "--dt: must be a finite number above 0"),
+        (&["--target-cost", "NaN"], "--target-cost: must be a number"),
+        (
+            &["--population", "0"],
+            "--population: must be 2 or more, got 0",
+        ),
+        // Issue 17: more migrants than an island holds was accepted (and silently cut);
+        // 10^7 islands were refused under --population with the population's own count.
+        (
+            &["--islands", "2", "--migrants", "7", "--population", "6"],
+            "--migrants: 7 is more than an island's population of 6",
+        ),
+        (
+            &["--islands", "10000000"],
+            "--islands: 10000000 islands of 100 individuals need about",
+        ),
+        (&["--islands", "1"], "--islands: must be 2 or more islands"),
+        (
+            &["--islands", "2", "--migrate-every", "0"],
+            "--migrate-every: must be 1 or more",
+        ),
+        // A Param.gene population beyond memory: the same check, with the estimate.
+        (
+            &["--param-gene", "huge.gene"],
+            "--population: 100000000000 individuals need about",
+        ),
     ] {
         let mut all = vec!["identify", "u.json", "-t", "t.csv"];
         all.extend(args);

@@ -254,6 +254,7 @@ impl Session {
             gene: gene.clone(),
             loss: req.loss,
         };
+        check_islands(&req, options.population)?;
         check_memory(&req, &problem, &options)?;
         check_horizon_time(&req, &problem)?;
         let (strategy, ran) = match req.islands {
@@ -629,6 +630,39 @@ fn check(req: &IdentifyRequest, ran: &str, problem: &Problem) -> Result<(), Cost
 
 /// Refuses a population whose individuals would not fit in memory (rather than aborting on
 /// the allocation), with the estimate.
+/// An island model's layout, each value under its own option's name: 2 or more islands,
+/// migrations at least a generation apart, and no more migrants than an island holds
+/// (`migrants` above the population used to be accepted and silently cut).
+fn check_islands(req: &IdentifyRequest, population: usize) -> Result<(), CostError> {
+    let Some(c) = req.islands else {
+        return Ok(());
+    };
+    let bad = |name: &str, m: String| Err(CostError::invalid(req.opt(name), m));
+    if c.islands < 2 {
+        return bad(
+            "islands",
+            format!("must be 2 or more islands, got {}", c.islands),
+        );
+    }
+    if c.migrate_every == 0 {
+        return bad(
+            "migrate_every",
+            "must be 1 or more generations, got 0".into(),
+        );
+    }
+    if c.migrants > population {
+        return bad(
+            "migrants",
+            format!(
+                "{} is more than an island's population of {population} (each island sends \
+                 copies of its best to the next): give at most {population}",
+                c.migrants
+            ),
+        );
+    }
+    Ok(())
+}
+
 fn check_memory(
     req: &IdentifyRequest,
     problem: &Problem,
@@ -641,11 +675,21 @@ fn check_memory(
     let bytes = per * options.population as f64 * copies;
     let limit = available_memory();
     if bytes > limit {
+        // Name the option that made it large: the islands multiply the population.
+        let (name, what) = match req.islands {
+            Some(c) if c.islands > 1 => (
+                "islands",
+                format!(
+                    "{} islands of {} individuals",
+                    c.islands, options.population
+                ),
+            ),
+            _ => ("population", format!("{} individuals", options.population)),
+        };
         return Err(CostError::invalid(
-            req.opt("population"),
+            req.opt(name),
             format!(
-                "{} individuals need about {:.1} GiB, more than the {:.1} GiB available",
-                options.population,
+                "{what} need about {:.1} GiB, more than the {:.1} GiB available",
                 bytes / GIB,
                 limit / GIB
             ),
