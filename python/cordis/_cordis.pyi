@@ -715,7 +715,9 @@ def identify(
 
     ``callback(generation, best_cost, params)`` runs after every generation; returning False
     stops the run, an exception stops it and is raised again. Ctrl-C stops cleanly and raises
-    KeyboardInterrupt with the partial result as its ``result`` attribute.
+    KeyboardInterrupt with the partial result as its ``result`` attribute. A ``checkpoint``
+    that cannot be written (a full disk) raises RuntimeError naming the file once the run is
+    over, with the whole result as its ``result`` attribute.
 
     >>> res = cordis.identify(scene, traj, generations=500, truth=truth)
     >>> res.param_error_pct < 1.0

@@ -467,7 +467,9 @@ fn session_to_py(err: CostError) -> PyErr {
 /// that finds no estimate raises `RuntimeError`; what the CLI prints as `warning:` is raised
 /// with `warnings.warn` and kept in `IdentifyResult.warnings`. Ctrl-C stops the run cleanly
 /// (checkpoint written) and raises `KeyboardInterrupt`, whose `result` attribute holds the
-/// `IdentifyResult` so far.
+/// `IdentifyResult` so far; a checkpoint that cannot be written (a full disk) raises
+/// `RuntimeError` naming the file once the run is over, its `result` attribute holding the
+/// whole `IdentifyResult`.
 ///
 /// >>> truth = cordis.example("rigid")
 /// >>> res = cordis.identify(cordis.example("rigid", unknowns=True), truth.simulate(100),
@@ -605,7 +607,12 @@ pub fn identify(
     }
     let outcome = outcome.map_err(session_to_py)?;
     warn_all(py, &outcome.warnings[early..])?;
+    let checkpoint_error = outcome.result.checkpoint_error.clone();
     let result = build_result(py, outcome)?;
+    // A checkpoint that could not be written (a full disk) fails the call, as the CLI exits 1,
+    // but loses nothing: the whole result rides on the exception.
+    let signal = signal
+        .or_else(|| checkpoint_error.map(|e| PyRuntimeError::new_err(format!("checkpoint: {e}"))));
     if let Some(e) = signal {
         let result = Py::new(py, result)?;
         e.value(py).setattr("result", result)?;

@@ -124,3 +124,33 @@ def test_a_stable_horizon_beyond_the_time_limit_is_refused_before_any_work(rigid
 def test_the_checkpoint_docstring_says_when_it_writes():
     doc = " ".join(cordis.identify.__doc__.split())
     assert "every 50 generations but at most once a second, and at the end" in doc, doc
+
+
+# Issue 17's cases, each by name (the properties above draw them only by chance).
+@pytest.mark.parametrize("kw, says", [
+    (dict(noise=1e308), r"noise: must be a standard deviation ≥ 0 m, got 1e308"),
+    (dict(noise=math.inf), r"noise: must be a standard deviation"),
+    (dict(noise=math.nan), r"noise: must be a standard deviation"),
+    (dict(time_limit=math.inf), r"time_limit: must be seconds"),
+    (dict(target_cost=math.nan), r"target_cost: must be a number, got NaN"),
+    (dict(population=10**11), r"population: 100000000000 individuals need about .* GiB"),
+    (dict(population=0), r"population: must be 2 or more, got 0"),
+    (dict(islands=10**7), r"islands: 10000000 islands of 6 individuals need about .* GiB"),
+    (dict(islands=2, migrants=7), r"migrants: 7 is more than an island's population of 6"),
+])
+def test_each_numeric_case_of_the_issue_is_an_argument_error(rigid, kw, says):
+    _, traj, scene = rigid
+    with pytest.raises(cordis.ArgumentError, match=says):
+        cordis.identify(scene, traj, **dict(BASE, **kw))
+
+
+def test_a_checkpoint_that_cannot_be_written_keeps_the_result(rigid, tmp_path):
+    # Issue 17: a failing checkpoint write lost the run's result. /dev/full (Linux, as CI)
+    # fails every write with ENOSPC.
+    full = tmp_path / "full.json"
+    full.symlink_to("/dev/full")
+    _, traj, scene = rigid
+    with pytest.raises(RuntimeError, match=r"checkpoint: .*full\.json.*No space left") as e:
+        cordis.identify(scene, traj, **dict(BASE, generations=5, checkpoint=str(full)))
+    result = e.value.result
+    assert result.generations == 5 and math.isfinite(result.cost)

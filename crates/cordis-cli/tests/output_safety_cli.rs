@@ -168,6 +168,15 @@ fn identify_outputs_off_its_inputs_and_each_other() {
             &["--out", "--checkpoint"],
         ),
         (&["--log", "l.csv", "--out", "l.csv"], &["--log", "--out"]),
+        // The checkpoint's history file beside it is an output too.
+        (
+            &["--checkpoint", "c.json", "--log", "c.json.history"],
+            &["--log", "--checkpoint's history"],
+        ),
+        (
+            &["--checkpoint", "c.json", "--out", "c.json.history"],
+            &["--out", "--checkpoint's history"],
+        ),
         (
             &["--resume", "c.json", "--out", "c.json"],
             &["--out", "--resume"],
@@ -279,7 +288,7 @@ fn stale_temporaries_of_a_killed_writer_are_removed_by_the_next_write() {
     }
 }
 
-/// Issue 17: an identification whose `--log` or `--out` write failed at the end (a full disk)
+/// Issue 17: an identification whose `--log`, `--out` or `--checkpoint` write failed (a full disk)
 /// lost its result — no table, no summary line — and a failing `--log` exited 2 naming no
 /// file. Now the summary line is printed first, then the error names the file, exit 1.
 #[test]
@@ -301,7 +310,12 @@ fn identify_prints_its_result_before_a_failed_log_or_out_write() {
         "-g",
         "5",
     ];
-    for extra in [&["--log", "full.csv"][..], &["--out", "full.json"]] {
+    for extra in [
+        &["--log", "full.csv"][..],
+        &["--out", "full.json"],
+        // A checkpoint that cannot be written lost the result too (exit 1, nothing printed).
+        &["--checkpoint", "full.json"],
+    ] {
         let mut args = run.to_vec();
         args.extend_from_slice(extra);
         args.extend(["--json", "-q"]);

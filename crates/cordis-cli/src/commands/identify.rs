@@ -159,6 +159,9 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     // A write that fails here (a full disk) must not lose the result: it is printed first,
     // then the failure names its file (exit 1).
     let mut failed = log.and_then(|l| l.finish().err().map(anyhow::Error::from));
+    if let Some(e) = &outcome.result.checkpoint_error {
+        failed.get_or_insert(cordis_es::CostError::run("--checkpoint", e.as_str()).into());
+    }
     if let Some(out) = &a.out {
         if let Err(e) = super::write_scene(&outcome.scene, Some(out)) {
             failed.get_or_insert(e);
@@ -201,11 +204,26 @@ fn guard(a: &Args) -> Result<()> {
         ("--lock", lock_file),
     ]);
     let (out, log) = (("--out", a.out.as_deref()), ("--log", a.log.as_deref()));
+    // The checkpoint's history rows go to FILE.history beside it: an output too (a --log
+    // there was interleaved with them, exit 0).
+    let history = a.checkpoint.as_deref().map(checkpoint_history);
     super::guard_outputs(
         &inputs,
-        &[("--checkpoint", a.checkpoint.as_deref()), out, log],
+        &[
+            ("--checkpoint", a.checkpoint.as_deref()),
+            ("--checkpoint's history", history.as_deref()),
+            out,
+            log,
+        ],
     )?;
     super::guard_outputs(&[("--resume", a.resume.as_deref())], &[out, log])
+}
+
+/// `FILE.history`, where the history rows of checkpoint `FILE` are appended.
+fn checkpoint_history(checkpoint: &Path) -> PathBuf {
+    let mut name = checkpoint.as_os_str().to_owned();
+    name.push(".history");
+    PathBuf::from(name)
 }
 
 /// The command line as a request: nothing is checked here, the session checks it all.

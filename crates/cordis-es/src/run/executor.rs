@@ -166,6 +166,11 @@ pub struct RunResult {
     pub history: Vec<HistoryRow>,
     pub stopped_by: StopReason,
     pub param_error_pct: Option<f64>,
+    /// The first checkpoint write that failed (a full disk: the file and the system's
+    /// reason), at which generation. The run went on without checkpoints, so this result is
+    /// whole, but the checkpoint file holds an earlier generation or nothing: front ends give
+    /// the result first, then report this as a failed write (CLI exit 1).
+    pub checkpoint_error: Option<String>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -243,6 +248,7 @@ pub fn run_typed(
     let stop = &config.stop;
     let mut history_file = HistoryFile::default();
     let mut last_checkpoint: Option<Instant> = None;
+    let mut checkpoint_error: Option<String> = None;
     let stopped_by = loop {
         let (_, best) = strategy.best();
         if let Some(g) = stop.generations {
@@ -299,9 +305,9 @@ pub fn run_typed(
         let due = config.checkpoint_every > 0
             && generation % config.checkpoint_every == 0
             && last_checkpoint.is_none_or(|t| t.elapsed() >= CHECKPOINT_INTERVAL);
-        if due && config.checkpoint.is_some() {
+        if due && config.checkpoint.is_some() && checkpoint_error.is_none() {
             last_checkpoint = Some(Instant::now());
-            write_checkpoint(
+            checkpoint_error = write_checkpoint(
                 config,
                 problem,
                 &*strategy,
@@ -309,22 +315,28 @@ pub fn run_typed(
                 elapsed(&start),
                 &history,
                 &mut history_file,
-            )?;
+            )
+            .err()
+            .map(|e| failed_checkpoint(e, generation));
         }
         if !go_on {
             break StopReason::Observer;
         }
     };
     let seconds = elapsed(&start);
-    write_checkpoint(
-        config,
-        problem,
-        &*strategy,
-        generation,
-        seconds,
-        &history,
-        &mut history_file,
-    )?;
+    if checkpoint_error.is_none() {
+        checkpoint_error = write_checkpoint(
+            config,
+            problem,
+            &*strategy,
+            generation,
+            seconds,
+            &history,
+            &mut history_file,
+        )
+        .err()
+        .map(|e| failed_checkpoint(e, generation));
+    }
     let (genome, cost) = strategy.best();
     let mut params = problem.space.base.clone();
     problem.space.fill_params(genome, &mut params);
@@ -345,7 +357,18 @@ pub fn run_typed(
         param_error_pct: problem.error_pct(genome),
         history,
         stopped_by,
+        checkpoint_error,
     })
+}
+
+/// A failed checkpoint write as [`RunResult::checkpoint_error`] says it: the file and the
+/// reason, and from which generation on the run had no checkpoint.
+fn failed_checkpoint(e: CostError, generation: u64) -> String {
+    let reason = match e {
+        CostError::Run { message, .. } => message,
+        other => other.to_string(),
+    };
+    format!("{reason} (generation {generation}: no checkpoint written from there on)")
 }
 
 /// Generation 0: the strategy's initial population, evaluated and observed.
