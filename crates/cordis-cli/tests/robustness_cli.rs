@@ -42,13 +42,13 @@ fn error_messages_escape_input_bytes_and_cut_long_values() {
 }
 
 mod numeric_options {
-    //! Every numeric option of `simulate`, `example`, `check`, `import` and `discover` driven
-    //! with arbitrary values — ±0, ±inf, NaN, subnormals, 1e308, integers at their limits and
-    //! past them, text that is no number — through the built binary: no panic, exit 0 or 2,
-    //! and a failure is one `error:` line. (`render` has no numeric option; identify's are the
-    //! session's, issue 15.) Bounded in time: 48 cases per command, each a process of a few ms
-    //! on the 15-particle rigid scene; frame counts are small or beyond memory, never in
-    //! between (a run of 10⁸ frames would pass the memory check and take the machine).
+    //! Every numeric option of `identify`, `simulate`, `example`, `check`, `import` and
+    //! `discover` driven with arbitrary values — ±0, ±inf, NaN, subnormals, 1e308, integers at
+    //! their limits and past them, text that is no number — through the built binary: no
+    //! panic, exit 0 or 2, and a failure is one `error:` line. (`render` has no numeric
+    //! option.) Bounded in time: 48 cases per command, each a process of a few ms on the
+    //! 15-particle rigid scene; frame counts are small or beyond memory, never in between (a
+    //! run of 10⁸ frames would pass the memory check and take the machine).
 
     use super::*;
     use proptest::prelude::*;
@@ -199,6 +199,60 @@ mod numeric_options {
             args.extend(names.iter().zip(&values).map(|(n, v)| format!("{n}={v}")));
             run(dir.path(), args)?;
         }
+
+        #[test]
+        fn identify_float_options(value in float(), which in 0usize..6) {
+            // `--time-limit inf` and `--noise 1e308` panicked here (exit 101).
+            let name = ["--noise", "--time-limit", "--target-cost", "--dt", "--stable-spread", "--total-mass"][which];
+            let mut args = identify_base(if name == "--total-mass" { "least-squares" } else { "thesis" });
+            if name == "--stable-spread" {
+                args.push("--stable-horizon=10".into());
+            }
+            args.push(format!("{name}={value}"));
+            run(rigid_dir().path(), args)?;
+        }
+
+        #[test]
+        fn identify_integer_options(value in integer(), which in 0usize..11) {
+            // `--population 100000000000` aborted the process allocating 8 TB.
+            let name = [
+                "--generations", "--population", "--seed", "--max-evals", "--threads", "--islands",
+                "--migrate-every", "--migrants", "--descent-start", "--descent-every",
+                "--stable-horizon",
+            ][which];
+            let mut args = identify_base("thesis");
+            match name {
+                "--generations" => args.push("--max-evals=300".into()),
+                "--migrate-every" | "--migrants" => args.push("--islands=2".into()),
+                _ => {}
+            }
+            args.push(format!("{name}={value}"));
+            run(rigid_dir().path(), args)?;
+        }
+    }
+
+    /// A short identification on the rigid scene: whatever one drawn option adds, the rest
+    /// keep it to a fraction of a second (`--time-limit` bounds what a drawn count could
+    /// make long; a later value of the same option overrides these).
+    fn identify_base(strategy: &str) -> Vec<String> {
+        [
+            "identify",
+            "u.json",
+            "-t",
+            "r.csv",
+            "--strategy",
+            strategy,
+            "-g",
+            "2",
+            "-p",
+            "6",
+            "--time-limit",
+            "2",
+            "--descent-start",
+            "1000000",
+        ]
+        .map(String::from)
+        .to_vec()
     }
 }
 
