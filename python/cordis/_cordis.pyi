@@ -37,6 +37,8 @@ __all__ = [
     "SceneKeyError",
     "SceneIndexError",
     "ArgumentError",
+    "RefusedError",
+    "RunError",
     "Scene",
     "Unknown",
     "Particle",
@@ -119,9 +121,26 @@ class ArgumentError(CordisError, ValueError):
     place: str
     message: str
 
+class RefusedError(CordisError, ValueError):
+    """The strategy cannot run on this problem (a muscle for an exact solver, free masses
+    without ``total_mass``…): refused before any work; ``message`` says what to do instead."""
+
+    place: str
+    message: str
+
+class RunError(CordisError, RuntimeError):
+    """The run failed: the solver found no estimate, an evaluation failed, or a checkpoint
+    could not be written; ``place`` and ``message`` say which."""
+
+    place: str
+    message: str
+
 class CheckpointError(CordisError):
-    """A checkpoint that reads but does not fit the run it should resume, or could not be
-    written (one that cannot be opened or read is a ``CordisIOError``)."""
+    """A checkpoint that reads but does not fit the run it should resume, naming what differs
+    (one that cannot be opened or read is a ``CordisIOError``)."""
+
+    place: str
+    message: str
 
 class SceneKeyError(SceneError, KeyError):
     """A link-type or parameter name the scene does not have; ``place`` names it.

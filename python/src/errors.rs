@@ -7,7 +7,9 @@
 
 use cordis_core::CordisError as CoreError;
 use cordis_es::CostError;
-use pyo3::exceptions::{PyException, PyIndexError, PyKeyError, PyOSError, PyValueError};
+use pyo3::exceptions::{
+    PyException, PyIndexError, PyKeyError, PyOSError, PyRuntimeError, PyValueError,
+};
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyDict, PyTuple, PyType};
@@ -59,6 +61,8 @@ static PARAM_LENGTH_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
 static SCENE_KEY_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
 static SCENE_INDEX_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
 static ARGUMENT_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+static REFUSED_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+static RUN_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
 
 fn dual_type<'py, B: pyo3::PyTypeInfo>(
     py: Python<'py>,
@@ -130,6 +134,40 @@ pub fn argument_error_type(py: Python<'_>) -> PyResult<&Bound<'_, PyType>> {
     )
 }
 
+/// `RefusedError(CordisError, ValueError)`: a strategy that cannot run on the problem, refused
+/// before any work.
+pub fn refused_error_type(py: Python<'_>) -> PyResult<&Bound<'_, PyType>> {
+    dual_type::<PyValueError>(
+        py,
+        &REFUSED_ERROR,
+        "RefusedError",
+        "The strategy cannot run on this problem (a muscle for an exact solver, free masses \
+         without total_mass…): refused before any work; `message` says what to do instead.",
+    )
+}
+
+/// `RunError(CordisError, RuntimeError)`: a run that found no estimate or could not finish.
+pub fn run_error_type(py: Python<'_>) -> PyResult<&Bound<'_, PyType>> {
+    dual_type::<PyRuntimeError>(
+        py,
+        &RUN_ERROR,
+        "RunError",
+        "The run failed: the solver found no estimate, an evaluation failed, or a checkpoint \
+         could not be written; `place` and `message` say which.",
+    )
+}
+
+/// An `ArgumentError` with `place` and `message` set.
+pub fn argument_error(place: &str, message: &str) -> PyErr {
+    Python::attach(|py| {
+        let make = || -> PyResult<PyErr> {
+            let cls = argument_error_type(py)?;
+            Ok(PyErr::from_value(placed_of(cls, place, message)?))
+        };
+        make().unwrap_or_else(|e| e)
+    })
+}
+
 /// `SceneKeyError(SceneError, KeyError)`: a link type or parameter name the scene lacks.
 pub fn scene_key_error_type(py: Python<'_>) -> PyResult<&Bound<'_, PyType>> {
     dual_type_of::<SceneError, PyKeyError>(
@@ -198,6 +236,8 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SceneKeyError", scene_key_error_type(py)?)?;
     m.add("SceneIndexError", scene_index_error_type(py)?)?;
     m.add("ArgumentError", argument_error_type(py)?)?;
+    m.add("RefusedError", refused_error_type(py)?)?;
+    m.add("RunError", run_error_type(py)?)?;
     Ok(())
 }
 
@@ -268,7 +308,9 @@ fn placed<'py, T: pyo3::PyTypeInfo>(
 
 /// The Python exception for an error of `cordis-es`: core errors as [`to_py`], a bad cost kind
 /// as `CostKindError`, a wrong length as `ParamLengthError`, a trajectory that does not fit
-/// its scene as `TrajectoryError`.
+/// its scene as `TrajectoryError`, an option out of its range as `ArgumentError`, a refused
+/// strategy as `RefusedError`, a checkpoint that cannot resume as `CheckpointError`, a failed
+/// run as `RunError` — each with `place` and `message`.
 pub fn cost_to_py(err: CostError) -> PyErr {
     match err {
         CostError::Core(e) => to_py(e),
@@ -299,13 +341,18 @@ fn build_cost(py: Python<'_>, err: &CostError) -> PyResult<PyErr> {
         CostError::Mismatch { place, message } => {
             placed::<TrajectoryError>(py, &text, place, message)?
         }
+        CostError::Invalid { place, message } => {
+            placed_of(argument_error_type(py)?, place, message)?
+        }
+        CostError::Refused { place, message } => {
+            placed_of(refused_error_type(py)?, place, message)?
+        }
+        CostError::Resume { place, message } => {
+            placed::<CheckpointError>(py, &text, place, message)?
+        }
+        CostError::Run { place, message } => placed_of(run_error_type(py)?, place, message)?,
         // Non-exhaustive: a variant added later still maps to the base class.
         other => py.get_type::<CordisError>().call1((other.to_string(),))?,
     };
     Ok(PyErr::from_value(value))
-}
-
-/// A `CheckpointError` with the run loop's one-line message.
-pub fn checkpoint_error(message: String) -> PyErr {
-    CheckpointError::new_err(message)
 }

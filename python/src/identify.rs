@@ -19,11 +19,11 @@ use cordis_es::strategies::islands::IslandConfig;
 use cordis_es::CostError;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2};
-use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyUserWarning, PyValueError};
+use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyUserWarning};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::errors::{checkpoint_error, cost_to_py};
+use crate::errors::{argument_error, cost_to_py};
 use crate::evaluator::PyEvaluator;
 use crate::scene::Scene;
 use crate::trajectory::{check_dt, observations_from_py, traj_to_py};
@@ -253,7 +253,7 @@ fn count<T: TryFrom<i128>>(x: impl Into<i128>, what: &str) -> PyResult<T> {
 }
 
 fn bad(what: &str, message: impl std::fmt::Display) -> PyErr {
-    PyValueError::new_err(format!("{what}: {message}"))
+    argument_error(what, &message.to_string())
 }
 
 /// `cordis.identify`'s arguments, as received (checked by the session, not here).
@@ -405,20 +405,6 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
     })
 }
 
-/// A session's error as Python raises it: bad options and refused strategies as
-/// `ValueError`, a checkpoint that cannot resume as `CheckpointError`, a failed run as
-/// `RuntimeError`, the rest (scene, trajectory, cost kind) as the library's own classes.
-fn session_to_py(err: CostError) -> PyErr {
-    match err {
-        CostError::Invalid { .. } | CostError::Refused { .. } => {
-            PyValueError::new_err(err.to_string())
-        }
-        CostError::Resume { .. } => checkpoint_error(err.to_string()),
-        CostError::Run { .. } => PyRuntimeError::new_err(err.to_string()),
-        other => cost_to_py(other),
-    }
-}
-
 /// Identifies the unknown parameters of `scene` (written `{"min", "max"}`) from the observed
 /// positions `traj` `(T, N, 3)`, m — what `cordis identify` does, with the GIL released, under
 /// the same option names (`time_limit` is `--time-limit`).
@@ -463,8 +449,10 @@ fn session_to_py(err: CostError) -> PyErr {
 /// - `islands` (≥ 2): an island model of that many populations of `population` each, the
 ///   `migrants` best of each copied to the next every `migrate_every` generations (a ring).
 ///
-/// A strategy that cannot run on the problem is refused before any work (`ValueError`), one
-/// that finds no estimate raises `RuntimeError`; what the CLI prints as `warning:` is raised
+/// A strategy that cannot run on the problem is refused before any work (`RefusedError`, a
+/// `ValueError`), one that finds no estimate raises `RunError` (a `RuntimeError`), an option
+/// out of its range `ArgumentError` (a `ValueError`), a checkpoint that cannot resume
+/// `CheckpointError`, all under `CordisError`; what the CLI prints as `warning:` is raised
 /// with `warnings.warn` and kept in `IdentifyResult.warnings`. Ctrl-C stops the run cleanly
 /// (checkpoint written) and raises `KeyboardInterrupt`, whose `result` attribute holds the
 /// `IdentifyResult` so far; a checkpoint that cannot be written (a full disk) raises
@@ -570,7 +558,7 @@ pub fn identify(
             )));
         }
     }
-    let mut session = py.detach(|| Session::new(req)).map_err(session_to_py)?;
+    let mut session = py.detach(|| Session::new(req)).map_err(cost_to_py)?;
     warn_all(py, session.warnings())?;
     let early = session.warnings().len();
     let evaluator = match &executor {
@@ -605,7 +593,7 @@ pub fn identify(
     if let Some(e) = remote_error {
         return Err(e);
     }
-    let outcome = outcome.map_err(session_to_py)?;
+    let outcome = outcome.map_err(cost_to_py)?;
     warn_all(py, &outcome.warnings[early..])?;
     let checkpoint_error = outcome.result.checkpoint_error.clone();
     let result = build_result(py, outcome)?;

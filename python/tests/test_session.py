@@ -70,6 +70,40 @@ def test_an_exact_solver_on_a_muscle_is_refused_before_any_work():
                         strategy="least-squares", cost="long")
 
 
+def test_session_errors_are_cordis_error_classes_with_place_and_message(rigid, tmp_path):
+    """Each way a session fails has its own CordisError subclass, still catchable as the
+    built-in class it used to be, with `place` and `message` attributes."""
+    truth, traj, scene = rigid
+    # An option out of its range: ArgumentError (a ValueError).
+    with pytest.raises(cordis.ArgumentError) as e:
+        cordis.identify(scene, traj, strategy="thesis", time_limit=1e308)
+    assert isinstance(e.value, ValueError) and isinstance(e.value, cordis.CordisError)
+    assert "time_limit" in e.value.place and e.value.message in str(e.value)
+    with pytest.raises(cordis.ArgumentError, match="unknown strategy `nope`") as e:
+        cordis.identify(scene, traj, strategy="nope")
+    assert e.value.place == "strategy"
+    # A strategy that cannot run on the problem: RefusedError (a ValueError), before any work.
+    muscle = cordis.example("muscle")
+    with pytest.raises(cordis.RefusedError) as e:
+        cordis.identify(cordis.example("muscle", unknowns=True), muscle.simulate(50),
+                        strategy="least-squares")
+    assert isinstance(e.value, ValueError) and isinstance(e.value, cordis.CordisError)
+    assert "tanh" in e.value.message and e.value.place
+    # A solve that cannot succeed (the motion at 1e300 m overflows the normal equations):
+    # RunError (a RuntimeError), no result.
+    with pytest.raises(cordis.RunError) as e:
+        cordis.identify(scene, traj * 1e300, strategy="least-squares")
+    assert isinstance(e.value, RuntimeError) and isinstance(e.value, cordis.CordisError)
+    assert "least-squares" in str(e.value) and e.value.message
+    # A checkpoint of another request: CheckpointError naming what differs.
+    cp = tmp_path / "cp.json"
+    cordis.identify(scene, traj, strategy="thesis", population=10, generations=3, checkpoint=cp)
+    with pytest.raises(cordis.CheckpointError) as e:
+        cordis.identify(scene, traj, strategy="thesis", population=10, generations=5,
+                        noise=1e-4, resume=cp)
+    assert "noise" in e.value.message and e.value.place
+
+
 def test_threads_beyond_the_machine_are_capped_with_a_warning(rigid):
     _, traj, scene = rigid
     with pytest.warns(UserWarning, match="threads 100000: capped"):
