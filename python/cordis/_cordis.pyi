@@ -712,8 +712,10 @@ def identify(
     ``Param.gene`` file; ``descent_start``/``descent_every`` set the thesis strategy's Powell
     descent. ``threads`` beyond the machine's cores are capped, with a warning.
 
-    A strategy that cannot run on the problem is refused before any work (``ValueError``
-    naming why), one that finds no estimate raises ``RuntimeError``; what the CLI prints as
+    A strategy that cannot run on the problem is refused before any work (``RefusedError``, a
+    ValueError naming why), an option out of range raises ``ArgumentError`` (a ValueError), a
+    run that finds no estimate ``RunError`` (a RuntimeError), a checkpoint of another request
+    ``CheckpointError`` naming what differs — all ``CordisError``; what the CLI prints as
     ``warning:`` is raised with ``warnings.warn`` and kept in ``IdentifyResult.warnings``.
 
     ``executor``: None/``"local"``, ``"ray"`` or an executor object (``cordis.RayExecutor``):
@@ -735,7 +737,7 @@ def identify(
     ``callback(generation, best_cost, params)`` runs after every generation; returning False
     stops the run, an exception stops it and is raised again. Ctrl-C stops cleanly and raises
     KeyboardInterrupt with the partial result as its ``result`` attribute. A ``checkpoint``
-    that cannot be written (a full disk) raises RuntimeError naming the file once the run is
+    that cannot be written (a full disk) raises RunError naming the file once the run is
     over, with the whole result as its ``result`` attribute.
 
     >>> res = cordis.identify(scene, traj, generations=500, truth=truth)

@@ -157,6 +157,17 @@ pub fn run_error_type(py: Python<'_>) -> PyResult<&Bound<'_, PyType>> {
     )
 }
 
+/// A `RunError` with `place` and `message` set.
+pub fn run_error(place: &str, message: &str) -> PyErr {
+    Python::attach(|py| {
+        let make = || -> PyResult<PyErr> {
+            let cls = run_error_type(py)?;
+            Ok(PyErr::from_value(placed_of(cls, place, message)?))
+        };
+        make().unwrap_or_else(|e| e)
+    })
+}
+
 /// An `ArgumentError` with `place` and `message` set.
 pub fn argument_error(place: &str, message: &str) -> PyErr {
     Python::attach(|py| {

@@ -23,7 +23,7 @@ use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyUserWarning};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::errors::{argument_error, cost_to_py};
+use crate::errors::{argument_error, cost_to_py, run_error};
 use crate::evaluator::PyEvaluator;
 use crate::scene::Scene;
 use crate::trajectory::{check_dt, observations_from_py, traj_to_py};
@@ -456,7 +456,7 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
 /// with `warnings.warn` and kept in `IdentifyResult.warnings`. Ctrl-C stops the run cleanly
 /// (checkpoint written) and raises `KeyboardInterrupt`, whose `result` attribute holds the
 /// `IdentifyResult` so far; a checkpoint that cannot be written (a full disk) raises
-/// `RuntimeError` naming the file once the run is over, its `result` attribute holding the
+/// `RunError` naming the file once the run is over, its `result` attribute holding the
 /// whole `IdentifyResult`.
 ///
 /// >>> truth = cordis.example("rigid")
@@ -599,8 +599,7 @@ pub fn identify(
     let result = build_result(py, outcome)?;
     // A checkpoint that could not be written (a full disk) fails the call, as the CLI exits 1,
     // but loses nothing: the whole result rides on the exception.
-    let signal = signal
-        .or_else(|| checkpoint_error.map(|e| PyRuntimeError::new_err(format!("checkpoint: {e}"))));
+    let signal = signal.or_else(|| checkpoint_error.map(|e| run_error("checkpoint", &e)));
     if let Some(e) = signal {
         let result = Py::new(py, result)?;
         e.value(py).setattr("result", result)?;

@@ -102,6 +102,13 @@ def test_session_errors_are_cordis_error_classes_with_place_and_message(rigid, t
         cordis.identify(scene, traj, strategy="thesis", population=10, generations=5,
                         noise=1e-4, resume=cp)
     assert "noise" in e.value.message and e.value.place
+    # A checkpoint that cannot be written (/dev/full: ENOSPC): RunError, the result kept.
+    full = tmp_path / "full.json"
+    full.symlink_to("/dev/full")
+    with pytest.raises(cordis.RunError) as e:
+        cordis.identify(scene, traj, strategy="thesis", population=10, generations=3,
+                        checkpoint=full)
+    assert e.value.place == "checkpoint" and e.value.result.generations == 3
 
 
 def test_threads_beyond_the_machine_are_capped_with_a_warning(rigid):
