@@ -358,9 +358,10 @@ fn build_cost(py: Python<'_>, err: &CostError) -> PyResult<PyErr> {
         CostError::Refused { place, message } => {
             placed_of(refused_error_type(py)?, place, message)?
         }
-        CostError::Resume { place, message } => {
+        CostError::Resume { place, message, .. } => {
             placed::<CheckpointError>(py, &text, place, message)?
         }
+        CostError::State { message, .. } => placed::<CheckpointError>(py, &text, "state", message)?,
         CostError::Run { place, message } => placed_of(run_error_type(py)?, place, message)?,
         // Non-exhaustive: a variant added later still maps to the base class.
         other => py.get_type::<CordisError>().call1((other.to_string(),))?,

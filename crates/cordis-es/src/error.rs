@@ -41,9 +41,26 @@ pub enum CostError {
     Refused { place: String, message: String },
 
     /// A checkpoint that cannot resume this run (unreadable, another strategy, seed, scene,
-    /// data or options — the message names which).
+    /// data or options — the message names which); `source`: the strategy's refusal of the
+    /// state it holds, when that is why.
     #[error("{place}: {message}")]
-    Resume { place: String, message: String },
+    Resume {
+        place: String,
+        message: String,
+        #[source]
+        source: Option<Box<CostError>>,
+    },
+
+    /// A strategy's checkpointed state, or an island's migrants, that this run cannot take:
+    /// not the strategy's format (`source`: the JSON error), or made for another population,
+    /// dimension or configuration ([`crate::strategy::Strategy::load_state`],
+    /// [`crate::strategy::Strategy::immigrate`]).
+    #[error("{message}")]
+    State {
+        message: String,
+        #[source]
+        source: Option<serde_json::Error>,
+    },
 
     /// The run failed: a solver that found no estimate, an evaluation that failed, a checkpoint
     /// that could not be written.
@@ -92,6 +109,51 @@ impl CostError {
         Self::Resume {
             place: place.into(),
             message: message.into(),
+            source: None,
+        }
+    }
+
+    /// A checkpoint at `place` whose state the strategy refused with `source` (its message
+    /// repeated, so the one line says it all).
+    pub fn resume_from(place: impl Into<String>, source: CostError) -> Self {
+        Self::Resume {
+            place: place.into(),
+            message: source.to_string(),
+            source: Some(Box::new(source)),
+        }
+    }
+
+    /// A strategy state (or migrant) this run cannot take, saying why.
+    pub fn state(message: impl Into<String>) -> Self {
+        Self::State {
+            message: message.into(),
+            source: None,
+        }
+    }
+
+    /// A strategy state (or migrant) that is not JSON of the strategy's format; `what` names
+    /// it when more than the state is read (`migrant 3`).
+    pub fn state_json(what: Option<&str>, source: serde_json::Error) -> Self {
+        Self::State {
+            message: match what {
+                Some(w) => format!("{w}: {source}"),
+                None => source.to_string(),
+            },
+            source: Some(source),
+        }
+    }
+
+    /// This state error with `prefix` before its message (`islands[2]: …`), its source kept.
+    pub fn within(self, prefix: impl std::fmt::Display) -> Self {
+        match self {
+            Self::State { message, source } => Self::State {
+                message: format!("{prefix}: {message}"),
+                source,
+            },
+            other => Self::State {
+                message: format!("{prefix}: {other}"),
+                source: None,
+            },
         }
     }
 

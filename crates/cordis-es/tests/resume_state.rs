@@ -54,9 +54,29 @@ fn a_state_cut_short_is_refused_by_every_strategy() {
         let mut bad = good.clone();
         assert!(cut_first_vector(&mut bad), "{ran}: no vector in its state");
         let (mut other, _) = make_strategy(name, &problem, &options);
+        let err = other
+            .load_state(&problem, &bad)
+            .expect_err(&format!("{ran}: accepted a state with a vector cut short"));
+        // A typed refusal of the state, not a bare string.
         assert!(
-            other.load_state(&problem, &bad).is_err(),
-            "{ran}: accepted a state with a vector cut short"
+            matches!(err, cordis_es::CostError::State { .. }),
+            "{ran}: {err:?}"
         );
     }
+}
+
+#[test]
+fn a_state_that_is_not_json_of_the_strategy_keeps_the_json_error_as_its_source() {
+    let problem = rigid_problem(40);
+    let options = StrategyOptions {
+        population: 8,
+        ..StrategyOptions::default()
+    };
+    let (mut s, _) = make_strategy(StrategyName::Thesis, &problem, &options);
+    let err = s
+        .load_state(&problem, &serde_json::json!({"population": "many"}))
+        .expect_err("a string for the population");
+    let source = std::error::Error::source(&err).expect("the JSON error as source");
+    assert!(source.is::<serde_json::Error>(), "{source:?}");
+    assert_eq!(err.to_string(), source.to_string());
 }

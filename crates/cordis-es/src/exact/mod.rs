@@ -55,6 +55,7 @@ use serde::{Deserialize, Serialize};
 
 use self::row_mask::RowMask;
 use crate::cost::{CostKind, LinearShortCost, Objective, ThetaEntry};
+use crate::error::CostError;
 use crate::linalg::equilibrated::lsq;
 pub(crate) use crate::linalg::givens::Factor;
 use crate::problem::space::Role;
@@ -1079,14 +1080,19 @@ impl Strategy for OneShot {
         serde_json::to_value(&self.state).unwrap_or_default()
     }
 
-    fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String> {
-        let s: OneShotState = serde_json::from_value(state.clone()).map_err(|e| e.to_string())?;
+    fn load_state(
+        &mut self,
+        problem: &Problem,
+        state: &serde_json::Value,
+    ) -> Result<(), CostError> {
+        let s: OneShotState =
+            serde_json::from_value(state.clone()).map_err(|e| CostError::state_json(None, e))?;
         if s.genome.len() != problem.dim() {
-            return Err(format!(
+            return Err(CostError::state(format!(
                 "state has {} unknowns, the problem {}",
                 s.genome.len(),
                 problem.dim()
-            ));
+            )));
         }
         self.state = s;
         Ok(())

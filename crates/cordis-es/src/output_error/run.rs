@@ -486,15 +486,15 @@ impl Prepared {
     }
 
     /// Whether `progress` (read from a checkpoint) belongs to this fit.
-    pub fn check(&self, space: &ParameterSpace, progress: &Progress) -> Result<(), String> {
+    pub fn check(&self, space: &ParameterSpace, progress: &Progress) -> Result<(), CostError> {
         let len = self.fitter(space).len();
         let longest = self.takes.iter().map(Take::frames).max().unwrap_or(0);
         let partial = progress.partial.as_ref().map_or(len, |p| p.q.len());
         if progress.q.len() != len || partial != len {
-            return Err(format!(
+            return Err(CostError::state(format!(
                 "output-error state holds {} fit variables, this problem has {len}",
                 progress.q.len()
-            ));
+            )));
         }
         let robust_fits = progress.robust.is_empty()
             || (progress.robust.len() == self.takes.len()
@@ -504,13 +504,15 @@ impl Prepared {
                     .zip(&self.takes)
                     .all(|(m, t)| m.len() == t.frames() * t.particles() * 3));
         if !robust_fits {
-            return Err("output-error state holds robust weights of another shape".into());
+            return Err(CostError::state(
+                "output-error state holds robust weights of another shape",
+            ));
         }
         if progress.schedule.longest() != longest || progress.schedule.next > longest {
-            return Err(format!(
+            return Err(CostError::state(format!(
                 "output-error state was made on takes of {} frames, these have {longest}",
                 progress.schedule.longest()
-            ));
+            )));
         }
         Ok(())
     }

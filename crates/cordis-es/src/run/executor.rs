@@ -452,7 +452,9 @@ fn resume(
         Some(rows) => HistoryFile::read(path, rows)?,
         None => cp.history,
     };
-    strategy.load_state(problem, &cp.state).map_err(bad)?;
+    strategy
+        .load_state(problem, &cp.state)
+        .map_err(|e| CostError::resume_from(&place, e))?;
     problem.set_evals(cp.evals);
     problem.objective.set_generation(cp.generation as usize);
     Ok(Start {

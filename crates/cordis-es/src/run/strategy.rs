@@ -1,6 +1,7 @@
 //! The one interface every identification strategy implements (argmin-style): the run loop in
 //! [`crate::run::executor`] drives it, counts evaluations, logs, checkpoints and stops it.
 
+use crate::error::CostError;
 use crate::problem::Problem;
 
 /// Summary of the current generation, for logs and progress.
@@ -75,7 +76,8 @@ pub trait Strategy: Send {
     fn save_state(&self) -> serde_json::Value;
 
     /// Restores a state written by [`Strategy::save_state`].
-    fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String>;
+    fn load_state(&mut self, problem: &Problem, state: &serde_json::Value)
+        -> Result<(), CostError>;
 
     /// Whether [`Strategy::emigrants`] and [`Strategy::immigrate`] work: the strategy can run
     /// as an island of [`crate::strategies::islands::Islands`].
@@ -97,9 +99,12 @@ pub trait Strategy: Send {
         &mut self,
         problem: &Problem,
         migrants: &[serde_json::Value],
-    ) -> Result<(), String> {
+    ) -> Result<(), CostError> {
         let _ = (problem, migrants);
-        Err(format!("strategy `{}` cannot run on islands", self.name()))
+        Err(CostError::state(format!(
+            "strategy `{}` cannot run on islands",
+            self.name()
+        )))
     }
 
     /// When the strategy minimises a cost of its own instead of the problem's (output-error:

@@ -24,6 +24,7 @@ use super::cmaes::mean_finite;
 use super::common::{
     boxes, evaluate_genomes, from_unit, load_checked, reflect, start_genome, to_unit, NO_STATS,
 };
+use crate::error::CostError;
 use crate::problem::Problem;
 use crate::run::float_json::{bits, lossless};
 use crate::run::rng;
@@ -287,7 +288,11 @@ impl Strategy for Annealing {
         serde_json::to_value(&self.state).expect("state serialises")
     }
 
-    fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String> {
+    fn load_state(
+        &mut self,
+        problem: &Problem,
+        state: &serde_json::Value,
+    ) -> Result<(), CostError> {
         self.boxes = boxes(problem);
         self.state = load_checked("annealing", state, |st: &State| {
             st.best_genome.len() == problem.dim()

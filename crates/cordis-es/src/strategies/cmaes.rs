@@ -28,6 +28,7 @@ use serde::{Deserialize, Serialize};
 use super::common::{
     boxes, evaluate_genomes, from_unit, load_checked, start_genome, to_unit, NO_STATS,
 };
+use crate::error::CostError;
 use crate::problem::Problem;
 use crate::run::float_json::{bits, lossless};
 use crate::run::rng;
@@ -567,7 +568,11 @@ impl Strategy for Cmaes {
         serde_json::to_value(&self.state).expect("state serialises")
     }
 
-    fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String> {
+    fn load_state(
+        &mut self,
+        problem: &Problem,
+        state: &serde_json::Value,
+    ) -> Result<(), CostError> {
         self.boxes = boxes(problem);
         let n = problem.dim();
         // Every vector and matrix of the search sized by the problem: a hand-edited or foreign

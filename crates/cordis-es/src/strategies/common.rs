@@ -1,6 +1,7 @@
 //! What the strategies beyond the thesis share: parallel evaluation of plain genomes, the
 //! heuristic starting point, and the unit box every one of them searches in.
 
+use crate::error::CostError;
 use crate::problem::Problem;
 use crate::run::strategy::GenerationStats;
 
@@ -101,11 +102,14 @@ pub(crate) fn load_checked<S: serde::de::DeserializeOwned>(
     name: &str,
     state: &serde_json::Value,
     fits: impl FnOnce(&S) -> bool,
-) -> Result<Option<S>, String> {
-    let s: Option<S> = serde_json::from_value(state.clone()).map_err(|e| e.to_string())?;
+) -> Result<Option<S>, CostError> {
+    let s: Option<S> =
+        serde_json::from_value(state.clone()).map_err(|e| CostError::state_json(None, e))?;
     match &s {
         Some(st) if fits(st) => Ok(s),
-        _ => Err(format!("{name} state does not match the problem")),
+        _ => Err(CostError::state(format!(
+            "{name} state does not match the problem"
+        ))),
     }
 }
 

@@ -12,6 +12,7 @@
 use rand::RngCore;
 use serde::{Deserialize, Serialize};
 
+use crate::error::CostError;
 use crate::problem::Problem;
 use crate::run::rng;
 use crate::run::strategy::{GenerationStats, Strategy};
@@ -171,10 +172,15 @@ impl Strategy for Islands {
         serde_json::to_value(state).expect("state serialises")
     }
 
-    fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String> {
-        let st: State = serde_json::from_value(state.clone()).map_err(|e| e.to_string())?;
+    fn load_state(
+        &mut self,
+        problem: &Problem,
+        state: &serde_json::Value,
+    ) -> Result<(), CostError> {
+        let st: State =
+            serde_json::from_value(state.clone()).map_err(|e| CostError::state_json(None, e))?;
         if st.config != self.config || st.islands.len() != self.islands.len() {
-            return Err(format!(
+            return Err(CostError::state(format!(
                 "islands: checkpoint has {} islands migrating {} every {} generations, this run \
                  {} migrating {} every {}",
                 st.config.islands,
@@ -183,11 +189,11 @@ impl Strategy for Islands {
                 self.config.islands,
                 self.config.migrants,
                 self.config.migrate_every
-            ));
+            )));
         }
         for (k, (s, v)) in self.islands.iter_mut().zip(&st.islands).enumerate() {
             s.load_state(problem, v)
-                .map_err(|e| format!("islands[{k}]: {e}"))?;
+                .map_err(|e| e.within(format!("islands[{k}]")))?;
         }
         self.update_best();
         Ok(())

@@ -51,6 +51,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::common::{load_checked, start_genome, NO_STATS};
+use crate::error::CostError;
 use crate::problem::Problem;
 use crate::run::float_json::{bits, lossless};
 use crate::run::rng;
@@ -625,7 +626,11 @@ impl Strategy for LevenbergMarquardt {
         serde_json::to_value(&self.lm.state).unwrap_or(serde_json::Value::Null)
     }
 
-    fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String> {
+    fn load_state(
+        &mut self,
+        problem: &Problem,
+        state: &serde_json::Value,
+    ) -> Result<(), CostError> {
         let dim = problem.dim();
         let mut st: Option<State> = load_checked("levenberg-marquardt", state, |s: &State| {
             s.z.len() == dim && s.best_z.len() == dim && s.diag.len() == dim

@@ -13,6 +13,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::error::CostError;
 use crate::output_error::{self, Config, Estimate, Prepared, Progress, Step};
 use crate::problem::Problem;
 use crate::report::{InitialState, ParamUncertainty, Report, SolverReport};
@@ -327,22 +328,27 @@ impl Strategy for OutputError {
         serde_json::to_value(&self.state).unwrap_or_default()
     }
 
-    fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String> {
-        let mut s: State = serde_json::from_value(state.clone()).map_err(|e| e.to_string())?;
+    fn load_state(
+        &mut self,
+        problem: &Problem,
+        state: &serde_json::Value,
+    ) -> Result<(), CostError> {
+        let mut s: State =
+            serde_json::from_value(state.clone()).map_err(|e| CostError::state_json(None, e))?;
         if s.genome.len() != problem.dim() {
-            return Err(format!(
+            return Err(CostError::state(format!(
                 "output-error state has {} unknowns, the problem {}",
                 s.genome.len(),
                 problem.dim()
-            ));
+            )));
         }
         self.free = problem.scene.particles.iter().map(|p| !p.fixed).collect();
         let width = 6 * self.free.iter().filter(|f| **f).count();
         if s.states.iter().any(|t| t.len() != width) {
-            return Err(format!(
+            return Err(CostError::state(format!(
                 "output-error state holds initial states of another length than the {width} \
                  values of this scene's free particles"
-            ));
+            )));
         }
         if let Some(progress) = &mut s.progress {
             let prepared = Prepared::new(
@@ -350,8 +356,7 @@ impl Strategy for OutputError {
                 &problem.space,
                 problem.takes(),
                 &self.config,
-            )
-            .map_err(|e| e.to_string())?;
+            )?;
             prepared.check(&problem.space, progress)?;
             // A window stopped midway reruns from its start: the same steps as an
             // uninterrupted fit.

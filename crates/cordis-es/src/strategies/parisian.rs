@@ -31,6 +31,7 @@ use super::common::{
     boxes, evaluate_genomes, from_unit, load_checked, start_genome, to_unit, NO_STATS,
 };
 use super::self_adaptive::{Individual, Recombination, SaEs, SelfAdaptiveConfig};
+use crate::error::CostError;
 use crate::problem::space::Role;
 use crate::problem::Problem;
 use crate::run::float_json::{bits, lossless};
@@ -379,7 +380,11 @@ impl Strategy for Parisian {
         serde_json::to_value(&self.state).expect("state serialises")
     }
 
-    fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String> {
+    fn load_state(
+        &mut self,
+        problem: &Problem,
+        state: &serde_json::Value,
+    ) -> Result<(), CostError> {
         self.setup(problem);
         self.state = load_checked("parisian", state, |st: &State| {
             st.best_genome.len() == problem.dim()

@@ -21,6 +21,7 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use crate::error::CostError;
 use crate::linalg::powell::{powell, Powell};
 use crate::problem::Problem;
 use crate::run::float_json::{bits, lossless};
@@ -485,7 +486,11 @@ impl Strategy for Thesis {
         serde_json::to_value(&self.state).expect("state serialises")
     }
 
-    fn load_state(&mut self, problem: &Problem, state: &serde_json::Value) -> Result<(), String> {
+    fn load_state(
+        &mut self,
+        problem: &Problem,
+        state: &serde_json::Value,
+    ) -> Result<(), CostError> {
         self.setup(problem);
         let (dim, particles) = (problem.dim(), problem.num_particles);
         // A state of another problem would index out of its genes or particles later.
@@ -495,7 +500,7 @@ impl Strategy for Thesis {
                     i.genes.len() == dim && i.sigma.len() == dim && i.local.len() == particles
                 })
         })?
-        .ok_or("thesis state is empty")?;
+        .ok_or_else(|| CostError::state("thesis state is empty"))?;
         Ok(())
     }
 
@@ -517,15 +522,17 @@ impl Strategy for Thesis {
         &mut self,
         problem: &Problem,
         migrants: &[serde_json::Value],
-    ) -> Result<(), String> {
+    ) -> Result<(), CostError> {
         let size = self.state.population.len();
         // The elite stays: at most the non-elite tail is replaced.
         let room = size - ((self.config.elite * size as f64).ceil() as usize).clamp(1, size);
         for (k, m) in migrants.iter().take(room).enumerate() {
-            let ind: Individual =
-                serde_json::from_value(m.clone()).map_err(|e| format!("migrant {k}: {e}"))?;
+            let ind: Individual = serde_json::from_value(m.clone())
+                .map_err(|e| CostError::state_json(Some(&format!("migrant {k}")), e))?;
             if ind.genes.len() != problem.dim() || ind.local.len() != problem.num_particles {
-                return Err(format!("migrant {k}: does not match the problem"));
+                return Err(CostError::state(format!(
+                    "migrant {k}: does not match the problem"
+                )));
             }
             self.state.population[size - 1 - k] = ind;
         }
