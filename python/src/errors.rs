@@ -362,7 +362,10 @@ fn build_cost(py: Python<'_>, err: &CostError) -> PyResult<PyErr> {
             placed::<CheckpointError>(py, &text, place, message)?
         }
         CostError::State { message, .. } => placed::<CheckpointError>(py, &text, "state", message)?,
-        CostError::Run { place, message } => placed_of(run_error_type(py)?, place, message)?,
+        CostError::Run { place, message, .. } => placed_of(run_error_type(py)?, place, message)?,
+        CostError::Evaluation { message, .. } => {
+            placed_of(run_error_type(py)?, "evaluation", message)?
+        }
         // Non-exhaustive: a variant added later still maps to the base class.
         other => py.get_type::<CordisError>().call1((other.to_string(),))?,
     };

@@ -10,6 +10,7 @@
 
 use cordis_es::evaluator::Evaluator;
 use cordis_es::problem::Problem;
+use cordis_es::CostError;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
@@ -141,7 +142,7 @@ impl Evaluator for PyEvaluator {
         genomes: &[f64],
         costs: &mut [f64],
         local: Option<&mut [f64]>,
-    ) -> Result<(), String> {
+    ) -> Result<(), CostError> {
         let (m, dim, n) = (costs.len(), problem.dim(), problem.num_particles);
         let generation = problem.objective.generation();
         Python::attach(|py| {
@@ -167,11 +168,17 @@ impl Evaluator for PyEvaluator {
             };
             run().map_err(|e| {
                 let text = format!("executor: {}", describe(py, &e));
+                // The exception itself is raised again by `identify`; a copy rides as the
+                // error's source.
+                let source = e.clone_ref(py);
                 self.error
                     .lock()
                     .unwrap_or_else(|p| p.into_inner())
                     .get_or_insert(e);
-                text
+                CostError::Evaluation {
+                    message: text,
+                    source: Some(Box::new(source)),
+                }
             })
         })
     }

@@ -63,9 +63,24 @@ pub enum CostError {
     },
 
     /// The run failed: a solver that found no estimate, an evaluation that failed, a checkpoint
-    /// that could not be written.
+    /// that could not be written; `source`: the failed evaluation, when that is why.
     #[error("{place}: {message}")]
-    Run { place: String, message: String },
+    Run {
+        place: String,
+        message: String,
+        #[source]
+        source: Option<Box<CostError>>,
+    },
+
+    /// A population's evaluation failed ([`crate::evaluator::Evaluator`]: a remote executor
+    /// that lost its workers or raised, residuals asked of a cost that has none); `source`: the
+    /// executor's own error, when it has one.
+    #[error("{message}")]
+    Evaluation {
+        message: String,
+        #[source]
+        source: Option<Box<dyn std::error::Error + Send + Sync>>,
+    },
 }
 
 impl CostError {
@@ -161,6 +176,24 @@ impl CostError {
         Self::Run {
             place: place.into(),
             message: message.into(),
+            source: None,
+        }
+    }
+
+    /// The run stopped at `place` by `source` (a failed evaluation), its message repeated.
+    pub fn run_from(place: impl Into<String>, source: CostError) -> Self {
+        Self::Run {
+            place: place.into(),
+            message: source.to_string(),
+            source: Some(Box::new(source)),
+        }
+    }
+
+    /// A failed evaluation, saying why.
+    pub fn evaluation(message: impl Into<String>) -> Self {
+        Self::Evaluation {
+            message: message.into(),
+            source: None,
         }
     }
 }

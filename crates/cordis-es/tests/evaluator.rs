@@ -29,7 +29,7 @@ impl Evaluator for Reversed {
         genomes: &[f64],
         costs: &mut [f64],
         mut local: Option<&mut [f64]>,
-    ) -> Result<(), String> {
+    ) -> Result<(), cordis_es::CostError> {
         self.batches.fetch_add(1, Ordering::Relaxed);
         let (dim, n) = (problem.dim(), problem.num_particles);
         let mut s = problem.scratch();
@@ -58,9 +58,9 @@ impl Evaluator for Failing {
         genomes: &[f64],
         costs: &mut [f64],
         local: Option<&mut [f64]>,
-    ) -> Result<(), String> {
+    ) -> Result<(), cordis_es::CostError> {
         if self.batches.fetch_add(1, Ordering::Relaxed) >= self.after {
-            return Err("worker lost".into());
+            return Err(cordis_es::CostError::evaluation("worker lost"));
         }
         cordis_es::evaluator::Local.evaluate(problem, genomes, costs, local)
     }
@@ -147,8 +147,12 @@ fn a_failing_evaluator_stops_the_run_naming_the_generation() {
     let mut problem = rigid_problem().with_evaluator(failing);
     let (mut s, _) = make_strategy(StrategyName::Thesis, &problem, &options());
     let err = executor::run(&mut problem, s.as_mut(), &config(1, 10), &mut [], None)
-        .expect_err("the evaluator failed")
-        .to_string();
+        .expect_err("the evaluator failed");
+    // A failed run (exit 1 in the CLI) whose source is the evaluator's own error.
+    assert!(matches!(err, cordis_es::CostError::Run { .. }), "{err:?}");
+    let source = std::error::Error::source(&err).expect("the evaluation as source");
+    assert_eq!(source.to_string(), "worker lost");
+    let err = err.to_string();
     assert!(
         err.contains("generation 3") && err.contains("worker lost"),
         "{err}"

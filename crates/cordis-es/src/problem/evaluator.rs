@@ -24,7 +24,7 @@ impl Evaluator for Local {
         genomes: &[f64],
         costs: &mut [f64],
         local: Option<&mut [f64]>,
-    ) -> Result<(), String> {
+    ) -> Result<(), crate::error::CostError> {
         problem.evaluate_here(genomes, costs, local);
         Ok(())
     }

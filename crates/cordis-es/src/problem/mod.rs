@@ -35,14 +35,15 @@ pub trait Evaluator: Send + Sync {
     /// function is `problem.objective` at its current generation (a progressive horizon
     /// depends on it). Does not count evaluations ([`Problem::evaluate_population`] does).
     ///
-    /// An `Err` (a lost cluster, a remote exception) stops the run with that message.
+    /// An `Err` (a lost cluster, a remote exception: [`CostError::Evaluation`]) stops the run
+    /// with that error.
     fn evaluate(
         &self,
         problem: &Problem,
         genomes: &[f64],
         costs: &mut [f64],
         local: Option<&mut [f64]>,
-    ) -> Result<(), String>;
+    ) -> Result<(), CostError>;
 }
 
 /// The `count` genomes of `dim` values each in `genomes`, one slice per individual; without
@@ -77,7 +78,7 @@ pub struct Problem {
     /// pool ([`Problem::evaluate_here`], what [`crate::problem::evaluator::Local`] does too).
     evaluator: Option<Arc<dyn Evaluator>>,
     /// The first evaluator failure, for the run loop to report.
-    eval_error: Mutex<Option<String>>,
+    eval_error: Mutex<Option<CostError>>,
     /// The observations as recorded (gaps, hidden particles, several takes) for estimators
     /// that read them ([`crate::output_error`]); `None`: the objective's trajectory, complete.
     takes: Option<Vec<Take>>,
@@ -360,10 +361,10 @@ impl Problem {
         if self.objective.kind() != CostKind::Short {
             costs.fill(f64::INFINITY);
             let mut slot = self.eval_error.lock().unwrap_or_else(|p| p.into_inner());
-            slot.get_or_insert(format!(
+            slot.get_or_insert(CostError::evaluation(format!(
                 "cost kind `{}`: residuals are written for the short cost only",
                 self.objective.kind()
-            ));
+            )));
             return;
         }
         if len == 0 {
@@ -404,7 +405,7 @@ impl Problem {
     }
 
     /// The first evaluator failure since the last call, if any.
-    pub fn take_eval_error(&self) -> Option<String> {
+    pub fn take_eval_error(&self) -> Option<CostError> {
         self.eval_error
             .lock()
             .unwrap_or_else(|p| p.into_inner())

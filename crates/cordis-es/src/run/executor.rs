@@ -294,7 +294,7 @@ pub fn run_typed(
         // A failed evaluation left +inf costs in the strategy's state: stop before that state
         // reaches a checkpoint, which keeps the last good generation.
         if let Some(e) = problem.take_eval_error() {
-            return Err(CostError::run(format!("generation {generation}"), e));
+            return Err(CostError::run_from(format!("generation {generation}"), e));
         }
         let row = make_row(problem, &*strategy, generation, elapsed(&start));
         let mut go_on = true;
@@ -383,7 +383,7 @@ fn init(
     problem.objective.set_generation(0);
     strategy.init(problem, config.seed);
     if let Some(e) = problem.take_eval_error() {
-        return Err(CostError::run("generation 0", e));
+        return Err(CostError::run_from("generation 0", e));
     }
     // A strategy that found no estimate is an error, not its start point as a result.
     if let Some(e) = strategy.failure() {
