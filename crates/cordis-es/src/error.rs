@@ -72,6 +72,11 @@ pub enum CostError {
         source: Option<Box<CostError>>,
     },
 
+    /// A name that is not one of a fixed list (a strategy, a loss): the message quotes the name
+    /// given and the list; the caller adds the option's place (`--strategy`, `loss`).
+    #[error("{message}")]
+    UnknownName { given: String, message: String },
+
     /// A population's evaluation failed ([`crate::evaluator::Evaluator`]: a remote executor
     /// that lost its workers or raised, residuals asked of a cost that has none); `source`: the
     /// executor's own error, when it has one.
@@ -186,6 +191,14 @@ impl CostError {
             place: place.into(),
             message: source.to_string(),
             source: Some(Box::new(source)),
+        }
+    }
+
+    /// `given` is not one of the names listed in `message`.
+    pub fn unknown_name(given: impl Into<String>, message: impl Into<String>) -> Self {
+        Self::UnknownName {
+            given: given.into(),
+            message: message.into(),
         }
     }
 

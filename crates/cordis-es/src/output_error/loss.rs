@@ -13,6 +13,8 @@
 
 use std::str::FromStr;
 
+use crate::error::CostError;
+
 use serde::{Deserialize, Serialize};
 
 /// Reweighting rounds of the last window (the whole take) at most.
@@ -56,16 +58,19 @@ impl Loss {
 }
 
 impl FromStr for Loss {
-    type Err = String;
+    type Err = CostError;
 
-    fn from_str(s: &str) -> Result<Self, String> {
+    fn from_str(s: &str) -> Result<Self, CostError> {
         match s {
             "squared" => Ok(Loss::Squared),
             "huber" => Ok(Loss::Huber),
             "cauchy" => Ok(Loss::Cauchy),
-            other => Err(format!(
-                "`{}` is not one of squared, huber, cauchy",
-                cordis_core::error::printable(other)
+            other => Err(CostError::unknown_name(
+                other,
+                format!(
+                    "`{}` is not one of squared, huber, cauchy",
+                    cordis_core::error::printable(other)
+                ),
             )),
         }
     }
@@ -113,10 +118,11 @@ mod tests {
         });
         assert_relative_eq!(robust_scale(r), 2.0, max_relative = 0.05);
         assert_eq!(robust_scale([f64::NAN].into_iter()), 0.0);
-        assert_eq!("huber".parse::<Loss>(), Ok(Loss::Huber));
+        assert_eq!("huber".parse::<Loss>().ok(), Some(Loss::Huber));
         assert!("l1"
             .parse::<Loss>()
             .unwrap_err()
+            .to_string()
             .contains("squared, huber, cauchy"));
     }
 }

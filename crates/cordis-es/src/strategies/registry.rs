@@ -5,6 +5,7 @@
 use std::fmt;
 use std::str::FromStr;
 
+use crate::error::CostError;
 #[cfg(doc)]
 use crate::run::strategy::Strategy;
 
@@ -67,17 +68,20 @@ impl fmt::Display for StrategyName {
 }
 
 impl FromStr for StrategyName {
-    type Err = String;
+    type Err = CostError;
 
-    fn from_str(s: &str) -> Result<Self, String> {
+    fn from_str(s: &str) -> Result<Self, CostError> {
         STRATEGIES
             .iter()
             .find(|(_, n)| *n == s)
             .map(|(k, _)| *k)
             .ok_or_else(|| {
-                format!(
-                    "unknown strategy `{s}` (expected one of: {})",
-                    StrategyName::list()
+                CostError::unknown_name(
+                    s,
+                    format!(
+                        "unknown strategy `{s}` (expected one of: {})",
+                        StrategyName::list()
+                    ),
                 )
             })
     }
@@ -100,7 +104,7 @@ mod tests {
         let problem =
             Problem::new(&with_unknown_boxes(&scene, 4.0, 0), &traj, CostKind::Short).unwrap();
         for (kind, name) in STRATEGIES {
-            assert_eq!(name.parse::<StrategyName>(), Ok(kind));
+            assert_eq!(name.parse::<StrategyName>().ok(), Some(kind));
             assert_eq!(kind.to_string(), name);
             if kind == StrategyName::Auto {
                 continue;
@@ -108,7 +112,7 @@ mod tests {
             let (strategy, ran) = make_strategy(kind, &problem, &StrategyOptions::default());
             assert_eq!((strategy.name(), ran), (name, name));
         }
-        let err = "shrt".parse::<StrategyName>().unwrap_err();
+        let err = "shrt".parse::<StrategyName>().unwrap_err().to_string();
         assert!(
             err.contains("output-error") && err.contains("`shrt`"),
             "{err}"
