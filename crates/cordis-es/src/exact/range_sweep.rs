@@ -37,6 +37,42 @@ use crate::problem::Problem;
 /// solved is kept).
 pub const MAX_EXACT_PER_SWEEP: usize = 48;
 
+const GIB: f64 = 1024.0 * 1024.0 * 1024.0;
+
+/// The most candidate pairs of a range's box that `memory` bytes hold while the sweep is
+/// built: a third of it at 24 bytes each (a vector doubling and the sort's buffer take the
+/// rest; the candidate distances listed before, 8 bytes each, are freed by then).
+pub(crate) fn max_pairs(memory: f64) -> usize {
+    (memory / (3.0 * std::mem::size_of::<Pair>() as f64)) as usize
+}
+
+/// The refusal of a range whose box holds more candidate pairs than [`max_pairs`]: `found`
+/// pairs counted in the first `frames_seen` of `frames` force frames (the count stops there).
+pub(crate) fn too_many_pairs(
+    name: &str,
+    max: f64,
+    found: usize,
+    frames_seen: usize,
+    frames: usize,
+    memory: f64,
+) -> String {
+    let counted = match frames_seen < frames {
+        true => {
+            format!("{found} candidate pairs in its first {frames_seen} of {frames} force frames")
+        }
+        false => format!("{found} candidate pairs over its {frames} force frames"),
+    };
+    format!(
+        "range sweep: {name} up to its box's max {} m holds {counted}, {}{:.2} GiB to sweep (24 \
+         bytes each, sorted), more than a third of the {:.2} GiB available: lower the box's \
+         max, or use --strategy cmaes",
+        cordis_core::arg::short(max),
+        if frames_seen < frames { "over " } else { "" },
+        found as f64 * 3.0 * std::mem::size_of::<Pair>() as f64 / GIB,
+        memory / GIB
+    )
+}
+
 /// Relative slack on the bounds: an interval is solved exactly while its bound is below
 /// `(1 + BOUND_SLACK) · best + BOUND_FLOOR · scale` (rounding of the normal equations).
 const BOUND_SLACK: f64 = 1e-6;
@@ -131,12 +167,29 @@ pub(crate) fn applies(
 
 impl<'a> Sweeper<'a> {
     /// `dims`: (unknown index, its candidates) per nonlinear unknown, all ranges.
+    /// The sweeper of `dims`, its candidate pairs held within the memory available now.
     pub fn new(
         problem: &'a Problem,
         cols: &'a [Col],
         linear: &[usize],
         dims: Vec<(usize, Vec<f64>)>,
-    ) -> Self {
+    ) -> Result<Self, String> {
+        let memory = cordis_core::arg::available_memory().map_or(isize::MAX as f64, |m| m as f64);
+        Self::within(problem, cols, linear, dims, memory)
+    }
+
+    /// [`Sweeper::new`] in `memory` bytes: the pairs within a box's top range grow as N²·T for
+    /// a box reaching across the scene, so they are counted as they are stored and the sweep
+    /// is refused, naming the range and the estimate, before they pass a third of `memory`
+    /// (a vector doubling and the sort's buffer take the rest).
+    pub fn within(
+        problem: &'a Problem,
+        cols: &'a [Col],
+        linear: &[usize],
+        dims: Vec<(usize, Vec<f64>)>,
+        memory: f64,
+    ) -> Result<Self, String> {
+        let max_pairs = max_pairs(memory);
         let obj = &problem.objective;
         let scene = &problem.scene;
         let plan = obj.plan();
@@ -179,6 +232,7 @@ impl<'a> Sweeper<'a> {
         });
 
         let mut grid = Grid::default();
+        let mut held = 0usize;
         let dims = dims
             .into_iter()
             .map(|(k, c)| {
@@ -190,12 +244,17 @@ impl<'a> Sweeper<'a> {
                 let mut p = space.base.clone();
                 p[u.slot] = u.max;
                 let mut pairs = Vec::new();
+                let mut found = 0usize;
                 for pass in plan.conditionals.iter().filter(|c| c.param == o) {
                     for f in 1..frames.saturating_sub(1) {
                         let x = obj.obs.frame(f);
                         pass.for_each_active_pair(&p, x, &mut grid, |i, j, d| {
                             if free_index[i] == usize::MAX && free_index[j] == usize::MAX {
                                 return;
+                            }
+                            found += 1;
+                            if held + pairs.len() >= max_pairs {
+                                return; // counted, not stored: refused below
                             }
                             // A frame or particle count beyond u32 would not fit in memory.
                             pairs.push(Pair {
@@ -206,22 +265,27 @@ impl<'a> Sweeper<'a> {
                         });
                     }
                 }
+                if held + found > max_pairs {
+                    let f = frames.saturating_sub(2);
+                    return Err(too_many_pairs(&u.name, u.max, found, f, f, memory));
+                }
+                held += pairs.len();
                 pairs.sort_by(|a, b| a.d.total_cmp(&b.d));
-                Dim {
+                Ok(Dim {
                     unknown: k,
                     cols: dim_cols,
                     pairs,
                     c,
-                }
+                })
             })
-            .collect();
+            .collect::<Result<Vec<_>, String>>()?;
 
         let mut is_free = vec![false; space.base.len()];
         for &k in linear {
             is_free[space.unknowns[k].slot] = true;
         }
         let red = exact::reduce(scene, cols, &space.base, &is_free);
-        Sweeper {
+        Ok(Sweeper {
             problem,
             cols,
             width,
@@ -235,7 +299,7 @@ impl<'a> Sweeper<'a> {
             scored: 0,
             capped: 0,
             floor: 0.0,
-        }
+        })
     }
 
     fn rows(&self) -> usize {
@@ -625,6 +689,53 @@ mod tests {
         assert_eq!(std::mem::size_of::<super::Pair>(), 24);
     }
 
+    /// Issue 17: a box reaching across the scene holds N²·T pairs (3,000 particles aborted
+    /// the process). Past the memory given, the sweep is refused naming the range and the
+    /// estimate, having stored no more than its share; within it, it is built.
+    #[test]
+    fn pairs_beyond_the_memory_are_refused_with_the_estimate() {
+        let truth = gas();
+        let unknown = with_unknown_boxes(&truth, 25.0, 5);
+        let traj = truth.simulate(60).unwrap();
+        let problem = Problem::new(&unknown, &traj, CostKind::Short).unwrap();
+        let cols = exact::generic_cols(&problem.scene).unwrap();
+        let sp = split(&problem);
+        let dims: Vec<(usize, Vec<f64>)> = sp
+            .nonlinear
+            .iter()
+            .map(|&k| {
+                (
+                    k,
+                    crate::strategies::hybrid::candidates(&problem, k)
+                        .unwrap()
+                        .0,
+                )
+            })
+            .collect();
+        let pairs = |memory| {
+            Sweeper::within(&problem, &cols, &sp.linear, dims.clone(), memory)
+                .map(|s| s.dims.iter().map(|d| d.pairs.len()).sum::<usize>())
+        };
+        let all = pairs(1e12).unwrap();
+        assert!(all > 100, "{all}");
+        // Room for exactly the pairs (a third of the memory at 24 bytes each): built.
+        assert_eq!(pairs(72.0 * all as f64).unwrap(), all);
+        let e = pairs(72.0 * (all - 1) as f64).unwrap_err();
+        assert!(e.starts_with("range sweep: types."), "{e}");
+        assert!(
+            e.contains("candidate pairs over its 58 force frames"),
+            "{e}"
+        );
+        assert!(e.contains("lower the box's max"), "{e}");
+        // The candidate distances listed before the sweep stop as soon as the count passes
+        // the same share: refused after the frame that passed it, not after all of them.
+        let k = dims[0].0;
+        let listed = crate::strategies::hybrid::candidates_within(&problem, k, 72.0 * 10.0);
+        let e = listed.unwrap_err();
+        assert!(e.contains("in its first 1 of 58 force frames"), "{e}");
+        assert!(crate::strategies::hybrid::candidates_within(&problem, k, 1e12).is_ok());
+    }
+
     use cordis_core::Scene;
 
     use super::*;
@@ -664,10 +775,17 @@ mod tests {
         let dims: Vec<(usize, Vec<f64>)> = sp
             .nonlinear
             .iter()
-            .map(|&k| (k, crate::strategies::hybrid::candidates(&problem, k).0))
+            .map(|&k| {
+                (
+                    k,
+                    crate::strategies::hybrid::candidates(&problem, k)
+                        .unwrap()
+                        .0,
+                )
+            })
             .collect();
         assert_eq!(dims.len(), 2);
-        let mut sw = Sweeper::new(&problem, &cols, &sp.linear, dims);
+        let mut sw = Sweeper::new(&problem, &cols, &sp.linear, dims).unwrap();
         let space = &problem.space;
         // Both ranges in the interval holding the truth's value.
         let t = truth.param_values();

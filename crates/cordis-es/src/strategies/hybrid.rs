@@ -60,13 +60,26 @@ pub const MAX_CANDIDATES: usize = 1 << 18;
 /// The sorted distinct observed values of a nonlinear unknown inside its box: speeds of the
 /// nonlinear drag's particles, or distances of the conditional type's candidate pairs, at the
 /// frames the short cost computes forces at (1 … T-2).
-pub(crate) fn candidates(problem: &Problem, k: usize) -> (Vec<f64>, bool) {
+pub(crate) fn candidates(problem: &Problem, k: usize) -> Result<(Vec<f64>, bool), String> {
+    let memory = cordis_core::arg::available_memory().map_or(isize::MAX as f64, |m| m as f64);
+    candidates_within(problem, k, memory)
+}
+
+/// [`candidates`] with `memory` bytes: a range's distances are listed pair by pair and frame
+/// by frame (O(N²·T) for a box reaching across the scene, which listed 12.8 GB of them for
+/// 20,000 particles before the sweep was refused), so the listing stops, refused, as soon as
+/// the pairs counted exceed what the sweep could hold ([`range_sweep::max_pairs`]).
+pub(crate) fn candidates_within(
+    problem: &Problem,
+    k: usize,
+    memory: f64,
+) -> Result<(Vec<f64>, bool), String> {
     let u = &problem.space.unknowns[k];
     let obj = &problem.objective;
     let plan = obj.plan();
     let frames = obj.frames();
     let Some(t) = u.type_index else {
-        return (Vec::new(), false);
+        return Ok((Vec::new(), false));
     };
     let o = problem.scene.param_layout().type_offsets[t];
     let mut c = Vec::new();
@@ -85,11 +98,22 @@ pub(crate) fn candidates(problem: &Problem, k: usize) -> (Vec<f64>, bool) {
             let mut p = problem.space.base.clone();
             p[u.slot] = u.max;
             let mut grid = Grid::default();
+            let cap = range_sweep::max_pairs(memory);
+            let mut found = 0usize;
             for pass in plan.conditionals.iter().filter(|c| c.param == o) {
                 for f in 1..frames - 1 {
                     pass.for_each_active_pair(&p, obj.obs.frame(f), &mut grid, |_, _, d| {
-                        c.push(d.norm())
+                        found += 1;
+                        if found <= cap {
+                            c.push(d.norm());
+                        }
                     });
+                    if found > cap {
+                        let all = frames - 2;
+                        return Err(range_sweep::too_many_pairs(
+                            &u.name, u.max, found, f, all, memory,
+                        ));
+                    }
                 }
             }
         }
@@ -103,7 +127,7 @@ pub(crate) fn candidates(problem: &Problem, k: usize) -> (Vec<f64>, bool) {
         let stride = c.len().div_ceil(MAX_CANDIDATES);
         c = c.into_iter().step_by(stride).collect();
     }
-    (c, thinned)
+    Ok((c, thinned))
 }
 
 /// Interval j (0 …= n) of a sorted candidate list inside the box [min, max].
@@ -166,11 +190,8 @@ fn solve_with(problem: &Problem, sweeps: bool) -> Result<Solution, String> {
         .partition(|&&k| matches!(space.unknowns[k].role, Role::Range | Role::Speed));
     let dims: Vec<(usize, Vec<f64>, bool)> = interval_dims
         .iter()
-        .map(|&k| {
-            let (c, thinned) = candidates(problem, k);
-            (k, c, thinned)
-        })
-        .collect();
+        .map(|&k| candidates(problem, k).map(|(c, thinned)| (k, c, thinned)))
+        .collect::<Result<_, _>>()?;
     // Internal coordinates of the continuous unknowns.
     let mut vals: Vec<f64> = conts
         .iter()
@@ -226,7 +247,7 @@ fn solve_with(problem: &Problem, sweeps: bool) -> Result<Solution, String> {
             &cols,
             &split.linear,
             dims.iter().map(|(k, c, _)| (*k, c.clone())).collect(),
-        );
+        )?;
         let mut at: Vec<usize> = dims
             .iter()
             .map(|(k, c, _)| c.partition_point(|&v| v < space.base[space.unknowns[*k].slot]))
