@@ -645,12 +645,17 @@ class IdentifyResult:
         trajectory: _ArrayLike,
         visible: Optional[_ArrayLike] = None,
         title: Optional[str] = None,
+        markers: Optional[Sequence[int]] = None,
+        weights: Optional[Sequence[float]] = None,
     ) -> None:
         """Writes the identification report (``cordis report``): one self-contained HTML page
         on :attr:`scene` and the observed ``trajectory`` ``(T, N, 3)`` (NaN, or ``visible``
         False, where missing) — data summary, parameters with this run's intervals, per-marker
         observed vs model, residuals, convergence, the 3-D replay; light and dark themes.
-        Written atomically. (``report`` is the solver's report, hence the name.)
+        Written atomically. (``report`` is the solver's report, hence the name.) ``markers``
+        and ``weights`` as given to :func:`identify`: marker m is the scene's particle
+        ``markers[m]`` (``trajectory`` then holds the markers, ``(T, M, 3)``); the weights add
+        the weighted position RMS to the fit.
 
         >>> res = cordis.identify(scene, traj, strategy="output-error")
         >>> res.write_report("report.html", traj)

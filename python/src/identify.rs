@@ -126,8 +126,11 @@ impl IdentifyResult {
 
     /// Writes the identification report (`cordis report`): one self-contained HTML page on
     /// the identified scene and the observed motion `trajectory` (`(T, N, 3)`, NaN or
-    /// `visible` False where missing), with this run's intervals and convergence.
-    #[pyo3(signature = (path, trajectory, visible = None, title = None))]
+    /// `visible` False where missing), with this run's intervals and convergence. `markers`
+    /// and `weights` as given to `identify`: marker m is the scene's particle `markers[m]`;
+    /// the weights add the weighted position RMS to the fit.
+    #[pyo3(signature = (path, trajectory, visible = None, title = None, markers = None, weights = None))]
+    #[allow(clippy::too_many_arguments)]
     fn write_report(
         &self,
         py: Python<'_>,
@@ -135,16 +138,29 @@ impl IdentifyResult {
         trajectory: &Bound<'_, PyAny>,
         visible: Option<&Bound<'_, PyAny>>,
         title: Option<String>,
+        markers: Option<Vec<usize>>,
+        weights: Option<Vec<f64>>,
     ) -> PyResult<()> {
         let observed = crate::trajectory::observations_from_py(trajectory, visible, "trajectory")?;
         let scene = self.scene.get().core();
         let title = title.unwrap_or_else(|| format!("identified by {}", self.strategy));
         py.detach(|| {
+            let (observed, weights) = match markers.is_some() || weights.is_some() {
+                true => cordis_cli::report::in_scene_order(
+                    &observed,
+                    scene.num_particles(),
+                    markers.as_deref(),
+                    weights.as_deref(),
+                    ["markers", "weights"],
+                )?,
+                false => (observed, None),
+            };
             let page = cordis_cli::report::report_html(&cordis_cli::report::ReportInput {
                 scene: &scene,
                 observed: &observed,
                 convergence: Some(&self.convergence),
                 summary: Some(&self.summary),
+                weights: weights.as_deref(),
                 title: &title,
             })?;
             cordis_core::io::write_atomic(&path, page.as_bytes())

@@ -46,3 +46,18 @@ def test_gaps_give_the_model_alone_in_the_replay_and_bad_input_raises(tmp_path, 
     assert not (tmp_path / "bad.html").exists()
     with pytest.raises(ValueError, match=r"shape \(T, N, 3\)"):
         res.write_report(tmp_path / "bad.html", np.zeros((5, 15)))
+
+
+def test_markers_and_weights_map_the_report_as_identify_does(tmp_path, fitted):
+    # Three markers, given in the order 7, 2, 11: the page is about those particles only.
+    res, observed = fitted
+    three = observed[:, [7, 2, 11]]
+    res.write_report(tmp_path / "m.html", three, markers=[7, 2, 11], weights=[1.0, 2.0, 0.5])
+    page = (tmp_path / "m.html").read_text()
+    assert "12 never observed" in page
+    assert "weighted position RMS error</th><td>" in page
+    with pytest.raises(ValueError, match=r"^markers\[1\]: particle 7 is already tracked"):
+        res.write_report(tmp_path / "bad.html", three, markers=[7, 7, 11])
+    with pytest.raises(ValueError, match=r"^weights\[0\]: must be a positive finite"):
+        res.write_report(tmp_path / "bad.html", three, markers=[7, 2, 11], weights=[0, 1, 1])
+    assert not (tmp_path / "bad.html").exists()

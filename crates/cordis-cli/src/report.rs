@@ -48,7 +48,107 @@ pub struct ReportInput<'a> {
     pub convergence: Option<&'a [ConvergencePoint]>,
     /// The identification's summary (`cordis identify --json`'s line), when there is one.
     pub summary: Option<&'a serde_json::Value>,
+    /// Each observed coordinate's weight (1/σ relative, `observed`'s layout, 0 where no
+    /// marker is), as `identify --weights` gave them: the fit is also given weighted.
+    pub weights: Option<&'a [f64]>,
     pub title: &'a str,
+}
+
+/// The markers of `obs` in scene order, as `identify --markers` reads them: marker m is the
+/// scene's particle `markers[m]`; particles no marker names are missing throughout. With
+/// `weights` (one per marker, or three: x, y, z; positive, finite), also each coordinate's
+/// weight in the same order. Errors name the option (`names`: how the front end spells
+/// markers and weights, `--markers` or `markers`) and the index.
+pub fn in_scene_order(
+    obs: &Observations,
+    particles: usize,
+    markers: Option<&[usize]>,
+    weights: Option<&[f64]>,
+    names: [&str; 2],
+) -> Result<(Observations, Option<Vec<f64>>)> {
+    let [markers_opt, weights_opt] = names;
+    let count = obs.particles();
+    let map: Vec<usize> = match markers {
+        Some(m) if m.len() != count => {
+            return Err(CordisError::argument(
+                markers_opt,
+                format!(
+                    "names {} particles for the {count} markers of the trajectory",
+                    m.len()
+                ),
+            ))
+        }
+        Some(m) => m.to_vec(),
+        None if count > particles => {
+            let message = format!("has {count} markers but the scene has {particles} particles");
+            return Err(CordisError::trajectory(
+                "trajectory",
+                format!("{message} (pass {markers_opt})"),
+            ));
+        }
+        None => (0..count).collect(),
+    };
+    let mut owner = vec![None; particles];
+    for (m, &p) in map.iter().enumerate() {
+        let place = format!("{markers_opt}[{m}]");
+        if p >= particles {
+            return Err(CordisError::argument(
+                place,
+                format!("particle {p} does not exist (the scene has {particles}, from 0)"),
+            ));
+        }
+        if let Some(first) = owner[p].replace(m) {
+            return Err(CordisError::argument(
+                place,
+                format!("particle {p} is already tracked by marker {first}"),
+            ));
+        }
+    }
+    let per_axis = match weights {
+        None => None,
+        Some(w) => {
+            if let Some(k) = w.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
+                return Err(CordisError::argument(
+                    format!("{weights_opt}[{k}]"),
+                    format!(
+                        "must be a positive finite number (1/σ relative), got {:?}",
+                        w[k]
+                    ),
+                ));
+            }
+            match w.len() {
+                l if l == count => Some(w.iter().flat_map(|&v| [v; 3]).collect::<Vec<f64>>()),
+                l if l == 3 * count => Some(w.to_vec()),
+                l => {
+                    return Err(CordisError::argument(
+                        weights_opt,
+                        format!(
+                            "holds {l} values for {count} markers: give one per marker or three (x, y, z)"
+                        ),
+                    ))
+                }
+            }
+        }
+    };
+    let frames = obs.frames();
+    let from = obs.as_flat();
+    let mut flat = vec![f64::NAN; frames * particles * 3];
+    for t in 0..frames {
+        for (m, &p) in map.iter().enumerate() {
+            let (src, dst) = ((t * count + m) * 3, (t * particles + p) * 3);
+            flat[dst..dst + 3].copy_from_slice(&from[src..src + 3]);
+        }
+    }
+    let mut ordered = Observations::from_flat(frames, particles, flat)?;
+    ordered.dt = obs.dt;
+    let weights = per_axis.map(|w| {
+        let mut out = vec![0.0; particles * 3];
+        for (m, &p) in map.iter().enumerate() {
+            out[p * 3..p * 3 + 3].copy_from_slice(&w[m * 3..m * 3 + 3]);
+        }
+        out
+    });
+    Ok((ordered, weights))
 }
 
 /// Reads a convergence log written by `cordis identify --log` (CSV with a header naming
@@ -139,16 +239,19 @@ struct Fit {
     per_frame_rms: Vec<f64>,
     per_particle_rms: Vec<f64>,
     rms: f64,
+    /// `sqrt(Σ w² e² / Σ w²)` over the observed coordinates, with the weights given.
+    weighted_rms: Option<f64>,
     max: f64,
     observed_coordinates: usize,
 }
 
-fn fit(model: &Trajectory, obs: &Observations) -> Fit {
+fn fit(model: &Trajectory, obs: &Observations, weights: Option<&[f64]>) -> Fit {
     let (frames, n) = (obs.frames(), obs.particles());
     let flat = obs.as_flat();
     let (mut sum, mut count, mut max) = (0.0, 0usize, 0.0f64);
     let mut particle_sum = vec![(0.0, 0usize); n];
     let mut per_frame_rms = Vec::with_capacity(frames);
+    let (mut weighted, mut weight) = (0.0, 0.0);
     for t in 0..frames {
         let (mut fs, mut fc) = (0.0, 0usize);
         for i in 0..n {
@@ -157,8 +260,14 @@ fn fit(model: &Trajectory, obs: &Observations) -> Fit {
             for k in 0..3 {
                 let o = flat[(t * n + i) * 3 + k];
                 if o.is_finite() {
-                    s2 += (x[k] - o).powi(2);
+                    let e2 = (x[k] - o).powi(2);
+                    s2 += e2;
                     c += 1;
+                    if let Some(w) = weights {
+                        let w2 = w[i * 3 + k].powi(2);
+                        weighted += w2 * e2;
+                        weight += w2;
+                    }
                 }
             }
             if c > 0 {
@@ -194,6 +303,10 @@ fn fit(model: &Trajectory, obs: &Observations) -> Fit {
         } else {
             f64::NAN
         },
+        weighted_rms: weights.map(|_| match weight > 0.0 {
+            true => (weighted / weight).sqrt(),
+            false => f64::NAN,
+        }),
         max,
         observed_coordinates: count,
     }
@@ -243,7 +356,17 @@ pub fn report_html(input: &ReportInput) -> Result<String> {
     let frames = obs.frames();
     let dt = obs.dt.unwrap_or(scene.dt);
     let model = Simulator::new(scene)?.run(frames)?.with_dt(dt);
-    let fit = fit(&model, obs);
+    if let Some(w) = input.weights.filter(|w| w.len() != obs.particles() * 3) {
+        return Err(CordisError::argument(
+            "weights",
+            format!(
+                "holds {} values for {} particles × 3",
+                w.len(),
+                obs.particles()
+            ),
+        ));
+    }
+    let fit = fit(&model, obs, input.weights);
 
     let mut body = String::new();
     let _ = write!(
@@ -317,6 +440,14 @@ fn summary_section(out: &mut String, input: &ReportInput, fit: &Fit, dt: f64) {
         fit.observed_coordinates,
         num(fit.max),
     );
+    if let Some(w) = fit.weighted_rms {
+        let _ = write!(
+            out,
+            "<tr><th>weighted position RMS error</th><td>{} m (the --weights given, 1/σ \
+             relative: sqrt(Σ w² e² / Σ w²))</td></tr>",
+            num(w)
+        );
+    }
     if let Some((i, v)) = worst {
         let _ = write!(
             out,
@@ -617,6 +748,7 @@ mod tests {
             observed: &observed,
             convergence: Some(&log),
             summary: Some(&summary),
+            weights: None,
             title: "rigid <fit>",
         })
         .unwrap();
@@ -655,6 +787,7 @@ mod tests {
             observed: &observed,
             convergence: None,
             summary: None,
+            weights: None,
             title: "t",
         };
         let page = report_html(&input(&scene)).unwrap();
@@ -672,6 +805,78 @@ mod tests {
             .unwrap();
         let e = report_html(&input(&unknown)).unwrap_err().to_string();
         assert!(e.starts_with("types.h_bottom.stiffness: is unknown"), "{e}");
+    }
+
+    /// Issue 18: `report` reads `--markers` and `--weights` as `identify` does. Markers 0..15
+    /// given in reverse order, then mapped back: the same page as the motion in scene order.
+    #[test]
+    fn markers_map_to_the_scene_and_weights_weigh_the_fit() {
+        const NAMES: [&str; 2] = ["--markers", "--weights"];
+        let scene = examples::rigid();
+        let truth = scene.simulate(20).unwrap();
+        let n = scene.num_particles();
+        let mut reversed = Vec::with_capacity(truth.as_flat().len());
+        for t in 0..20 {
+            for i in (0..n).rev() {
+                reversed.extend_from_slice(truth.pos(t, i).as_slice());
+            }
+        }
+        let marked = Observations::from_flat(20, n, reversed).unwrap();
+        let markers: Vec<usize> = (0..n).rev().collect();
+        let (ordered, _) = in_scene_order(&marked, n, Some(&markers), None, NAMES).unwrap();
+        assert_eq!(ordered.as_flat(), truth.as_flat());
+        // Two markers only: the others missing throughout, never zeros.
+        let two: Vec<f64> = (0..20)
+            .flat_map(|t| [truth.pos(t, 5), truth.pos(t, 2)])
+            .flat_map(|x| [x.x, x.y, x.z])
+            .collect();
+        let two = Observations::from_flat(20, 2, two).unwrap();
+        let (ordered, w) =
+            in_scene_order(&two, n, Some(&[5, 2]), Some(&[2.0, 0.5]), NAMES).unwrap();
+        assert_eq!(ordered.missing(), 20 * (n - 2) * 3);
+        let w = w.unwrap();
+        assert_eq!((w[15], w[17], w[6], w[0]), (2.0, 2.0, 0.5, 0.0));
+        let page = |weights| {
+            report_html(&ReportInput {
+                scene: &scene,
+                observed: &ordered,
+                convergence: None,
+                summary: None,
+                weights,
+                title: "t",
+            })
+            .unwrap()
+        };
+        assert!(page(Some(&w)).contains("weighted position RMS error</th><td>0 m"));
+        assert!(!page(None).contains("weighted position RMS"));
+        for (markers, weights, says) in [
+            (
+                &[5, 5][..],
+                None,
+                "--markers[1]: particle 5 is already tracked by marker 0",
+            ),
+            (
+                &[5, 99],
+                None,
+                "--markers[1]: particle 99 does not exist (the scene has 15",
+            ),
+            (&[5], None, "--markers: names 1 particles for the 2 markers"),
+            (
+                &[5, 2],
+                Some(&[1.0, f64::NAN][..]),
+                "--weights[1]: must be a positive finite",
+            ),
+            (
+                &[5, 2],
+                Some(&[1.0, 1.0, 1.0]),
+                "--weights: holds 3 values for 2 markers",
+            ),
+        ] {
+            let e = in_scene_order(&two, n, Some(markers), weights, NAMES)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(says), "{e}");
+        }
     }
 
     #[test]

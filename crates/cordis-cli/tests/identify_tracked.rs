@@ -6,7 +6,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-use common::cordis;
+use common::{cordis, stderr};
 
 fn summary(out: &Output) -> serde_json::Value {
     assert!(
@@ -370,4 +370,66 @@ fn bad_markers_and_weights_are_refused_by_name() {
     for (extra, says) in cases {
         common::fails(d, &[&base[..], extra].concat(), 2, says);
     }
+}
+
+/// Issue 18: `cordis report` reads `--markers` and `--weights` as `identify` does. On the
+/// reordered file the mapped page fits the truth as the scene-order file does; unmapped, the
+/// file's particle j is drawn as the scene's particle j and the fit is far off.
+#[test]
+fn report_maps_markers_and_weights_as_identify_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (file, order) = reordered_markers(d);
+    let truth = soft_block().join("truth.json");
+    let map = order
+        .iter()
+        .map(|p| p.to_string())
+        .collect::<Vec<_>>()
+        .join(",");
+    let rms = |extra: &[&str]| -> f64 {
+        let mut args = vec![
+            "report",
+            truth.to_str().unwrap(),
+            "-t",
+            file.to_str().unwrap(),
+            "--html",
+            "r.html",
+            "-q",
+        ];
+        args.extend(extra);
+        let out = cordis(d, &args);
+        assert!(out.status.success(), "{extra:?}: {}", stderr(&out));
+        let page = std::fs::read_to_string(d.join("r.html")).unwrap();
+        let at = page.find("position RMS error</th><td>").unwrap() + 27;
+        page[at..].split(' ').next().unwrap().parse().unwrap()
+    };
+    let mapped = rms(&["--markers", &map]);
+    let unmapped = rms(&[]);
+    assert!(
+        mapped < 1e-2 && unmapped > 10.0 * mapped,
+        "{mapped} {unmapped}"
+    );
+    let page = std::fs::read_to_string(d.join("r.html")).unwrap();
+    assert!(!page.contains("weighted position RMS"));
+    let weights = vec!["2"; order.len()].join(",");
+    assert_eq!(rms(&["--markers", &map, "--weights", &weights]), mapped);
+    let page = std::fs::read_to_string(d.join("r.html")).unwrap();
+    assert!(page.contains("9 never observed"), "the clamped particles");
+    assert!(page.contains("weighted position RMS error</th><td>"));
+    let out = cordis(
+        d,
+        &[
+            "report",
+            truth.to_str().unwrap(),
+            "-t",
+            file.to_str().unwrap(),
+            "--html",
+            "bad.html",
+            "--markers",
+            "9,9",
+        ],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("--markers: names 2 particles for the 18 markers"));
+    assert!(!d.join("bad.html").exists());
 }

@@ -11,7 +11,7 @@ pub mod report;
 pub mod scene;
 pub mod simulate;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 use cordis_core::Scene;
@@ -108,6 +108,56 @@ pub fn guard_outputs(
     }
     cordis_core::io::check_outputs(&given(inputs), &given(outputs))?;
     Ok(())
+}
+
+/// What `render` and `report` share: a scene, a motion, the one HTML page they write and its
+/// title, and how to read the motion.
+#[derive(clap::Args, Debug)]
+pub struct PageArgs {
+    /// Scene file (JSON, cordis-scene/1): its links are drawn, its time step used (`report`:
+    /// the identified model, every parameter known).
+    pub scene: PathBuf,
+    /// The motion (.csv, .tsv, .npy, .tra, .trc, .c3d, .npz): `render` draws it solid,
+    /// `report` takes it as the observed motion (gaps allowed).
+    #[arg(long, short = 't')]
+    pub trajectory: PathBuf,
+    /// The page to write: one self-contained HTML file, nothing loaded from the network.
+    #[arg(long)]
+    pub html: PathBuf,
+    /// Page title (default: the file names).
+    #[arg(long)]
+    pub title: Option<String>,
+    #[command(flatten)]
+    pub read: ReadArgs,
+}
+
+impl PageArgs {
+    /// The scene, read once the page is checked off it, the motion and `inputs` (the
+    /// command's others), before any work.
+    pub fn guarded_scene(&self, inputs: &[(&str, Option<&Path>)]) -> Result<Scene> {
+        let mut all = vec![
+            ("scene", Some(self.scene.as_path())),
+            ("--trajectory", Some(self.trajectory.as_path())),
+        ];
+        all.extend_from_slice(inputs);
+        guard_outputs(&all, &[("--html", Some(&self.html))])?;
+        Ok(Scene::from_json_path(&self.scene)?)
+    }
+
+    /// `--title`, else `default(scene's file name, motion's file name)`.
+    pub fn title_or(&self, default: impl FnOnce(&str, &str) -> String) -> String {
+        self.title
+            .clone()
+            .unwrap_or_else(|| default(&file_name(&self.scene), &file_name(&self.trajectory)))
+    }
+}
+
+/// A path's file name for a title (the whole path when it has none).
+pub fn file_name(p: &Path) -> String {
+    p.file_name().map_or_else(
+        || p.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
 }
 
 /// How to read a trajectory file beyond its extension: a table's columns, its delimiter, the

@@ -2,68 +2,38 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use cordis_core::io::{read_trajectory_with, write_atomic};
-use cordis_core::{CordisError, Scene};
+use cordis_core::CordisError;
 
 use super::Output;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Scene file (JSON, cordis-scene/1): gives the links to draw and the time step.
-    scene: PathBuf,
-    /// The motion to show (.csv, .tsv, .npy, .tra, .trc, .c3d, .npz), drawn solid.
-    #[arg(long, short = 't')]
-    trajectory: PathBuf,
+    #[command(flatten)]
+    page: super::PageArgs,
     /// A second motion of the same scene (e.g. the identified model's), drawn pale and dashed
     /// under the first, or side by side.
     #[arg(long, short = 'c')]
     compare: Option<PathBuf>,
-    /// The page to write: one self-contained HTML file, nothing loaded from the network.
-    #[arg(long)]
-    html: PathBuf,
-    /// Page title (default: the file names).
-    #[arg(long)]
-    title: Option<String>,
-    #[command(flatten)]
-    read: super::ReadArgs,
 }
 
 pub fn run(a: Args, output: Output) -> Result<()> {
-    super::guard_outputs(
-        &[
-            ("scene", Some(&a.scene)),
-            ("--trajectory", Some(&a.trajectory)),
-            ("--compare", a.compare.as_deref()),
-        ],
-        &[("--html", Some(&a.html))],
-    )?;
-    let scene = Scene::from_json_path(&a.scene)?;
-    let options = a.read.options()?;
-    let traj = read_trajectory_with(&a.trajectory, &options)?;
+    let scene = a
+        .page
+        .guarded_scene(&[("--compare", a.compare.as_deref())])?;
+    let options = a.page.read.options()?;
+    let traj = read_trajectory_with(&a.page.trajectory, &options)?;
     let compare = a
         .compare
         .as_deref()
         .map(|c| read_trajectory_with(c, &options))
         .transpose()?;
-    let title = a.title.clone().unwrap_or_else(|| {
-        let name = |p: &PathBuf| {
-            p.file_name().map_or_else(
-                || p.display().to_string(),
-                |n| n.to_string_lossy().into_owned(),
-            )
-        };
-        match &a.compare {
-            Some(c) => format!(
-                "{} — {} vs {}",
-                name(&a.scene),
-                name(&a.trajectory),
-                name(c)
-            ),
-            None => format!("{} — {}", name(&a.scene), name(&a.trajectory)),
-        }
+    let title = a.page.title_or(|scene, motion| match &a.compare {
+        Some(c) => format!("{scene} — {motion} vs {}", super::file_name(c)),
+        None => format!("{scene} — {motion}"),
     });
     let page = crate::render::render_html(&scene, &traj, compare.as_ref(), &title)
         .map_err(|e| name_files(e, &a))?;
-    write_atomic(&a.html, page.as_bytes())?;
+    write_atomic(&a.page.html, page.as_bytes())?;
     let size = if page.len() < 1_000_000 {
         format!("{} KB", page.len().div_ceil(1000))
     } else {
@@ -72,7 +42,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     if output.human() {
         eprintln!(
             "wrote {} ({size}; {} frames of {} particles{})",
-            a.html.display(),
+            a.page.html.display(),
             traj.frames(),
             traj.particles(),
             if compare.is_some() { ", 2 motions" } else { "" }
@@ -80,7 +50,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     }
     if output.json {
         output.json_line(&serde_json::json!({
-            "html": a.html.display().to_string(),
+            "html": a.page.html.display().to_string(),
             "bytes": page.len(),
             "frames": traj.frames(),
             "particles": traj.particles(),
@@ -94,7 +64,8 @@ pub fn run(a: Args, output: Output) -> Result<()> {
 fn name_files(e: CordisError, a: &Args) -> CordisError {
     match e {
         CordisError::Trajectory { place, message } => {
-            let mut place = place.replacen("trajectory A", &a.trajectory.display().to_string(), 1);
+            let mut place =
+                place.replacen("trajectory A", &a.page.trajectory.display().to_string(), 1);
             if let Some(c) = &a.compare {
                 place = place.replacen("trajectory B (--compare)", &c.display().to_string(), 1);
             }
@@ -168,12 +139,14 @@ mod tests {
         assert!(!p("w.html").exists());
         let e = crate::render::render_html(&s, &three, None, "t").unwrap_err();
         let args = super::Args {
-            scene: p("s.json"),
-            trajectory: p("three.npy"),
+            page: crate::commands::PageArgs {
+                scene: p("s.json"),
+                trajectory: p("three.npy"),
+                html: p("w.html"),
+                title: None,
+                read: Default::default(),
+            },
             compare: None,
-            html: p("w.html"),
-            title: None,
-            read: Default::default(),
         };
         let named = super::name_files(e, &args).to_string();
         assert!(

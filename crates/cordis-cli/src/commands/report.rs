@@ -5,22 +5,15 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use cordis_core::io::{read_observations_with, read_text, write_atomic};
-use cordis_core::{CordisError, Scene};
+use cordis_core::CordisError;
 
 use super::Output;
-use crate::report::{parse_convergence, report_html, ReportInput};
+use crate::report::{in_scene_order, parse_convergence, report_html, ReportInput};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// The model (JSON, cordis-scene/1, every parameter known): `cordis identify --out`.
-    scene: PathBuf,
-    /// The observed motion (.csv, .tsv, .npy, .tra, .trc, .c3d, .npz), gaps allowed; its
-    /// particle i is the scene's particle i.
-    #[arg(long, short = 't')]
-    trajectory: PathBuf,
-    /// The page to write.
-    #[arg(long)]
-    html: PathBuf,
+    #[command(flatten)]
+    page: super::PageArgs,
     /// The convergence log of the identification (`cordis identify --log`, .csv or .jsonl).
     #[arg(long)]
     log: Option<PathBuf>,
@@ -28,60 +21,61 @@ pub struct Args {
     /// standard errors and intervals fill the parameter table).
     #[arg(long)]
     summary: Option<PathBuf>,
-    /// Page title (default: the file names).
-    #[arg(long)]
-    title: Option<String>,
-    #[command(flatten)]
-    read: super::ReadArgs,
+    /// Which scene particle each of the file's markers is, comma-separated, as given to
+    /// `identify --markers` (without it, the file's particle i is the scene's particle i).
+    /// Particles no marker names are shown unobserved.
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    markers: Option<Vec<usize>>,
+    /// Each marker's weight, 1/σ relative, as given to `identify --weights` (one per marker,
+    /// or three: x, y, z): the fit is also reported weighted.
+    #[arg(long, value_delimiter = ',', num_args = 1.., allow_negative_numbers = true)]
+    weights: Option<Vec<f64>>,
 }
 
 pub fn run(a: Args, output: Output) -> Result<()> {
-    super::guard_outputs(
-        &[
-            ("scene", Some(&a.scene)),
-            ("--trajectory", Some(&a.trajectory)),
-            ("--log", a.log.as_deref()),
-            ("--summary", a.summary.as_deref()),
-        ],
-        &[("--html", Some(&a.html))],
-    )?;
-    let scene = Scene::from_json_path(&a.scene)?;
-    let observed = read_observations_with(&a.trajectory, &a.read.options()?)?;
+    let scene = a.page.guarded_scene(&[
+        ("--log", a.log.as_deref()),
+        ("--summary", a.summary.as_deref()),
+    ])?;
+    let read = read_observations_with(&a.page.trajectory, &a.page.read.options()?)?;
+    let (observed, weights) = match a.markers.is_some() || a.weights.is_some() {
+        true => {
+            let (o, w) = in_scene_order(
+                &read,
+                scene.num_particles(),
+                a.markers.as_deref(),
+                a.weights.as_deref(),
+                ["--markers", "--weights"],
+            )
+            .map_err(|e| name_trajectory(e, &a))?;
+            (o, w)
+        }
+        false => (read, None),
+    };
     let convergence = a
         .log
         .as_ref()
         .map(|p| parse_convergence(&p.display().to_string(), &read_text(p)?))
         .transpose()?;
     let summary = a.summary.as_deref().map(read_summary).transpose()?;
-    let name = |p: &PathBuf| {
-        p.file_name().map_or_else(
-            || p.display().to_string(),
-            |n| n.to_string_lossy().into_owned(),
-        )
-    };
     let title = a
-        .title
-        .clone()
-        .unwrap_or_else(|| format!("{} — fitted to {}", name(&a.scene), name(&a.trajectory)));
+        .page
+        .title_or(|scene, motion| format!("{scene} — fitted to {motion}"));
     let page = report_html(&ReportInput {
         scene: &scene,
         observed: &observed,
         convergence: convergence.as_deref(),
         summary: summary.as_ref(),
+        weights: weights.as_deref(),
         title: &title,
     })
-    .map_err(|e| match e {
-        CordisError::Trajectory { place, message } if place == "trajectory" => {
-            CordisError::trajectory(a.trajectory.display().to_string(), message)
-        }
-        other => other,
-    })
-    .with_context(|| a.scene.display().to_string())?;
-    write_atomic(&a.html, page.as_bytes())?;
+    .map_err(|e| name_trajectory(e, &a))
+    .with_context(|| a.page.scene.display().to_string())?;
+    write_atomic(&a.page.html, page.as_bytes())?;
     if output.human() {
         eprintln!(
             "wrote {} ({} KB; {} frames of {} particles)",
-            a.html.display(),
+            a.page.html.display(),
             page.len().div_ceil(1000),
             observed.frames(),
             observed.particles()
@@ -89,13 +83,23 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     }
     if output.json {
         output.json_line(&serde_json::json!({
-            "html": a.html.display().to_string(),
+            "html": a.page.html.display().to_string(),
             "bytes": page.len(),
             "frames": observed.frames(),
             "particles": observed.particles(),
         }))?;
     }
     Ok(())
+}
+
+/// The report calls the observed motion "trajectory": name its file instead.
+fn name_trajectory(e: CordisError, a: &Args) -> CordisError {
+    match e {
+        CordisError::Trajectory { place, message } if place == "trajectory" => {
+            CordisError::trajectory(a.page.trajectory.display().to_string(), message)
+        }
+        other => other,
+    }
 }
 
 /// The summary file: one JSON object, or JSON lines whose last object is the summary.

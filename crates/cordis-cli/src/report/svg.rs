@@ -104,12 +104,7 @@ pub fn line_chart(c: &Chart, series: &[Series]) -> String {
     let px = |x: f64| PAD_LEFT + (x - x0) / (x1 - x0) * w;
     let py = |y: f64| PAD_TOP + (1.0 - (ty(y) - y0) / (y1 - y0)) * h;
     let mut s = String::new();
-    let _ = write!(
-        s,
-        "<svg class=\"chart\" viewBox=\"0 0 {} {}\" width=\"{}\" height=\"{}\" role=\"img\" \
-         aria-label=\"{}\"><text class=\"title\" x=\"{PAD_LEFT}\" y=\"13\">{}</text>",
-        c.width, c.height, c.width, c.height, c.title, c.title
-    );
+    open_svg(&mut s, c);
     for t in ticks(x0, x1, 5) {
         let x = px(t);
         let _ = write!(
@@ -124,15 +119,7 @@ pub fn line_chart(c: &Chart, series: &[Series]) -> String {
     for t in ticks(y0, y1, 4) {
         let y = PAD_TOP + (1.0 - (t - y0) / (y1 - y0)) * h;
         let shown = if c.log_y { 10f64.powf(t) } else { t };
-        let _ = write!(
-            s,
-            "<line class=\"grid\" x1=\"{PAD_LEFT}\" x2=\"{:.1}\" y1=\"{y:.1}\" y2=\"{y:.1}\"/>\
-             <text class=\"tick\" x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">{}</text>",
-            PAD_LEFT + w,
-            PAD_LEFT - 4.0,
-            y + 3.5,
-            label(shown)
-        );
+        y_tick(&mut s, w, y, shown);
     }
     for se in series {
         if se.dots {
@@ -169,6 +156,35 @@ pub fn line_chart(c: &Chart, series: &[Series]) -> String {
             let _ = write!(s, "<path class=\"{}\" d=\"{}\"/>", se.class, d.trim_start());
         }
     }
+    close_svg(&mut s, c, w, h);
+    s
+}
+
+/// The `<svg>` element's opening and the chart's title.
+fn open_svg(s: &mut String, c: &Chart) {
+    let _ = write!(
+        s,
+        "<svg class=\"chart\" viewBox=\"0 0 {} {}\" width=\"{}\" height=\"{}\" role=\"img\" \
+         aria-label=\"{}\"><text class=\"title\" x=\"{PAD_LEFT}\" y=\"13\">{}</text>",
+        c.width, c.height, c.width, c.height, c.title, c.title
+    );
+}
+
+/// A horizontal grid line at height `y` (px) across a plot `w` px wide, labelled `value`.
+fn y_tick(s: &mut String, w: f64, y: f64, value: f64) {
+    let _ = write!(
+        s,
+        "<line class=\"grid\" x1=\"{PAD_LEFT}\" x2=\"{:.1}\" y1=\"{y:.1}\" y2=\"{y:.1}\"/>\
+         <text class=\"tick\" x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">{}</text>",
+        PAD_LEFT + w,
+        PAD_LEFT - 4.0,
+        y + 3.5,
+        label(value)
+    );
+}
+
+/// The axis labels under and left of a `w` × `h` px plot, and the `<svg>` element's end.
+fn close_svg(s: &mut String, c: &Chart, w: f64, h: f64) {
     let _ = write!(
         s,
         "<text class=\"axis\" x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{}</text>\
@@ -180,7 +196,6 @@ pub fn line_chart(c: &Chart, series: &[Series]) -> String {
         PAD_TOP + h / 2.0,
         c.y_label
     );
-    s
 }
 
 /// A bar chart of `values` (one bar each, labelled by index), NaN bars left out.
@@ -195,23 +210,10 @@ pub fn bar_chart(c: &Chart, values: &[f64]) -> String {
     let n = values.len().max(1) as f64;
     let bw = w / n;
     let mut s = String::new();
-    let _ = write!(
-        s,
-        "<svg class=\"chart\" viewBox=\"0 0 {} {}\" width=\"{}\" height=\"{}\" role=\"img\" \
-         aria-label=\"{}\"><text class=\"title\" x=\"{PAD_LEFT}\" y=\"13\">{}</text>",
-        c.width, c.height, c.width, c.height, c.title, c.title
-    );
+    open_svg(&mut s, c);
     for t in ticks(0.0, hi, 4) {
         let y = PAD_TOP + (1.0 - t / hi) * h;
-        let _ = write!(
-            s,
-            "<line class=\"grid\" x1=\"{PAD_LEFT}\" x2=\"{:.1}\" y1=\"{y:.1}\" y2=\"{y:.1}\"/>\
-             <text class=\"tick\" x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">{}</text>",
-            PAD_LEFT + w,
-            PAD_LEFT - 4.0,
-            y + 3.5,
-            label(t)
-        );
+        y_tick(&mut s, w, y, t);
     }
     s.push_str("<g class=\"bar\">");
     for (i, &v) in values.iter().enumerate() {
@@ -239,17 +241,7 @@ pub fn bar_chart(c: &Chart, values: &[f64]) -> String {
             label(t)
         );
     }
-    let _ = write!(
-        s,
-        "<text class=\"axis\" x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{}</text>\
-         <text class=\"axis\" transform=\"translate(12 {:.1}) rotate(-90)\" \
-         text-anchor=\"middle\">{}</text></svg>",
-        PAD_LEFT + w / 2.0,
-        c.height - 4.0,
-        c.x_label,
-        PAD_TOP + h / 2.0,
-        c.y_label
-    );
+    close_svg(&mut s, c, w, h);
     s
 }
 
