@@ -336,7 +336,10 @@ fn provot_scene(tau: Option<f64>) -> Scene {
     s.add_particle(Particle::new(1.0, [3.0, 0.0, 0.0]).fixed());
     s.add_particle(Particle::new(1.0, [3.0, 1.0, 0.0]).with_vel([0.4, 2.0, 0.0]));
     let mut t = spring(5.0, 1.0, 0.1);
-    t.max_elongation = tau;
+    t.set_optional(
+        cordis_core::OptionalParam::MaxElongation,
+        tau.map(Into::into),
+    );
     s.add_type(t);
     s.add_link("s", &[0, 1]);
     s.add_link("s", &[2, 3]);
@@ -379,7 +382,7 @@ fn mixed() -> Scene {
     s.add_type(spring(60.0, 0.8, 0.5));
     let mut limited = spring(40.0, 1.0, 0.0);
     limited.name = "limited".into();
-    limited.max_elongation = Some(0.05);
+    limited.set_optional(cordis_core::OptionalParam::MaxElongation, Some(0.05.into()));
     s.add_type(limited);
     s.add_type(LinkType::new("d", LinkKind::Damper).with("damping", 0.4));
     let mut anchor = LinkType::new("a", LinkKind::Anchor)

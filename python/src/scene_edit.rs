@@ -511,11 +511,12 @@ impl TypeView {
             .count()
     }
 
-    /// Provot's critical deformation rate τc (springs only; None: no limit). Settable:
-    /// `scene.types["rib"].max_elongation = None` removes the limit.
+    /// Provot's critical deformation rate τc (springs only; None: no limit; an unknown τc
+    /// reads as its starting value, `scene.types["rib"]["max_elongation"]` gives its box).
+    /// Settable: `scene.types["rib"].max_elongation = None` removes the limit.
     #[getter]
     fn max_elongation(&self, py: Python<'_>) -> Option<f64> {
-        self.read(py, |t| t.max_elongation)
+        self.read(py, |t| t.max_elongation().map(|p| p.value()))
     }
 
     #[setter]
@@ -527,10 +528,12 @@ impl TypeView {
             Some(number(value, &place)?)
         };
         let ti = self.index;
+        let which = cordis_core::OptionalParam::MaxElongation;
         self.scene.bind(py).get().edit(
             |s| {
-                let old = std::mem::replace(&mut s.types[ti].max_elongation, tau);
-                Ok(move |s: &mut CoreScene| s.types[ti].max_elongation = old)
+                let old = s.types[ti].optional_param(which).copied();
+                s.types[ti].set_optional(which, tau.map(Into::into));
+                Ok(move |s: &mut CoreScene| s.types[ti].set_optional(which, old))
             },
             |s| s.validate_type(ti),
         )

@@ -227,7 +227,7 @@ pub fn simulate(scene: &Scene, frames: usize) -> Vec<Vec<V>> {
         // the next; x(n) is left alone.
         for link in &scene.links {
             let ty = &scene.types[link.type_index];
-            let Some(tau) = ty.max_elongation else {
+            let Some(tau) = ty.max_elongation().map(|p| p.value()) else {
                 continue;
             };
             let (i, j) = (link.particles[0], link.particles[1]);

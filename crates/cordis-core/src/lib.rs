@@ -43,7 +43,7 @@ pub mod world;
 
 pub use error::{CordisError, Result};
 pub use link_kind::LinkKind;
-pub use link_type::{Coupling, Link, LinkType};
+pub use link_type::{Coupling, Link, LinkType, OptionalParam};
 pub use observations::Observations;
 pub use param::{Bounds, Param};
 pub use param_layout::ParamLayout;

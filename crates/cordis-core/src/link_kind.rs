@@ -176,10 +176,10 @@ impl LinkKind {
     /// Keys a type of this kind may carry besides its scalar parameters.
     pub fn extra_keys(self) -> &'static [&'static str] {
         match self {
-            LinkKind::Spring => &["max_elongation"],
+            LinkKind::Spring => &["max_elongation", "damping_quadratic"],
             LinkKind::Anchor => &["point"],
             LinkKind::Plane => &["point", "normal"],
-            LinkKind::Conditional => &["groups"],
+            LinkKind::Conditional => &["groups", "damping_quadratic"],
             LinkKind::Muscle => &["w_len", "w_rate", "observes"],
             LinkKind::Tgr => &["signal"],
             _ => &[],

@@ -10,6 +10,45 @@
 
 use crate::{LinkKind, Param};
 
+/// A scalar parameter a type carries only when its file gives it, after the kind's
+/// [`LinkKind::param_specs`] in `params` (in the order of [`LinkType::optional`]), so a scene
+/// without it keeps its parameter vector — and its motion — bit for bit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OptionalParam {
+    /// Provot's critical deformation rate τc (springs, thesis §4.2; 1): the limit `(1 + τc) l0`.
+    MaxElongation,
+    /// The quadratic viscosity Z₂ (N·s²/m², springs and conditional links, thesis §4.3's
+    /// "visc n.l"): the force along the link gains `Z₂ s |s|`.
+    DampingQuadratic,
+}
+
+impl OptionalParam {
+    pub const ALL: [OptionalParam; 2] = [
+        OptionalParam::MaxElongation,
+        OptionalParam::DampingQuadratic,
+    ];
+
+    /// The key in a scene file.
+    pub fn name(self) -> &'static str {
+        match self {
+            OptionalParam::MaxElongation => "max_elongation",
+            OptionalParam::DampingQuadratic => "damping_quadratic",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|o| o.name() == name)
+    }
+
+    /// The kinds whose types may carry it.
+    pub fn kinds(self) -> &'static [LinkKind] {
+        match self {
+            OptionalParam::MaxElongation => &[LinkKind::Spring],
+            OptionalParam::DampingQuadratic => &[LinkKind::Spring, LinkKind::Conditional],
+        }
+    }
+}
+
 /// A named entry of the catalogue. All links of a type share its parameters, so identification
 /// works on the catalogue (SPEC §2.3).
 #[derive(Clone, Debug, PartialEq)]
@@ -18,8 +57,9 @@ pub struct LinkType {
     pub kind: LinkKind,
     /// Scalar parameters in the order of [`LinkKind::param_specs`].
     pub params: Vec<Param>,
-    /// Provot's critical deformation rate τc (springs only, thesis §4.2).
-    pub max_elongation: Option<f64>,
+    /// The optional parameters present, in their order in `params` after the spec ones
+    /// (see [`OptionalParam`]; read them with [`LinkType::optional_param`]).
+    pub optional: Vec<OptionalParam>,
     /// Anchor point in m (anchors only). When absent, each anchor link uses its own `point`, or
     /// the particle's initial position. Planes: a point of the surface, m (required).
     pub point: Option<[f64; 3]>,
@@ -46,7 +86,7 @@ impl LinkType {
                 .iter()
                 .map(|(_, d)| Param::Known(d.unwrap_or(0.0)))
                 .collect(),
-            max_elongation: None,
+            optional: Vec::new(),
             point: None,
             normal: None,
             groups: Vec::new(),
@@ -60,6 +100,48 @@ impl LinkType {
     pub fn with_surface(mut self, point: [f64; 3], normal: [f64; 3]) -> Self {
         self.point = Some(point);
         self.normal = Some(normal);
+        self
+    }
+
+    /// Index in `params` of an optional parameter, when the type has it.
+    pub fn optional_index(&self, which: OptionalParam) -> Option<usize> {
+        let base = self.kind.param_specs().len();
+        self.optional
+            .iter()
+            .position(|&o| o == which)
+            .map(|k| base + k)
+    }
+
+    /// An optional parameter, when the type has it.
+    pub fn optional_param(&self, which: OptionalParam) -> Option<&Param> {
+        self.optional_index(which).map(|k| &self.params[k])
+    }
+
+    /// Provot's τc, when the type has one.
+    pub fn max_elongation(&self) -> Option<&Param> {
+        self.optional_param(OptionalParam::MaxElongation)
+    }
+
+    /// Sets (`Some`) or removes (`None`) an optional parameter; a new one goes last.
+    pub fn set_optional(&mut self, which: OptionalParam, value: Option<Param>) {
+        match (self.optional_index(which), value) {
+            (Some(k), Some(v)) => self.params[k] = v,
+            (Some(k), None) => {
+                self.params.remove(k);
+                self.optional.retain(|&o| o != which);
+            }
+            (None, Some(v)) => {
+                let at = self.kind.param_specs().len() + self.optional.len();
+                self.params.insert(at, v);
+                self.optional.push(which);
+            }
+            (None, None) => {}
+        }
+    }
+
+    /// Sets an optional parameter (builder style).
+    pub fn with_optional(mut self, which: OptionalParam, value: impl Into<Param>) -> Self {
+        self.set_optional(which, Some(value.into()));
         self
     }
 
@@ -114,6 +196,10 @@ impl LinkType {
         let specs = self.kind.param_specs();
         match specs.get(k) {
             Some((n, _)) => (*n).to_string(),
+            None if self.kind != LinkKind::Muscle => self
+                .optional
+                .get(k - specs.len())
+                .map_or_else(|| format!("params[{k}]"), |o| o.name().to_string()),
             None => {
                 let (w, m) = (k - specs.len(), self.num_weights().max(1));
                 if w < m {
@@ -136,8 +222,12 @@ impl LinkType {
         self
     }
 
+    /// A named parameter: a spec one, or an optional one the type has.
     pub fn param(&self, name: &str) -> Option<&Param> {
-        self.kind.param_index(name).map(|i| &self.params[i])
+        match self.kind.param_index(name) {
+            Some(i) => Some(&self.params[i]),
+            None => OptionalParam::from_name(name).and_then(|o| self.optional_param(o)),
+        }
     }
 
     pub fn value(&self, name: &str) -> Option<f64> {

@@ -14,7 +14,7 @@ use crate::forces::{
 };
 use crate::runaway::Runaway;
 use crate::world::{Clock, OneClock, WorldClock, WorldSteps};
-use crate::{LinkKind, ParamLayout, Scene, Vec3};
+use crate::{LinkKind, OptionalParam, ParamLayout, Scene, Vec3};
 
 #[derive(Clone, Debug)]
 pub struct Plan {
@@ -121,9 +121,16 @@ impl Plan {
         let mut provot = ProvotPass::default();
         let mut needs_velocity = false;
         let damping_matters = |t: usize| {
+            let ty = &scene.types[t];
+            ty.param("damping").is_some_and(|z| !z.is_known_zero())
+                || ty
+                    .optional_param(OptionalParam::DampingQuadratic)
+                    .is_some_and(|z| !z.is_known_zero())
+        };
+        let quadratic_slot = |t: usize| {
             scene.types[t]
-                .param("damping")
-                .is_some_and(|z| !z.is_known_zero())
+                .optional_index(OptionalParam::DampingQuadratic)
+                .map(|k| off[t] + k)
         };
         for (li, l) in scene.links.iter().enumerate() {
             let t = l.type_index;
@@ -133,12 +140,12 @@ impl Plan {
                 LinkKind::Spring => {
                     spring_items.push((t, [ps[0], ps[1]]));
                     needs_velocity |= damping_matters(t);
-                    if let Some(tau) = ty.max_elongation {
+                    if let Some(k) = ty.optional_index(OptionalParam::MaxElongation) {
                         provot.links.push(ProvotLink {
                             i: ps[0],
                             j: ps[1],
                             param: off[t],
-                            tau,
+                            tau: off[t] + k,
                         });
                     }
                 }
@@ -202,7 +209,15 @@ impl Plan {
             }
         }
         let (runs, pairs) = runs_by_type(&spring_items, off);
-        let springs = SpringPass { runs, pairs };
+        let type_of_run = |r: &crate::forces::Run| off.iter().position(|&o| o == r.param);
+        let springs = SpringPass {
+            quadratic: runs
+                .iter()
+                .map(|r| type_of_run(r).and_then(quadratic_slot))
+                .collect(),
+            runs,
+            pairs,
+        };
         let (runs, pairs) = runs_by_type(&damper_items, off);
         let dampers = DamperPass { runs, pairs };
         let (runs, items) = runs_by_type(&anchor_items, off);
@@ -276,6 +291,7 @@ impl Plan {
             };
             conditionals.push(ConditionalPass {
                 param: off[t],
+                quadratic: quadratic_slot(t),
                 a,
                 b,
             });
@@ -339,12 +355,13 @@ impl Plan {
         }
         let half = self.springs.pairs.len() / 2;
         let mut parts = [SpringPass::default(), SpringPass::default()];
-        for r in &self.springs.runs {
+        for (r, &quadratic) in self.springs.runs.iter().zip(&self.springs.quadratic) {
             for (k, range) in [(0, r.start..r.end.min(half)), (1, r.start.max(half)..r.end)] {
                 if range.start < range.end {
                     let part = &mut parts[k];
                     let start = part.pairs.len();
                     part.pairs.extend_from_slice(&self.springs.pairs[range]);
+                    part.quadratic.push(quadratic);
                     part.runs.push(crate::forces::Run {
                         param: r.param,
                         start,

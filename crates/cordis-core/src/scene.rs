@@ -2,7 +2,7 @@
 
 use crate::error::{CordisError, Result};
 use crate::signal::{Shape, Signal};
-use crate::{Coupling, Link, LinkKind, LinkType, Param, Particle, World};
+use crate::{Coupling, Link, LinkKind, LinkType, OptionalParam, Param, Particle, World};
 
 /// A Cordis-Anima network and its time step. Build one in code with [`Scene::new`] and the
 /// `add_*` methods, or read one with [`Scene::from_json_str`]; run [`Scene::validate`] before
@@ -192,7 +192,8 @@ impl Scene {
                 ),
             ));
         }
-        if t.params.len() != specs.len()
+        let expected = specs.len() + t.optional.len();
+        if t.params.len() != expected
             && !(t.kind == LinkKind::Muscle && t.params.len() > specs.len())
         {
             return Err(CordisError::scene(
@@ -200,7 +201,7 @@ impl Scene {
                 format!(
                     "`{}` types have {} parameters, got {}",
                     t.kind,
-                    specs.len(),
+                    expected,
                     t.params.len()
                 ),
             ));
@@ -214,9 +215,29 @@ impl Scene {
             };
             check_param(&format!("{at}.{name}"), p, sign)?;
         }
+        for (k, &which) in t.optional.iter().enumerate() {
+            let place = format!("{at}.{}", which.name());
+            if !which.kinds().contains(&t.kind) {
+                let kinds: Vec<&str> = which.kinds().iter().map(|k| k.name()).collect();
+                return Err(CordisError::scene(
+                    place,
+                    format!("only {} types have it", kinds.join(" and ")),
+                ));
+            }
+            if t.optional[..k].contains(&which) {
+                return Err(CordisError::scene(place, "given twice"));
+            }
+            let sign = match which {
+                OptionalParam::MaxElongation => Sign::Positive,
+                OptionalParam::DampingQuadratic => Sign::NonNegative,
+            };
+            check_param(&place, &t.params[specs.len() + k], sign)?;
+        }
         // Neural weights may have either sign (excitation or inhibition).
-        for (k, p) in t.params.iter().enumerate().skip(specs.len()) {
-            check_param(&format!("{at}.{}", t.param_name(k)), p, Sign::Any)?;
+        if t.kind == LinkKind::Muscle {
+            for (k, p) in t.params.iter().enumerate().skip(specs.len()) {
+                check_param(&format!("{at}.{}", t.param_name(k)), p, Sign::Any)?;
+            }
         }
         if t.observes.is_some() && t.kind != LinkKind::Muscle {
             return Err(CordisError::scene(
@@ -246,20 +267,6 @@ impl Scene {
                 ))
             }
             (None, false) => {}
-        }
-        if let Some(tau) = t.max_elongation {
-            if t.kind != LinkKind::Spring {
-                return Err(CordisError::scene(
-                    format!("{at}.max_elongation"),
-                    "only springs have it",
-                ));
-            }
-            if !(tau.is_finite() && tau > 0.0) {
-                return Err(CordisError::scene(
-                    format!("{at}.max_elongation"),
-                    format!("must be a positive number, got {tau}"),
-                ));
-            }
         }
         if let Some(point) = &t.point {
             if !matches!(t.kind, LinkKind::Anchor | LinkKind::Plane) {

@@ -9,7 +9,9 @@ use serde_json::{Map, Value};
 
 use crate::error::{CordisError, Result};
 use crate::signal::{Shape, Signal, DEFAULT_RISE};
-use crate::{Bounds, Coupling, Link, LinkKind, LinkType, Param, Particle, Scene, World};
+use crate::{
+    Bounds, Coupling, Link, LinkKind, LinkType, OptionalParam, Param, Particle, Scene, World,
+};
 
 pub const FORMAT: &str = "cordis-scene/1";
 
@@ -136,8 +138,9 @@ impl Scene {
             for ((name, _), p) in t.kind.param_specs().iter().zip(&t.params) {
                 o.insert((*name).into(), param_json(p));
             }
-            if let Some(tau) = t.max_elongation {
-                o.insert("max_elongation".into(), tau.into());
+            for (k, which) in t.optional.iter().enumerate() {
+                let p = &t.params[t.kind.param_specs().len() + k];
+                o.insert(which.name().into(), param_json(p));
             }
             if let Some(point) = &t.point {
                 o.insert("point".into(), vec3(point));
@@ -751,8 +754,11 @@ fn read_type(name: &str, v: &Value) -> Result<(LinkType, bool)> {
             }
         };
     }
-    if let Some(tau) = o.get("max_elongation") {
-        t.max_elongation = Some(number(tau, &join(&at, "max_elongation"))?);
+    for which in OptionalParam::ALL {
+        if let Some(pv) = o.get(which.name()) {
+            let value = param(pv, &join(&at, which.name()))?;
+            t.set_optional(which, Some(value));
+        }
     }
     if let Some(p) = o.get("point") {
         t.point = Some(vector3(p, &join(&at, "point"))?);
@@ -809,4 +815,47 @@ fn read_type(name: &str, v: &Value) -> Result<(LinkType, bool)> {
         }
     }
     Ok((t, has_weights))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Provot's τc as an unknown box and a quadratic viscosity (known on one type, a box on
+    /// another) read, write and read back to the same scene, in the parameter vector after
+    /// the kind's own parameters.
+    #[test]
+    fn optional_parameters_round_trip_as_numbers_and_boxes() {
+        let text = r#"{"dt": 0.01,
+          "particles": [{"mass": 1.0, "pos": [0, 0, 0], "fixed": true, "group": "g"},
+                        {"mass": 1.0, "pos": [1.1, 0, 0], "group": "g"}],
+          "types": {"rib": {"kind": "spring", "stiffness": 10, "rest_length": 1.0,
+                            "max_elongation": {"min": 0.05, "max": 0.5, "init": 0.2},
+                            "damping_quadratic": 0.3},
+                    "mist": {"kind": "conditional", "stiffness": 0, "rest_length": 0,
+                             "damping": 0.1, "range": 2, "groups": ["g"],
+                             "damping_quadratic": {"min": 0, "max": 4}}},
+          "links": [{"type": "rib", "particles": [0, 1]}]}"#;
+        let scene = Scene::from_json_str(text).unwrap();
+        let rib = &scene.types[0];
+        assert_eq!(
+            rib.optional,
+            [
+                OptionalParam::MaxElongation,
+                OptionalParam::DampingQuadratic
+            ]
+        );
+        assert_eq!(rib.param_name(3), "max_elongation");
+        assert_eq!(rib.param_name(4), "damping_quadratic");
+        assert!(rib.max_elongation().unwrap().is_unknown());
+        assert_eq!(rib.max_elongation().unwrap().value(), 0.2);
+        assert_eq!(scene.param_layout().type_offsets, [0, 5]);
+        let again = Scene::from_json_str(&scene.to_json_string()).unwrap();
+        assert_eq!(again, scene);
+        let written = scene.to_json_value();
+        assert_eq!(
+            written["types"]["mist"]["damping_quadratic"],
+            serde_json::json!({"min": 0.0, "max": 4.0})
+        );
+    }
 }

@@ -38,6 +38,12 @@
 //!
 //! - spring, anchor, conditional pair: K along the link and Z on the rate of elongation. The
 //!   transverse stiffness `K (1 - l0/L)` is below K whenever `L ≥ l0/2`, so K bounds the block.
+//! - quadratic viscosity (`damping_quadratic` Z₂ of a spring or conditional type): the force
+//!   `Z s + Z₂ s |s|` has the slope `Z + 2 Z₂ |s|` in the rate s, which grows without bound
+//!   with the speed, so no bound holds over every motion. It is counted at the start's rates
+//!   (`s` from `(x(0) - x(-1)) / dt`): the bound is that of the start, and a motion whose
+//!   links separate or close faster than there may need a smaller step (each link stays
+//!   stable while `Z + 2 Z₂ |s|` keeps its row below the bound).
 //! - damper `Z w` (isotropic): Z; drag: Z on its particle; nonlinear drag: `max(z1, z2)`.
 //! - angle (i, j, k), energy `½K(cosθ - c0)²`: the Hessian's rank-one part `K ∇c ∇cᵀ`, with
 //!   `|∂c/∂x_i| = sinθ / |a|`, `|∂c/∂x_k| = sinθ / |b|`, `|∂c/∂x_j| ≤ |∂c/∂x_i| + |∂c/∂x_k|`,
@@ -174,10 +180,23 @@ fn row_sums(plan: &Plan, p: &[f64], ws: &mut StabilityScratch) {
         mul(k, dt * dt) + mul(2.0 * z, dt)
     };
 
-    for r in &plan.springs.runs {
+    for (ri, r) in plan.springs.runs.iter().enumerate() {
         let (k, z) = (p[r.param], p[r.param + 2]);
+        let z2 = plan
+            .springs
+            .quadratic
+            .get(ri)
+            .copied()
+            .flatten()
+            .map_or(0.0, |s| p[s]);
         for &[i, j] in &plan.springs.pairs[r.start..r.end] {
-            acc.pair(i as usize, j as usize, g(k, z, i));
+            let (i, j) = (i as usize, j as usize);
+            let z = if z2 != 0.0 {
+                z + 2.0 * z2 * start_rate(plan, i, j)
+            } else {
+                z
+            };
+            acc.pair(i, j, g(k, z, i as u32));
         }
     }
     // A TGR's link is a spring whose rest length moves: the same local stiffness. Its tendon
@@ -240,10 +259,24 @@ fn row_sums(plan: &Plan, p: &[f64], ws: &mut StabilityScratch) {
     }
     for c in &plan.conditionals {
         let (k, z) = (p[c.param], p[c.param + 2]);
+        let z2 = c.quadratic.map_or(0.0, |s| p[s]);
         c.for_each_active_pair(p, &plan.x0, &mut ws.grid, |i, j, _| {
+            let z = if z2 != 0.0 {
+                z + 2.0 * z2 * start_rate(plan, i, j)
+            } else {
+                z
+            };
             acc.pair(i, j, g(k, z, i as u32))
         });
     }
+}
+
+/// `|s|` of the link (i, j) at the start, m/s: its rate of elongation from
+/// `v = (x(0) - x(-1)) / dt`, each particle in its own world's time (0 for a degenerate link).
+fn start_rate(plan: &Plan, i: usize, j: usize) -> f64 {
+    let v = |k: usize| (plan.x0[k] - plan.x_minus1[k]) / plan.dt_of(k);
+    let (u, _) = crate::forces::unit_and_length(&(plan.x0[j] - plan.x0[i]));
+    (v(j) - v(i)).dot(&u).abs()
 }
 
 /// The largest time step (s) at which the bound still holds (`max_ratio < 1` just below it),

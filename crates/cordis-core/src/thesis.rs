@@ -695,11 +695,12 @@ fn check_writable(scene: &Scene) -> Result<()> {
                 &format!("kind {} has no family", t.kind),
             );
         }
-        if t.max_elongation.is_some() {
-            return no(
-                format!("{at}.max_elongation"),
-                "the type has a breaking rate",
-            );
+        if let Some(which) = t.optional.first() {
+            let what = match which {
+                crate::OptionalParam::MaxElongation => "the type has a breaking rate",
+                crate::OptionalParam::DampingQuadratic => "the type has a quadratic viscosity",
+            };
+            return no(format!("{at}.{}", which.name()), what);
         }
         if t.point.is_some() {
             return no(format!("{at}.point"), "the anchor has its own point");

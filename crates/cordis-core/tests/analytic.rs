@@ -309,7 +309,7 @@ fn fixed_particles_never_move() {
         .with("stiffness", 300.0)
         .with("rest_length", 0.5)
         .with("damping", 2.0);
-    spring.max_elongation = Some(0.1);
+    spring.set_optional(cordis_core::OptionalParam::MaxElongation, Some(0.1.into()));
     s.add_type(spring);
     s.add_type(LinkType::new("d", LinkKind::Damper).with("damping", 3.0));
     s.add_type(LinkType::new("a", LinkKind::Anchor).with("stiffness", 100.0));

@@ -300,7 +300,7 @@ fn max_structural_stretch(scene: &Scene, traj: &Trajectory) -> f64 {
     scene
         .links
         .iter()
-        .filter(|l| scene.types[l.type_index].max_elongation.is_some())
+        .filter(|l| scene.types[l.type_index].max_elongation().is_some())
         .map(|l| {
             let l0 = scene.types[l.type_index].value("rest_length").unwrap();
             let [i, j] = [l.particles[0], l.particles[1]];
@@ -322,7 +322,7 @@ fn cloth_swings_stretches_and_holds_its_elongation_limit() {
     let limited: Vec<_> = scene
         .types
         .iter()
-        .filter(|t| t.max_elongation.is_some())
+        .filter(|t| t.max_elongation().is_some())
         .collect();
     assert_eq!(limited.len(), 2);
     assert!(scene
@@ -347,7 +347,7 @@ fn cloth_swings_stretches_and_holds_its_elongation_limit() {
     // The limit is what holds it: without it the same cloth stretches much further.
     let mut free = scene.clone();
     for t in &mut free.types {
-        t.max_elongation = None;
+        t.set_optional(cordis_core::OptionalParam::MaxElongation, None);
     }
     let loose = max_structural_stretch(&scene, &free.simulate(traj.frames()).unwrap());
     assert!(

@@ -16,6 +16,7 @@ fn spring_forces(x: &[Vec3], v: &[Vec3], k: f64, l0: f64, z: f64) -> Vec<Vec3> {
     let pass = SpringPass {
         runs: vec![RUN],
         pairs: vec![[0, 1]],
+        quadratic: Vec::new(),
     };
     let mut f = vec![Vec3::zeros(); 2];
     pass.accumulate(&[k, l0, z], x, v, &mut f);

@@ -109,7 +109,7 @@ proptest! {
         c in cloud(), r in range(), seed in any::<u64>(),
     ) {
         let (a, _) = groups(c.x.len(), false, seed);
-        let pass = ConditionalPass { param: 0, a: a.clone(), b: None };
+        let pass = ConditionalPass { param: 0, quadratic: None, a: a.clone(), b: None };
         let got = grid_pairs(&pass, &c.x, r);
         let set: BTreeSet<(usize, usize)> =
             got.iter().map(|&(i, j)| (i.min(j), i.max(j))).collect();
@@ -131,7 +131,7 @@ proptest! {
         c in cloud(), r in range(), seed in any::<u64>(),
     ) {
         let (a, b) = groups(c.x.len(), true, seed);
-        let pass = ConditionalPass { param: 0, a: a.clone(), b: Some(b.clone()) };
+        let pass = ConditionalPass { param: 0, quadratic: None, a: a.clone(), b: Some(b.clone()) };
         let got = grid_pairs(&pass, &c.x, r);
         let set: BTreeSet<(usize, usize)> = got.iter().copied().collect();
         prop_assert_eq!(set.len(), got.len(), "a pair was visited twice");
@@ -155,7 +155,7 @@ proptest! {
         // One grid across steps of different clouds and ranges (as the plan reuses scratch).
         let n = c1.x.len().min(c2.x.len());
         let a: Vec<u32> = (0..n as u32).collect();
-        let pass = ConditionalPass { param: 0, a, b: None };
+        let pass = ConditionalPass { param: 0, quadratic: None, a, b: None };
         let mut grid = Grid::default();
         for (x, r) in [(&c1.x[..n], r1), (&c2.x[..n], r2), (&c1.x[..n], r2)] {
             let mut reused = Vec::new();
@@ -176,7 +176,12 @@ fn empty_groups_and_single_members_give_no_pairs() {
         (vec![], Some(vec![1, 2])),
         (vec![0, 1], Some(vec![])),
     ] {
-        let pass = ConditionalPass { param: 0, a, b };
+        let pass = ConditionalPass {
+            param: 0,
+            quadratic: None,
+            a,
+            b,
+        };
         assert!(grid_pairs(&pass, &x, 1.0).is_empty());
     }
 }
@@ -188,6 +193,7 @@ fn non_finite_positions_give_no_pair_with_them_and_no_panic() {
         for b in [None, Some(vec![2])] {
             let pass = ConditionalPass {
                 param: 0,
+                quadratic: None,
                 a: vec![0, 1],
                 b: b.clone(),
             };
@@ -205,6 +211,7 @@ fn coincident_points_are_all_paired() {
     let x = vec![Vec3::new(1.0, 2.0, 3.0); 6];
     let pass = ConditionalPass {
         param: 0,
+        quadratic: None,
         a: (0..6).collect(),
         b: None,
     };

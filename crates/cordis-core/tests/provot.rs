@@ -3,21 +3,36 @@
 
 use approx::assert_relative_eq;
 use cordis_core::forces::provot::{ProvotLink, ProvotPass};
-use cordis_core::{LinkKind, LinkType, Particle, Scene, Vec3};
+use cordis_core::{LinkKind, LinkType, OptionalParam, Particle, Scene, Vec3};
 
 /// A pass over `links` (pairs) of one spring type whose parameters start at offset 3 of the
-/// parameter vector (rest length at 4), with critical deformation `tau`.
-fn pass(links: &[[u32; 2]], tau: f64) -> ProvotPass {
-    ProvotPass {
-        links: links
-            .iter()
-            .map(|&[i, j]| ProvotLink {
-                i,
-                j,
-                param: 3,
-                tau,
-            })
-            .collect(),
+/// parameter vector (rest length at 4), with critical deformation `tau` (slot 6, after the
+/// vector of [`params`]).
+fn pass(links: &[[u32; 2]], tau: f64) -> Limited {
+    Limited(
+        ProvotPass {
+            links: links
+                .iter()
+                .map(|&[i, j]| ProvotLink {
+                    i,
+                    j,
+                    param: 3,
+                    tau: 6,
+                })
+                .collect(),
+        },
+        tau,
+    )
+}
+
+/// A pass and its τc, appended to the parameter vector it is applied with.
+struct Limited(ProvotPass, f64);
+
+impl Limited {
+    fn apply(&self, p: &[f64], x: &mut [Vec3], free: &[bool]) {
+        let mut with_tau = p.to_vec();
+        with_tau.push(self.1);
+        self.0.apply(&with_tau, x, free);
     }
 }
 
@@ -105,7 +120,7 @@ fn the_correction_also_corrects_the_velocity() {
     let mut t = LinkType::new("s", LinkKind::Spring)
         .with("stiffness", 0.0)
         .with("rest_length", 1.0);
-    t.max_elongation = Some(0.25);
+    t.set_optional(OptionalParam::MaxElongation, Some(0.25.into()));
     s.add_type(t);
     s.add_link("s", &[0, 1]);
     let traj = s.simulate(5).unwrap();
@@ -114,7 +129,7 @@ fn the_correction_also_corrects_the_velocity() {
         assert_eq!(traj.pos(n, 1), v(1.25, 0.0, 0.0), "frame {n}");
     }
     // Without the limit they fly apart.
-    s.types[0].max_elongation = None;
+    s.types[0].set_optional(OptionalParam::MaxElongation, None);
     let free = s.simulate(5).unwrap();
     assert_eq!(free.pos(4, 1).x, 1.25 + 4.0 * 0.25);
 }
@@ -131,7 +146,7 @@ fn a_scene_applies_the_limit_after_the_position_update_in_link_order() {
     let mut t = LinkType::new("s", LinkKind::Spring)
         .with("stiffness", 0.0)
         .with("rest_length", 1.0);
-    t.max_elongation = Some(0.25);
+    t.set_optional(OptionalParam::MaxElongation, Some(0.25.into()));
     s.add_type(t);
     s.add_link("s", &[0, 1]);
     s.add_link("s", &[1, 2]);

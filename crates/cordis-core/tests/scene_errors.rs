@@ -511,6 +511,37 @@ fn max_elongation_must_be_positive() {
 }
 
 #[test]
+fn an_unknown_max_elongation_box_must_be_positive() {
+    scene_error(
+        &with("/types/rib/max_elongation", json!({"min": 0, "max": 0.5})),
+        "types.rib.max_elongation.min",
+        "must be a positive number, got 0",
+    );
+    scene_error(
+        &with(
+            "/types/rib/max_elongation",
+            json!({"min": -0.2, "max": -0.1}),
+        ),
+        "types.rib.max_elongation.min",
+        "must be a positive number, got -0.2",
+    );
+}
+
+#[test]
+fn damping_quadratic_must_not_be_negative() {
+    scene_error(
+        &with("/types/rib/damping_quadratic", json!(-0.5)),
+        "types.rib.damping_quadratic",
+        "must be a non-negative number, got -0.5",
+    );
+    scene_error(
+        &with("/types/rib/damping_quadratic", json!({"min": -1, "max": 2})),
+        "types.rib.damping_quadratic.min",
+        "must be a non-negative number, got -1",
+    );
+}
+
+#[test]
 fn no_input_panics() {
     // A sweep of junk in every slot of the base scene: errors, never a panic.
     let junk = [

@@ -40,7 +40,7 @@ fn main() {
     let rel: f64 = args.get(4).map_or(1e-3, |s| s.parse().unwrap());
     let mut truth = cloth(side, side);
     for t in &mut truth.types {
-        t.max_elongation = None;
+        t.set_optional(cordis_core::OptionalParam::MaxElongation, None);
     }
     let traj = truth.simulate(frames).unwrap();
     let sigma = rel * traj.scale();

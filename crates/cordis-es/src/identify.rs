@@ -358,8 +358,11 @@ pub fn with_unknown_boxes(scene: &cordis_core::Scene, width: f64, seed: u64) -> 
                 continue;
             }
             // A TGR's tendon is the experimenter's transducer, not the body: it stays known
-            // (thesis Table 6.1 identifies the link and the medium).
+            // (thesis Table 6.1 identifies the link and the medium). The optional parameters
+            // (Provot's τc, a quadratic viscosity) stay known too, and draw nothing, so a scene
+            // gets the boxes it got before they existed: give them a box in the file.
             if v <= 0.0
+                || cordis_core::OptionalParam::from_name(name).is_some()
                 || name == "rest_cos"
                 || name == "gain"
                 || name == "threshold"

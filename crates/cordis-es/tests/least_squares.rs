@@ -47,7 +47,7 @@ mod least_squares_report {
 fn linear_cloth(nx: usize, ny: usize) -> Scene {
     let mut s = cloth(nx, ny);
     for t in &mut s.types {
-        t.max_elongation = None;
+        t.set_optional(cordis_core::OptionalParam::MaxElongation, None);
     }
     s
 }

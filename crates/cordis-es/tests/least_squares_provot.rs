@@ -48,7 +48,7 @@ fn run(
 fn limit_acts(truth: &Scene, frames: usize) -> bool {
     let mut free = truth.clone();
     for t in &mut free.types {
-        t.max_elongation = None;
+        t.set_optional(cordis_core::OptionalParam::MaxElongation, None);
     }
     truth.simulate(frames).unwrap().as_flat() != free.simulate(frames).unwrap().as_flat()
 }
@@ -145,7 +145,7 @@ fn a_type_always_at_its_limit_is_reported_undetermined() {
         .with("stiffness", 1.0)
         .with("rest_length", 0.1)
         .with("damping", 0.0);
-    rod.max_elongation = Some(0.05);
+    rod.set_optional(cordis_core::OptionalParam::MaxElongation, Some(0.05.into()));
     truth.add_type(rod);
     truth.add_type(
         LinkType::new("coil", LinkKind::Spring)

@@ -14,7 +14,7 @@ use cordis_es::strategies::least_squares;
 fn a_cloth_beyond_the_dense_threshold_is_fitted_matrix_free_far_below_the_short_cost() {
     let mut truth = cloth(10, 10);
     for t in &mut truth.types {
-        t.max_elongation = None;
+        t.set_optional(cordis_core::OptionalParam::MaxElongation, None);
     }
     let traj = truth.simulate(60).unwrap();
     let sigma = 1e-3 * traj.scale();

@@ -1,7 +1,7 @@
 //! Provot's cloth (§4.2): a square mesh with six spring types and an elongation limit.
 
 use super::{q, q3};
-use crate::{LinkKind, LinkType, Particle, Scene};
+use crate::{LinkKind, LinkType, OptionalParam, Particle, Scene};
 
 /// The cloth is meant to be simulated for 400 frames (0.8 s at dt = 0.002 s): it falls from
 /// horizontal, swings past the vertical and stretches against the Provot limit.
@@ -46,7 +46,7 @@ pub fn cloth(nx: usize, ny: usize) -> Scene {
             .with("rest_length", l0)
             .with("damping", z);
         if name.starts_with("structural") {
-            t.max_elongation = Some(TAU_C);
+            t.set_optional(OptionalParam::MaxElongation, Some(TAU_C.into()));
         }
         scene.add_type(t);
     }

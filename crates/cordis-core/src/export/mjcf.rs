@@ -28,7 +28,8 @@
 //!
 //! **What is refused** (one line naming every kind and type): angle links (no MuJoCo potential
 //! of a cosine), conditional links (pairs found each step), nonlinear drag, muscles, TGRs,
-//! quadripoles and transmitters (state and signals), Provot's `max_elongation` (a projection
+//! quadripoles and transmitters (state and signals), a spring's `damping_quadratic` (a tendon
+//! has no quadratic damping), Provot's `max_elongation` (a projection
 //! after the step, not a force), extra worlds (another `dt`), unknown parameters, and a tendon
 //! of zero length at the start (MuJoCo gives it a direction where CORDIS takes `u = 0`).
 
@@ -81,11 +82,17 @@ pub fn mjcf_refusal(scene: &Scene) -> Option<CordisError> {
         if let Some(kind) = used_as {
             note(kind, &t.name, format!("types.{}.kind", t.name));
         }
-        if t.max_elongation.is_some() {
+        for which in &t.optional {
+            let what = match which {
+                crate::OptionalParam::MaxElongation => {
+                    "spring max_elongation (Provot's projection)"
+                }
+                crate::OptionalParam::DampingQuadratic => "damping_quadratic (a viscosity Z₂ s|s|)",
+            };
             note(
-                "spring max_elongation (Provot's projection)".into(),
+                what.into(),
                 &t.name,
-                format!("types.{}.max_elongation", t.name),
+                format!("types.{}.{}", t.name, which.name()),
             );
         }
         for (k, p) in t.params.iter().enumerate() {

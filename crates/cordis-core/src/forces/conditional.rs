@@ -3,13 +3,16 @@
 //! costs O(N) plus the active pairs, never O(N²).
 
 use super::grid::Grid;
-use super::spring::spring_force;
+use super::spring::{spring_force, spring_force_quadratic};
 use crate::Vec3;
 
 #[derive(Clone, Debug, Default)]
 pub struct ConditionalPass {
     /// Offset of the type's parameters: K, l0, Z, range.
     pub param: usize,
+    /// Slot of the type's quadratic viscosity Z₂ (N·s²/m²), when it has one: each pair's
+    /// force gains `Z₂ s |s|` along it, as a spring's ([`super::spring`]).
+    pub quadratic: Option<usize>,
     /// Members of the first group.
     pub a: Vec<u32>,
     /// Members of the second group, or `None` for pairs within `a`.
@@ -111,7 +114,14 @@ impl ConditionalPass {
         part: Part,
     ) {
         let (k, l0, z) = (p[self.param], p[self.param + 1], p[self.param + 2]);
-        if z == 0.0 {
+        let z2 = self.quadratic.map_or(0.0, |s| p[s]);
+        if z2 != 0.0 {
+            self.for_each_active_pair_in(p, x, grid, part, |i, j, _| {
+                let fi = spring_force_quadratic((&x[i], &x[j]), (&v[i], &v[j]), [k, l0, z, z2]);
+                f[i] += fi;
+                f[j] -= fi;
+            });
+        } else if z == 0.0 {
             self.for_each_active_pair_in(p, x, grid, part, |i, j, _| {
                 let fi = spring_force::<false>(&x[i], &x[j], &v[i], &v[j], k, l0, 0.0);
                 f[i] += fi;

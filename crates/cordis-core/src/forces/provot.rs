@@ -13,8 +13,9 @@ pub struct ProvotLink {
     pub j: u32,
     /// Offset of the spring type's parameters (rest length at `param + 1`).
     pub param: usize,
-    /// Critical deformation rate τc.
-    pub tau: f64,
+    /// Slot of the type's critical deformation rate τc in the parameter vector (an
+    /// identifiable parameter, thesis Table 4.1).
+    pub tau: usize,
 }
 
 #[derive(Clone, Debug, Default)]
@@ -44,7 +45,7 @@ impl ProvotPass {
     ) {
         for l in &self.links {
             let (i, j) = (l.i as usize, l.j as usize);
-            let limit = (1.0 + l.tau) * p[l.param + 1] * factor;
+            let limit = (1.0 + p[l.tau]) * p[l.param + 1] * factor;
             let d = x[j] - x[i];
             // Most links are within their limit: skip the square root when the squared length
             // is clearly below (the margin keeps the decision identical to `len > limit`).

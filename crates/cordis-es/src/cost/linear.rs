@@ -34,7 +34,7 @@ use super::sqrt_form;
 use crate::error::CostError;
 use cordis_core::forces::unit_and_length;
 use cordis_core::forces::MIN_LENGTH;
-use cordis_core::{LinkKind, Param, Plan, Scene, Trajectory, Vec3};
+use cordis_core::{LinkKind, OptionalParam, Param, Plan, Scene, Trajectory, Vec3};
 
 /// What one entry of θ is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -76,7 +76,7 @@ pub struct LinearShortCost {
 
 impl LinearShortCost {
     /// Builds the forms for `scene` observed as `traj`: `Ok(None)` when the scene is not linear
-    /// in its parameters (a Provot limit, a nonlinear drag link, an unknown mass of a free
+    /// in its parameters or has no form here (a Provot limit, a quadratic viscosity, a nonlinear drag link, an unknown mass of a free
     /// particle, a conditional type with an unknown range).
     pub fn new(scene: &Scene, traj: &Trajectory) -> Result<Option<Self>, CostError> {
         let plan = Plan::compile(scene)?;
@@ -87,7 +87,13 @@ impl LinearShortCost {
     pub(crate) fn build(scene: &Scene, plan: &Plan, obs: &Observed) -> Option<Self> {
         // Several worlds: per-particle dt and gravity on the main world only; the generic path
         // handles them (such scenes couple worlds through nonlinear couplings anyway).
-        if !plan.provot.links.is_empty()
+        // A quadratic viscosity's θ (Z₂) has no entry here: the generic design takes it.
+        let quadratic = scene
+            .types
+            .iter()
+            .any(|t| t.optional_param(OptionalParam::DampingQuadratic).is_some());
+        if quadratic
+            || !plan.provot.links.is_empty()
             || !plan.nonlinear_drags.particles.is_empty()
             || plan.worlds.is_some()
         {

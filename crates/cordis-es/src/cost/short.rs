@@ -9,6 +9,7 @@ use super::kernels::{springs, PairGeometry, SpringBuf};
 use super::kind::CostKind;
 use super::objective::{CostScratch, Objective};
 use crate::error::CostError;
+use cordis_core::forces::spring::spring_force_quadratic;
 use cordis_core::world::{Clock, OneClock, WorldClock};
 use cordis_core::Vec3;
 use std::ops::Range;
@@ -22,8 +23,14 @@ impl Objective {
         let f = &mut s.core.f;
         let buf = &mut s.springs;
         f.fill(Vec3::zeros());
-        for r in &plan.springs.runs {
-            let kz = [p[r.param], p[r.param + 1], p[r.param + 2]];
+        for (ri, r) in plan.springs.runs.iter().enumerate() {
+            let z2 = plan.springs.quadratic.get(ri).copied().flatten();
+            let kz = [
+                p[r.param],
+                p[r.param + 1],
+                p[r.param + 2],
+                z2.map_or(0.0, |s| p[s]),
+            ];
             let pairs = &plan.springs.pairs;
             let g = geo.springs.as_ref();
             listed_springs(g, (t, x, v), pairs, r.start..r.end, kz, f, buf);
@@ -39,7 +46,8 @@ impl Objective {
         for (((c, grid), known), g) in passes.zip(&self.obs.pairs).zip(&geo.conditionals) {
             match known {
                 Some(known) if c.range(p) == known.range => {
-                    let kz = [p[c.param], p[c.param + 1], p[c.param + 2]];
+                    let z2 = c.quadratic.map_or(0.0, |s| p[s]);
+                    let kz = [p[c.param], p[c.param + 1], p[c.param + 2], z2];
                     let pairs = known.at(t);
                     listed_springs(g.as_ref(), (t, x, v), pairs, 0..pairs.len(), kz, f, buf);
                 }
@@ -263,16 +271,32 @@ pub(crate) fn squared_error(a: &Vec3, b: &Vec3) -> f64 {
 }
 
 /// Spring forces of `pairs[range]` at observed frame `t` (positions x, velocities v), from
-/// the precomputed geometry when there is one; `kz` = [K, l0, Z].
+/// the precomputed geometry when there is one; `kz` = [K, l0, Z, Z₂]. One branch per call
+/// (a run of one type), none per link.
 fn listed_springs(
     geo: Option<&PairGeometry>,
     (t, x, v): (usize, &[Vec3], &[Vec3]),
     pairs: &[[u32; 2]],
     range: Range<usize>,
-    kz: [f64; 3],
+    [k, l0, z, z2]: [f64; 4],
     f: &mut [Vec3],
     buf: &mut SpringBuf,
 ) {
+    if z2 != 0.0 {
+        match geo {
+            Some(g) => g.springs_quadratic(t, range, pairs, [k, l0, z, z2], f),
+            None => {
+                for &[i, j] in &pairs[range] {
+                    let (i, j) = (i as usize, j as usize);
+                    let fi = spring_force_quadratic((&x[i], &x[j]), (&v[i], &v[j]), [k, l0, z, z2]);
+                    f[i] += fi;
+                    f[j] -= fi;
+                }
+            }
+        }
+        return;
+    }
+    let kz = [k, l0, z];
     // Z = 0 skips the velocity terms, as the core's kernel does (same bits).
     let damped = kz[2] != 0.0;
     match (geo, damped) {

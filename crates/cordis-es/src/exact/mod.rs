@@ -4,8 +4,16 @@
 //!
 //! **θ** (the columns, [`Col`]): per type `(K, K·l0, Z)` for springs, anchors and conditional
 //! links (at a given range), `(Z)` for dampers and drags, `(z1, z2)` for a nonlinear drag (at a
-//! given v_max), `(K, K·c0)` for angles; gravity is known (a constant). Every prediction
-//! residual is affine in θ.
+//! given v_max), `(K, K·c0)` for angles; gravity is known (a constant); and `Z₂` of a spring
+//! or conditional type with a `damping_quadratic` (its force `Z₂ s |s|` is linear in Z₂ at
+//! the observed rates). Every prediction residual is affine in θ.
+//!
+//! **Provot's τc** (`max_elongation`) is refused when it is unknown, by name: the solvers
+//! leave out the rows the limit acts on ([`self::provot_rows`]), and those rows are the only
+//! ones that depend on τc, so the system carries no information on it. Profiling it as a
+//! range is not sound either: the rows left out grow as τc falls, and a cost over fewer rows
+//! is smaller, so the profile would fall to the smallest τc whatever the data. A known τc is
+//! used as before.
 //!
 //! **The system** ([`System`]): blocks of rows `[Φ | a]` whose sum of squares `Σ |Φθ + m a|²`
 //! is the cost. Either one block from [`LinearShortCost::factor`] (known masses, position space:
@@ -49,7 +57,7 @@ pub(crate) mod tgr_cols;
 
 use std::collections::HashMap;
 
-use cordis_core::{LinkKind, Scene, Vec3};
+use cordis_core::{LinkKind, OptionalParam, Param, Scene, Vec3};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
@@ -86,6 +94,8 @@ pub(crate) enum Col {
     /// Rest length l0 of TGR type t (m), at the TGR's K and tendon in `p`: its force is affine
     /// in (l0, Z) through the tendon (see [`self::tgr_cols`]).
     Rest(usize),
+    /// Z₂ of type t (N·s²/m²): a spring's or conditional type's `damping_quadratic`.
+    Quadratic(usize),
     /// θ = 1: the forces at every linear parameter 0 with the nonlinear ones in `p` (a TGR's
     /// `K (L - y)` at l0 = Z = 0 and the signal's push through the tendon), N.
     Known,
@@ -129,9 +139,20 @@ pub(crate) fn generic_cols(scene: &Scene) -> Result<Vec<Col>, String> {
     }
     let mut cols = Vec::new();
     for (t, ty) in scene.types.iter().enumerate() {
+        if ty.max_elongation().is_some_and(Param::is_unknown) {
+            return Err(format!(
+                "types.{}.max_elongation: the exact solvers leave out the rows Provot's limit \
+                 acts on, the only rows that depend on τc, so they cannot identify it: use \
+                 levenberg-marquardt or an evolution strategy",
+                ty.name
+            ));
+        }
         match ty.kind {
             LinkKind::Spring | LinkKind::Anchor | LinkKind::Conditional => {
-                cols.extend([Col::K(t), Col::KRest(t), Col::Z(t)])
+                cols.extend([Col::K(t), Col::KRest(t), Col::Z(t)]);
+                if ty.optional_param(OptionalParam::DampingQuadratic).is_some() {
+                    cols.push(Col::Quadratic(t));
+                }
             }
             LinkKind::Damper | LinkKind::Drag => cols.push(Col::Z(t)),
             LinkKind::NonlinearDrag => cols.extend([Col::Z(t), Col::Z2(t)]),
@@ -221,8 +242,16 @@ pub(crate) fn slots(scene: &Scene, t: usize) -> (usize, usize, usize) {
     }
 }
 
-/// The slots of the θ-linear parameters of every type (K, l0, Z, c0, z1, z2): not ranges
-/// and not v_max.
+/// Slot of type t's Z₂ (`damping_quadratic`); t must have one.
+pub(crate) fn quadratic_slot(scene: &Scene, t: usize) -> usize {
+    let k = scene.types[t]
+        .optional_index(OptionalParam::DampingQuadratic)
+        .expect("a Quadratic column's type has damping_quadratic");
+    scene.param_layout().type_offsets[t] + k
+}
+
+/// The slots of the θ-linear parameters of every type (K, l0, Z, c0, z1, z2, Z₂): not
+/// ranges and not v_max.
 fn linear_slots(scene: &Scene) -> Vec<usize> {
     let layout = scene.param_layout();
     let mut out = Vec::new();
@@ -239,6 +268,9 @@ fn linear_slots(scene: &Scene) -> Vec<usize> {
             continue;
         }
         out.extend(o..o + n);
+        if let Some(k) = ty.optional_index(OptionalParam::DampingQuadratic) {
+            out.push(o + k);
+        }
     }
     out
 }
@@ -329,6 +361,10 @@ pub(crate) fn design_rows(
             Col::G(_) => None, // never a generic column: gravity is in the `a` column
             Col::Rest(t) => {
                 q[slots(scene, t).1] = 1.0;
+                None
+            }
+            Col::Quadratic(t) => {
+                q[quadratic_slot(scene, t)] = 1.0;
                 None
             }
             Col::Known => None, // the zero probe itself (not run again below)
@@ -443,6 +479,7 @@ pub(crate) fn theta_of(scene: &Scene, c: Col, p: &[f64]) -> f64 {
         }
         Col::G(axis) => p[scene.param_layout().gravity_offset + axis],
         Col::Rest(t) => p[slots(scene, t).1],
+        Col::Quadratic(t) => p[quadratic_slot(scene, t)],
         Col::Known => 1.0,
     }
 }
@@ -487,8 +524,12 @@ pub(crate) fn reduce(scene: &Scene, cols: &[Col], p: &[f64], free: &[bool]) -> R
                 }
             }
             Col::G(axis) => (None, p[gravity + axis]),
-            Col::Rest(t) => {
-                let s = slots(scene, t).1;
+            Col::Rest(_) | Col::Quadratic(_) => {
+                let s = match *c {
+                    Col::Rest(t) => slots(scene, t).1,
+                    Col::Quadratic(t) => quadratic_slot(scene, t),
+                    _ => unreachable!(),
+                };
                 if free[s] {
                     (Some((get(s, None, &mut xi), 1.0)), 0.0)
                 } else {

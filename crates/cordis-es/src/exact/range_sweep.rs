@@ -218,7 +218,9 @@ impl<'a> Sweeper<'a> {
         let zero_cols: Vec<bool> = cols
             .iter()
             .map(|c| match *c {
-                Col::K(t) | Col::KRest(t) | Col::Z(t) | Col::Z2(t) => searched.contains(&t),
+                Col::K(t) | Col::KRest(t) | Col::Z(t) | Col::Z2(t) | Col::Quadratic(t) => {
+                    searched.contains(&t)
+                }
                 // A TGR's columns never depend on a range.
                 Col::G(_) | Col::Rest(_) | Col::Known => false,
             })

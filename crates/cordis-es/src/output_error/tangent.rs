@@ -35,7 +35,7 @@
 //! vectorises).
 
 use cordis_core::plan::{Plan, Scratch};
-use cordis_core::{LinkKind, Runaway, Scene, Vec3};
+use cordis_core::{LinkKind, OptionalParam, Runaway, Scene, Vec3};
 
 use super::observations::Take;
 use crate::error::CostError;
@@ -130,10 +130,20 @@ impl Tangent {
                     ),
                 ));
             }
-            if ty.max_elongation.is_some() && used {
+            if ty.max_elongation().is_some() && used {
                 return Err(CostError::mismatch(
                     format!("types.{}.max_elongation", ty.name),
                     "a Provot limit has no exact sensitivities yet (output-error)",
+                ));
+            }
+            if used
+                && ty
+                    .optional_param(OptionalParam::DampingQuadratic)
+                    .is_some_and(|z| !z.is_known_zero())
+            {
+                return Err(CostError::mismatch(
+                    format!("types.{}.damping_quadratic", ty.name),
+                    "a quadratic viscosity has no exact sensitivities yet (output-error)",
                 ));
             }
         }

@@ -19,6 +19,8 @@ pub enum Role {
     Range,
     /// v_max of a nonlinear drag.
     Speed,
+    /// Provot's critical deformation rate τc (`max_elongation`, 1).
+    Elongation,
     Mass,
     /// A muscle neuron's gain, threshold or weight (SPEC §2.4): any sign for the last two.
     Neural,
@@ -100,9 +102,10 @@ impl ParameterSpace {
                         "rest_cos" => Role::RestCos,
                         "range" => Role::Range,
                         "v_max" => Role::Speed,
+                        "max_elongation" => Role::Elongation,
                         "gain" | "threshold" => Role::Neural,
                         w if w.starts_with("w_") => Role::Neural,
-                        _ => Role::Damping, // damping, z1, z2
+                        _ => Role::Damping, // damping, z1, z2, damping_quadratic
                     };
                     unknowns.push(Unknown {
                         name: format!("types.{}.{}", ty.name, pname),

@@ -55,7 +55,7 @@ pub fn cloth(w: usize, h: usize, provot: bool) -> Scene {
         .with("rest_length", a)
         .with("damping", 0.02);
     if provot {
-        structural.max_elongation = Some(0.1);
+        structural.set_optional(cordis_core::OptionalParam::MaxElongation, Some(0.1.into()));
     }
     s.add_type(structural);
     s.add_type(
@@ -489,9 +489,11 @@ pub fn naive_step(scene: &Scene, p: &[f64], x: &[V], xp: &[V], fixed_next: &[V])
         .collect();
     for l in &scene.links {
         let t = &scene.types[l.type_index];
-        let Some(tau) = t.max_elongation else {
+        // τc is a parameter (thesis Table 4.1): read from p, after the spring's three.
+        let Some(k) = t.optional_index(cordis_core::OptionalParam::MaxElongation) else {
             continue;
         };
+        let tau = p[off[l.type_index] + k];
         let (i, j) = (l.particles[0], l.particles[1]);
         let limit = (1.0 + tau) * p[off[l.type_index] + 1];
         let (u, len) = unit(sub(next[j], next[i]));
