@@ -41,7 +41,8 @@ if TYPE_CHECKING:  # pragma: no cover - typing only
 
     from ._cordis import CostReport, IdentifyResult, Scene
 
-__all__ = ["animate", "convergence", "local_costs", "pareto", "trajectories"]
+__all__ = ["animate", "convergence", "local_costs", "marker_series", "pareto", "residuals",
+           "trajectories"]
 
 _INSTALL_HINT = (
     "cordis.plot needs matplotlib: install it with `pip install cordis-anima[plot]` "
@@ -388,6 +389,130 @@ def trajectories(
     return fig
 
 
+# ---------------------------------------------------------------- observed against model
+
+
+def _observed_and_model(observed: Any, model: Any) -> Tuple[np.ndarray, np.ndarray]:
+    """``observed`` (NaN where missing) and ``model`` over their common frames and particles
+    (the model may be longer, and hold particles beyond the observed ones)."""
+    obs = _positions(observed, "observed")
+    mod = _positions(model, "model")
+    if mod.shape[1] < obs.shape[1]:
+        raise ValueError(f"model: {mod.shape[1]} particles for {obs.shape[1]} observed")
+    count = min(len(obs), len(mod))
+    if count < 2:
+        raise ValueError(f"observed and model share {count} frame(s): at least 2 are needed")
+    if not np.isfinite(mod[:count, : obs.shape[1]]).all():
+        raise ValueError("model: positions must be finite (a diverged replay has nothing to plot)")
+    return obs[:count], mod[:count, : obs.shape[1]]
+
+
+def _errors(obs: np.ndarray, mod: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    """The RMS position error over the observed coordinates at each frame and per particle,
+    m (NaN where nothing was observed)."""
+    sq = (mod - obs) ** 2
+    seen = np.isfinite(sq)
+    sq = np.where(seen, sq, 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        per_frame = np.sqrt(sq.sum(axis=(1, 2)) / seen.sum(axis=(1, 2)))
+        per_particle = np.sqrt(sq.sum(axis=(0, 2)) / seen.sum(axis=(0, 2)))
+    return per_frame, per_particle
+
+
+def marker_series(
+    observed: Any,
+    model: Any,
+    dt: float = 1.0,
+    markers: Optional[Sequence[int]] = None,
+    labels: Sequence[str] = ("observed", "model"),
+    max_markers: int = 6,
+) -> "Figure":
+    """Per-marker time series: x(t), y(t), z(t) observed (dots; NaN gaps left out) against the
+    model's (lines), one row per marker, one column per axis.
+
+    ``observed`` ``(T, N, 3)`` (NaN where missing) and ``model`` ``(T', N', 3)`` hold the same
+    particles in the same order (the model may be longer or hold more); ``dt`` (s) scales the
+    time axis. ``markers`` lists the particles shown; by default the ``max_markers`` worst
+    fitted (largest RMS error), so that a figure of a large scene stays readable.
+
+    >>> fig = cordis.plot.marker_series(traj, res.scene.simulate(len(traj)), dt=truth.dt)
+    >>> fig.savefig("markers.png")
+    """
+    obs, mod = _observed_and_model(observed, model)
+    if not (np.isfinite(dt) and dt > 0):
+        raise ValueError(f"dt: expected a positive time step (s), got {dt!r}")
+    if len(labels) != 2:
+        raise ValueError(f"labels: expected two names (observed, model), got {len(labels)}")
+    _, per_particle = _errors(obs, mod)
+    if markers is None:
+        if max_markers < 1:
+            raise ValueError(f"max_markers: expected 1 or more, got {max_markers}")
+        seen = np.flatnonzero(np.isfinite(per_particle))
+        if len(seen) == 0:
+            raise ValueError("observed: no marker is observed at any frame")
+        worst = seen[np.argsort(-per_particle[seen], kind="stable")][:max_markers]
+        markers = sorted(int(i) for i in worst)
+    markers = [int(m) for m in markers]
+    if not markers:
+        raise ValueError("markers: expected at least one particle")
+    for m in markers:
+        if not 0 <= m < obs.shape[1]:
+            raise ValueError(f"markers: particle {m} is outside 0..{obs.shape[1] - 1}")
+    t = np.arange(len(obs)) * dt
+    plt = _pyplot()
+    fig, axes = plt.subplots(len(markers), 3, figsize=(9.0, 1.7 * len(markers) + 0.8),
+                             squeeze=False, sharex=True, layout="constrained")
+    for row, m in enumerate(markers):
+        for k in range(3):
+            ax = axes[row][k]
+            ax.plot(t, mod[:, m, k], color=_IDENTIFIED, linewidth=1.2,
+                    label=labels[1] if row == 0 and k == 0 else None)
+            seen = np.isfinite(obs[:, m, k])
+            ax.plot(t[seen], obs[seen, m, k], ".", color=_ORIGINAL, markersize=3,
+                    label=labels[0] if row == 0 and k == 0 else None)
+            ax.tick_params(labelsize="small")
+            if row == 0:
+                ax.set_title(f"{'xyz'[k]} (m)", fontsize="medium")
+            if k == 0:
+                rms = per_particle[m]
+                shown = f"RMS {rms:.3g} m" if np.isfinite(rms) else "never observed"
+                ax.set_ylabel(f"particle {m}\n{shown}", fontsize="small")
+            if row == len(markers) - 1:
+                ax.set_xlabel("t (s)")
+    # Outside every panel: a legend never hides a curve.
+    fig.legend(loc="outside upper center", ncol=2, fontsize="small")
+    return fig
+
+
+def residuals(observed: Any, model: Any, dt: float = 1.0) -> "Figure":
+    """The model's position error against the observation: the RMS over the observed
+    coordinates at each frame (left, against time) and per particle (right), m, gaps (NaN)
+    left out. ``observed``, ``model`` and ``dt`` as for :func:`marker_series`.
+
+    >>> fig = cordis.plot.residuals(traj, res.scene.simulate(len(traj)), dt=truth.dt)
+    """
+    obs, mod = _observed_and_model(observed, model)
+    if not (np.isfinite(dt) and dt > 0):
+        raise ValueError(f"dt: expected a positive time step (s), got {dt!r}")
+    per_frame, per_particle = _errors(obs, mod)
+    plt = _pyplot()
+    fig, (over_time, by_particle) = plt.subplots(1, 2, figsize=(9.0, 3.2),
+                                                 layout="constrained")
+    t = np.arange(len(obs)) * dt
+    over_time.plot(t, per_frame, color=_IDENTIFIED)
+    over_time.set_xlabel("t (s)")
+    over_time.set_ylabel("RMS position error (m)")
+    over_time.set_title("over time", fontsize="medium")
+    shown = np.where(np.isfinite(per_particle), per_particle, 0.0)
+    by_particle.bar(np.arange(len(per_particle)), shown, color=_ORIGINAL)
+    by_particle.set_xlabel("particle")
+    by_particle.set_ylabel("RMS position error (m)")
+    by_particle.set_title("per particle", fontsize="medium")
+    for ax in (over_time, by_particle):
+        ax.tick_params(labelsize="small")
+    return fig
+
+
 # ---------------------------------------------------------------- local costs
 
 
@@ -549,13 +674,17 @@ def animate(
     fps: int = 30,
     every: int = 1,
     plane: Optional[str] = None,
+    width: float = 5.0,
+    dpi: int = 80,
 ) -> pathlib.Path:
     """Writes the motion ``traj`` ``(T, N, 3)`` of ``scene`` as an animated GIF or MP4.
 
     The format follows the extension: ``.gif`` (Pillow, installed with matplotlib) or
     ``.mp4`` (needs ``ffmpeg`` on PATH). ``compare`` is a second motion of the same scene
     (e.g. the identified model's), drawn dashed over the first. ``every`` keeps one frame in
-    ``every``; ``fps`` is the playback rate. Returns the path written.
+    ``every``; ``fps`` is the playback rate. ``width`` (inches) and ``dpi`` set the picture's
+    size, ``width × dpi`` pixels across (the height follows the motion's shape). Returns the
+    path written.
 
     >>> cordis.animate(scene, scene.simulate(200), "motion.gif", every=2)
     PosixPath('motion.gif')
@@ -570,6 +699,10 @@ def animate(
             raise ValueError(f"compare: {other.shape[1]} particles, traj {pos.shape[1]}")
     if fps <= 0 or every <= 0:
         raise ValueError(f"fps and every must be positive, got fps={fps}, every={every}")
+    if not (np.isfinite(width) and 0.5 <= width <= 50):
+        raise ValueError(f"width: expected inches in [0.5, 50], got {width!r}")
+    if not 10 <= int(dpi) <= 1000 or int(dpi) != dpi:
+        raise ValueError(f"dpi: expected an integer in [10, 1000], got {dpi!r}")
     out = pathlib.Path(path)
     ext = out.suffix.lower()
     if ext not in (".gif", ".mp4"):
@@ -585,9 +718,10 @@ def animate(
     pairs, fixed = _pairs(scene), _fixed(scene)
     a, b = _plane(pos, scene, plane)
     xlim, ylim = _limits([pos[:count]] + ([other[:count]] if other is not None else []), a, b)
-    width, height = xlim[1] - xlim[0], ylim[1] - ylim[0]
-    aspect = min(max(height / width if width > 0 else 1.0, 0.5), 2.0)
-    fig, ax = plt.subplots(figsize=(5.0, 5.0 * aspect + 0.6), dpi=80, layout="constrained")
+    span_x, span_y = xlim[1] - xlim[0], ylim[1] - ylim[0]
+    aspect = min(max(span_y / span_x if span_x > 0 else 1.0, 0.5), 2.0)
+    fig, ax = plt.subplots(figsize=(width, width * aspect + 0.6 * width / 5.0), dpi=dpi,
+                           layout="constrained")
     ax.set_xlim(*xlim)
     ax.set_ylim(*ylim)
     ax.set_aspect("equal")
@@ -605,7 +739,7 @@ def animate(
     writer = PillowWriter(fps=fps) if ext == ".gif" else FFMpegWriter(fps=fps)
     out.parent.mkdir(parents=True, exist_ok=True)
     try:
-        with writer.saving(fig, str(out), dpi=80):
+        with writer.saving(fig, str(out), dpi=dpi):
             for f in frames:
                 for motion, artists in motions:
                     _move_shape(artists, motion[f], pairs, fixed, a, b)

@@ -223,3 +223,55 @@ def test_trajectories_follow_keeps_one_scale_per_column(tmp_path):
     assert (a1 - a0) == pytest.approx(b1 - b0)
     assert fig.axes[0].get_xlim() == fig.axes[2].get_xlim()  # both rows of a column agree
     save(fig, tmp_path / "follow.png")
+
+
+def test_marker_series_draws_observed_dots_against_model_lines(rigid, tmp_path):
+    truth, traj, res = rigid
+    model = res.scene.simulate(len(traj))
+    gappy = traj.copy()
+    gappy[10:20, 4, 1] = np.nan
+    fig = cordis.plot.marker_series(gappy, model, dt=truth.dt)
+    rows = len(fig.axes) // 3
+    assert len(fig.axes) == 3 * rows and rows == 6, "the 6 worst-fitted markers by default"
+    # Each panel: the model's line over every frame, the observed dots over the frames seen.
+    lines = [ax.get_lines() for ax in fig.axes]
+    assert all(len(ln) == 2 and len(ln[0].get_xdata()) == len(traj) for ln in lines)
+    assert len(fig.legends) == 1, "one legend, outside the panels"
+    save(fig, tmp_path / "markers.png")
+    fig = cordis.plot.marker_series(gappy, model, dt=truth.dt, markers=[4])
+    y_panel = fig.axes[1]
+    assert len(y_panel.get_lines()[1].get_xdata()) == len(traj) - 10, "the gap left out"
+    assert y_panel.get_lines()[0].get_xdata()[-1] == pytest.approx((len(traj) - 1) * truth.dt)
+    for bad, says in [(dict(markers=[99]), "outside 0..14"), (dict(dt=0.0), "dt"),
+                      (dict(markers=[]), "at least one")]:
+        with pytest.raises(ValueError, match=says):
+            cordis.plot.marker_series(gappy, model, **bad)
+    with pytest.raises(ValueError, match="finite"):
+        cordis.plot.marker_series(traj, np.full_like(model, np.inf))
+
+
+def test_residuals_over_time_and_per_particle(rigid, tmp_path):
+    truth, traj, res = rigid
+    model = res.scene.simulate(len(traj))
+    fig = cordis.plot.residuals(traj, model, dt=truth.dt)
+    over_time, per_particle = fig.axes
+    err = np.sqrt(((model - traj) ** 2).mean(axis=(1, 2)))
+    np.testing.assert_allclose(over_time.get_lines()[0].get_ydata(), err, rtol=1e-12)
+    heights = [p.get_height() for p in per_particle.patches]
+    np.testing.assert_allclose(heights, np.sqrt(((model - traj) ** 2).mean(axis=(0, 2))),
+                               rtol=1e-12)
+    save(fig, tmp_path / "residuals.png")
+    # The truth against itself: no error anywhere.
+    fig = cordis.plot.residuals(traj, truth.simulate(len(traj)), dt=truth.dt)
+    assert max(fig.axes[0].get_lines()[0].get_ydata()) == 0.0
+
+
+def test_animate_size_follows_width_and_dpi(rigid, tmp_path):
+    truth, traj, _ = rigid
+    small = cordis.animate(truth, traj, tmp_path / "s.gif", every=20, width=3.0, dpi=50)
+    large = cordis.animate(truth, traj, tmp_path / "l.gif", every=20, width=8.0, dpi=100)
+    with Image.open(small) as s, Image.open(large) as big:
+        assert s.size[0] == 150 and big.size[0] == 800, (s.size, big.size)
+    for bad in [dict(width=0.0), dict(width=float("nan")), dict(dpi=5), dict(dpi=72.5)]:
+        with pytest.raises(ValueError, match="width|dpi"):
+            cordis.animate(truth, traj, tmp_path / "x.gif", **bad)
