@@ -71,7 +71,10 @@
 //! - **statistical stopping**: a window stops when a step lowers the cost by less than
 //!   `χ² σ̂²` (the estimate moves by less than √χ² standard errors): [`FINAL_CHI2`] = 0.01 on
 //!   the last window, [`WINDOW_CHI2`] = 1 (or [`WINDOW_FTOL`], or [`WINDOW_ITERATIONS`]) on the
-//!   others, whose only job is to bring the next into the basin. The dense criteria
+//!   others, whose only job is to bring the next into the basin. On the last window the
+//!   criterion is confirmed by the undamped Gauss–Newton decrement `gᵀH⁻¹g ≤ χ² σ̂²` (one CG
+//!   solve at λ ≈ 0): a damped or truncated step gains little along a poorly determined
+//!   parameter however far the optimum is. The dense criteria
 //!   (ftol 1e-10) spend most iterations creeping along parameters held at their bounds;
 //! - the preconditioner's θ columns refreshed every [`COLUMNS_EVERY`] accepted steps.
 //!
@@ -151,6 +154,14 @@ pub const FINAL_CHI2: f64 = 1e-2;
 pub const STDERR_CG_TOL: f64 = 1e-6;
 /// The loosest relative residual of a step's CG solve (far from the optimum).
 pub const STEP_CG_TOL_MAX: f64 = 0.1;
+/// The damping (relative to the Marquardt scale) of the undamped Gauss–Newton solve that
+/// checks the last window's statistical criterion, and that solve's CG settings: the
+/// decrement `gᵀH⁻¹g` to ~1 %, with the standard errors' iteration budget.
+const NEWTON_LAMBDA: f64 = 1e-9;
+const NEWTON_CG: CgSettings = CgSettings {
+    tol: 1e-2,
+    max_iterations: 300,
+};
 /// Halvings of a rejected step tried before a new solve at a larger λ.
 const BACKTRACK: usize = 2;
 /// Iteration budget and relative cost tolerance of every window but the last (they only
@@ -1191,6 +1202,7 @@ pub(crate) fn lm_stage(
     cgset: CgSettings,
     chi2: f64,
     window_ftol: f64,
+    verify_newton: bool,
     counts: &mut Counts,
     cgc: &mut CgCounts,
     work: &mut Work,
@@ -1306,9 +1318,9 @@ pub(crate) fn lm_stage(
             // than `chi2` σ̂² moves the estimate by less than √chi2 standard errors.
             let observed: usize = mf.lins.iter().map(|l| l.observed).sum();
             let s2 = cost / observed.saturating_sub(len).max(1) as f64;
-            let small_gain = small_gain
-                || (reduction <= chi2 * s2 && predicted <= chi2 * s2)
-                || (reduction <= window_ftol * cost && predicted <= window_ftol * cost);
+            let chi2_gain = reduction <= chi2 * s2 && predicted <= chi2 * s2;
+            let small_gain =
+                small_gain || (reduction <= window_ftol * cost && predicted <= window_ftol * cost);
             q.copy_from_slice(&trial);
             counts.evaluations += 1;
             if !mf.linearise(q, window, work) {
@@ -1328,6 +1340,42 @@ pub(crate) fn lm_stage(
             }
             if small_step || small_gain {
                 return StageEnd::Converged;
+            }
+            if chi2_gain {
+                // A damped or truncated step can gain little far from the optimum (along a
+                // poorly determined parameter λD dominates): the statistical criterion holds
+                // only when the undamped Gauss–Newton step would gain as little.
+                if !verify_newton {
+                    return StageEnd::Converged;
+                }
+                let s2 = cost / observed.saturating_sub(len).max(1) as f64;
+                let held = fit.held(q, &DVector::from_column_slice(&g));
+                let pre = Pre::new(mf, &cols, &scale, &held, NEWTON_LAMBDA);
+                let rhs: Vec<f64> = g.iter().map(|x| -x).collect();
+                let (its, ok) = pcg(
+                    mf,
+                    &pre,
+                    &scale,
+                    &held,
+                    NEWTON_LAMBDA,
+                    &rhs,
+                    &mut delta,
+                    NEWTON_CG,
+                    &mut cg,
+                    work,
+                );
+                cgc.solves += 1;
+                cgc.iterations += its;
+                // CG's model decrease -gᵀx grows monotonically to gᵀH⁻¹g: an unconverged
+                // solve that already exceeds the criterion proves there is more to gain.
+                let decrement = -dot(&g, &delta);
+                if ok && decrement.is_finite() && decrement <= chi2 * s2 {
+                    return StageEnd::Converged;
+                }
+                cgc.unconverged += usize::from(!ok);
+                // Go on with near-Gauss–Newton steps.
+                lambda = lambda.min(1e-6);
+                nu = 2.0;
             }
         } else {
             lambda *= nu;
@@ -1484,7 +1532,7 @@ pub(crate) fn stage(
         }
     };
     lm_stage(
-        &mut mf, q, w, set, step_cg, chi2, wftol, counts, cgc, &mut work, halt,
+        &mut mf, q, w, set, step_cg, chi2, wftol, last, counts, cgc, &mut work, halt,
     )
 }
 
