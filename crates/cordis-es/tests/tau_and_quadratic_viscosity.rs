@@ -8,8 +8,8 @@ use cordis_core::{examples, Bounds, LinkKind, LinkType, OptionalParam, Param, Pa
 use cordis_es::cost::CostKind;
 use cordis_es::executor::{self, RunConfig, StopReason, StopRules};
 use cordis_es::problem::Problem;
-use cordis_es::strategies::least_squares;
 use cordis_es::strategies::levenberg_marquardt::{LevenbergMarquardt, LmConfig};
+use cordis_es::strategies::{hybrid, least_squares};
 
 /// `{"min": v / 5, "max": 3 v}`: the truth off-centre in a box 15× wide.
 fn fat_box(v: f64) -> Param {
@@ -145,6 +145,45 @@ fn a_conditional_quadratic_viscosity_is_identified_exactly_by_least_squares() {
     eprintln!("conditional Z₂: error {err:.3e} %, report {:?}", sol.report);
     assert!(sol.report.undetermined.is_empty(), "{:?}", sol.report);
     assert!(err < 1e-6, "mean parameter error {err} %");
+}
+
+/// The viscous type's range unknown too (thesis Table 4.2's "visc dist"): `hybrid`'s range
+/// sweep adds each pair's Z₂ column as the range grows (it used to add K, K·l0 and Z only,
+/// and called Z₂ undetermined). The range comes back inside the interval every value of
+/// which fits, the linear ones exactly.
+#[test]
+fn hybrid_sweeps_a_viscous_range_with_its_quadratic_viscosity() {
+    let truth = two_fluids(true);
+    let traj = truth.simulate(80).unwrap();
+    let mut unknown = two_fluids(false);
+    let r = unknown.types[0].kind.param_index("range").unwrap();
+    unknown.types[0].params[r] = fat_box(0.5);
+    let problem = Problem::new(&unknown, &traj, CostKind::Short)
+        .unwrap()
+        .with_truth(&truth)
+        .unwrap();
+    assert_eq!(problem.dim(), 5);
+    let sol = hybrid::solve(&problem).unwrap();
+    let mut p = vec![0.0; problem.space.base.len()];
+    problem.space.fill_params(&sol.genome, &mut p);
+    eprintln!("hybrid Z₂: cost {:e}, {:?}", sol.cost, sol.report);
+    assert!(sol.report.undetermined.is_empty(), "{:?}", sol.report);
+    // Noiseless data: the model fits to rounding, wherever the range lies in its interval.
+    assert!(problem.rmse(sol.cost) < 1e-12, "cost {}", sol.cost);
+    for u in &problem.space.unknowns {
+        let want = truth.param_values()[u.slot];
+        let tol = if u.name.ends_with("range") {
+            5e-2
+        } else {
+            1e-8
+        };
+        assert!(
+            (p[u.slot] - want).abs() <= tol * want,
+            "{}: {} vs {want}",
+            u.name,
+            p[u.slot]
+        );
+    }
 }
 
 /// The 8×8 cloth (τc = 0.1 on the structural springs) over 100 frames, where the limit acts

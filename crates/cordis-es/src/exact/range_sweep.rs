@@ -24,7 +24,7 @@
 //! rounding of `G` scales with the current residual, not with the accelerations.
 
 use cordis_core::forces::grid::Grid;
-use cordis_core::forces::spring::spring_force;
+use cordis_core::forces::spring::{spring_force, spring_force_quadratic};
 use cordis_core::Vec3;
 use nalgebra::DMatrix;
 
@@ -95,8 +95,9 @@ struct Pair {
 struct Terms {
     /// Row of the first axis of each free end (`usize::MAX`: the end is fixed).
     rows: [usize; 2],
-    /// dt² × force on the first end per unit K, K·l0 and Z (the second end gets minus it).
-    f: [Vec3; 3],
+    /// dt² × force on the first end per unit K, K·l0, Z and Z₂ (the second end gets minus
+    /// it; Z₂'s is 0 unless the type has one).
+    f: [Vec3; 4],
     /// Factor of `f` in each end's rows: `1/m_i` and `-1/m_j` (position weighting).
     inv: [f64; 2],
 }
@@ -105,8 +106,8 @@ struct Terms {
 pub(crate) struct Dim {
     /// Index into `space.unknowns`.
     unknown: usize,
-    /// Columns of the type's K, K·l0 and Z.
-    cols: [usize; 3],
+    /// Columns of the type's K, K·l0 and Z, and Z₂ when it has a `damping_quadratic`.
+    cols: Vec<usize>,
     /// Candidate pairs, by increasing distance.
     pairs: Vec<Pair>,
     /// Sorted distinct observed distances inside the box (the interval bounds).
@@ -242,7 +243,10 @@ impl<'a> Sweeper<'a> {
                 let t = u.type_index.expect("a range belongs to a type");
                 let o = layout.type_offsets[t];
                 let col = |want: Col| cols.iter().position(|&c| c == want).unwrap_or(0);
-                let dim_cols = [col(Col::K(t)), col(Col::KRest(t)), col(Col::Z(t))];
+                let mut dim_cols = vec![col(Col::K(t)), col(Col::KRest(t)), col(Col::Z(t))];
+                if let Some(q) = cols.iter().position(|&c| c == Col::Quadratic(t)) {
+                    dim_cols.push(q);
+                }
                 let mut p = space.base.clone();
                 p[u.slot] = u.max;
                 let mut pairs = Vec::new();
@@ -310,7 +314,7 @@ impl<'a> Sweeper<'a> {
 
     /// The rows' terms of `pair`, from its observed frame (the same operations, in the same
     /// order, as when they were stored: the same bits).
-    fn terms(&self, pair: &Pair) -> Terms {
+    fn terms(&self, pair: &Pair, quadratic: bool) -> Terms {
         let obj = &self.problem.objective;
         let space = &self.problem.space;
         let mass_offset = self.problem.scene.param_layout().mass_offset;
@@ -322,6 +326,11 @@ impl<'a> Sweeper<'a> {
         let fk = spring_force::<false>(xi, xj, vi, vj, 1.0, 0.0, 0.0);
         let fr = spring_force::<false>(xi, xj, vi, vj, 1.0, 1.0, 0.0) - fk;
         let fz = spring_force::<true>(xi, xj, vi, vj, 0.0, 0.0, 1.0);
+        let fq = if quadratic {
+            spring_force_quadratic((xi, xj), (vi, vj), [0.0, 0.0, 0.0, 1.0])
+        } else {
+            Vec3::zeros()
+        };
         let base = (f - 1) * obj.free.len() * 3;
         let row = |l: usize| {
             if l == usize::MAX {
@@ -334,7 +343,7 @@ impl<'a> Sweeper<'a> {
         let dt2 = dt * dt;
         Terms {
             rows: [row(self.free_index[i]), row(self.free_index[j])],
-            f: [fk * dt2, fr * dt2, fz * dt2],
+            f: [fk * dt2, fr * dt2, fz * dt2, fq * dt2],
             inv: [1.0 / mass(i), -1.0 / mass(j)],
         }
     }
@@ -363,7 +372,7 @@ impl<'a> Sweeper<'a> {
         let dim = &self.dims[d];
         let wd = self.width;
         for pair in dim.pairs.iter().take_while(|p| p.d < range) {
-            let pair = self.terms(pair);
+            let pair = self.terms(pair, dim.cols.len() == 4);
             for (&r0, &sign) in pair.rows.iter().zip(&pair.inv) {
                 if r0 == usize::MAX {
                     continue;
@@ -482,14 +491,14 @@ impl<'a> Sweeper<'a> {
         out.clear();
         out.push(schur.bound(&g, cw));
         // The changing compact columns of a pair: the type's unknown ones and the constant.
-        let mut changing: Vec<(usize, Option<usize>, f64)> = Vec::with_capacity(3);
+        let mut changing: Vec<(usize, Option<usize>, f64)> = Vec::with_capacity(4);
         for (c, &k) in dim.cols.iter().enumerate() {
             let m = (pos[k] != usize::MAX).then_some(pos[k]);
             if m.is_some() || theta[k] != 0.0 {
                 changing.push((c, m, theta[k]));
             }
         }
-        let mut dpos = [0usize; 4];
+        let mut dpos = [0usize; 5];
         let mut nd = 0;
         for &(_, m, _) in &changing {
             if let Some(m) = m {
@@ -499,13 +508,13 @@ impl<'a> Sweeper<'a> {
         }
         dpos[nd] = cw - 1;
         let nd = nd + 1;
-        let mut delta = [0.0; 4];
+        let mut delta = [0.0; 5];
         let mut next = dim.pairs.partition_point(|p| p.d < self.middle(d, 0));
         for j in 1..n {
             let range = self.middle(d, j);
             let first = next;
             while next < dim.pairs.len() && dim.pairs[next].d < range {
-                let pair = self.terms(&dim.pairs[next]);
+                let pair = self.terms(&dim.pairs[next], dim.cols.len() == 4);
                 next += 1;
                 for (&r0, &sign) in pair.rows.iter().zip(&pair.inv) {
                     if r0 == usize::MAX {
