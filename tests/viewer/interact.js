@@ -18,6 +18,15 @@ window.addEventListener("load", function () {
     function () {
       steps.initial = state();
       check("starts playing", state()[0] === "playing");
+      // The motions are named by their files (issue 18), not "trajectory" and "compared".
+      var legend = document.querySelector(".legend").textContent;
+      check("the legend names the files",
+            legend.indexOf("A \u00b7 cloth.npy (solid)") >= 0 &&
+            legend.indexOf("B \u00b7 cloth_b.npy (dashed, pale)") >= 0);
+      // ... and it never covers a panel: the scene is drawn left of it.
+      var right = +body.getAttribute("data-scene-right");
+      check("the scene is drawn left of the legend (" + right + " px)", right > 0 &&
+            right <= document.querySelector(".legend").getBoundingClientRect().left);
       key(" ");
     },
     function () {

@@ -33,7 +33,30 @@ pub fn render_html(
     b: Option<&Trajectory>,
     title: &str,
 ) -> Result<String> {
+    render_html_labelled(scene, a, b, title, ["trajectory", "compared"])
+}
+
+/// The longest motion label kept whole, in characters (a longer one is cut with `…`).
+const MAX_LABEL: usize = 48;
+
+/// [`render_html`] with the two motions named `labels` (A, B) in the legend and the
+/// side-by-side panels: `cordis render` passes their file names.
+pub fn render_html_labelled(
+    scene: &Scene,
+    a: &Trajectory,
+    b: Option<&Trajectory>,
+    title: &str,
+    labels: [&str; 2],
+) -> Result<String> {
     scene.validate()?;
+    let labels = labels.map(|l| match l.chars().count() > MAX_LABEL {
+        true => l
+            .chars()
+            .take(MAX_LABEL - 1)
+            .chain(['…'])
+            .collect::<String>(),
+        false => l.to_string(),
+    });
     check("trajectory A", scene, a)?;
     if let Some(b) = b {
         check("trajectory B (--compare)", scene, b)?;
@@ -43,6 +66,7 @@ pub fn render_html(
     let meta = json!({
         "format": "cordis-viewer/1",
         "title": title,
+        "labels": labels,
         "dt": a.dt.unwrap_or(scene.dt),
         "frames": frames,
         "particles": scene.num_particles(),

@@ -22,7 +22,7 @@ use std::fmt::Write as _;
 
 use cordis_core::{CordisError, LinkKind, Observations, Result, Scene, Simulator, Trajectory};
 
-use crate::render::{escape_html, render_html};
+use crate::render::{escape_html, render_html, render_html_labelled};
 use svg::{bar_chart, line_chart, Chart, Series};
 
 /// The most marker panels drawn (the worst-fitted first when there are more).
@@ -711,7 +711,13 @@ fn replay_section(out: &mut String, input: &ReportInput, model: &Trajectory) -> 
         .transpose()?;
     let (page, note) = match &complete {
         Some(observed) => (
-            render_html(input.scene, observed, Some(model), input.title)?,
+            render_html_labelled(
+                input.scene,
+                observed,
+                Some(model),
+                input.title,
+                ["observed", "model"],
+            )?,
             "observed solid, model dashed",
         ),
         None => (

@@ -31,7 +31,14 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         Some(c) => format!("{scene} — {motion} vs {}", super::file_name(c)),
         None => format!("{scene} — {motion}"),
     });
-    let page = crate::render::render_html(&scene, &traj, compare.as_ref(), &title)
+    let labels = [
+        super::file_name(&a.page.trajectory),
+        a.compare
+            .as_deref()
+            .map_or_else(|| "compared".into(), super::file_name),
+    ];
+    let labels = [labels[0].as_str(), labels[1].as_str()];
+    let page = crate::render::render_html_labelled(&scene, &traj, compare.as_ref(), &title, labels)
         .map_err(|e| name_files(e, &a))?;
     write_atomic(&a.page.html, page.as_bytes())?;
     let size = if page.len() < 1_000_000 {

@@ -277,3 +277,21 @@ fn a_plane_is_sent_with_its_unit_normal_and_its_particles() {
     assert_eq!(plane["members"], serde_json::json!([0]));
     assert!(d["types"][0].get("segments").is_none());
 }
+
+/// Issue 18: the viewer's panels and legend were "A · trajectory" and "B · compared" whatever
+/// the files; `cordis render` now names them by their files (cut past 48 characters).
+#[test]
+fn the_motions_are_named_by_their_labels_cut_when_long() {
+    let s = chain(4);
+    let a = s.simulate(5).unwrap();
+    let long = "x".repeat(60);
+    let d = embedded(&render_html_labelled(&s, &a, Some(&a), "t", ["walk.trc", &long]).unwrap());
+    assert_eq!(d["labels"][0], "walk.trc");
+    let cut = d["labels"][1].as_str().unwrap();
+    assert_eq!((cut.chars().count(), cut.ends_with('…')), (48, true));
+    let d = embedded(&render_html(&s, &a, None, "t").unwrap());
+    assert_eq!(d["labels"], serde_json::json!(["trajectory", "compared"]));
+    // The viewer draws them, in the legend and over the side-by-side panels.
+    assert_eq!(super::VIEWER_JS.matches("LABELS[0]").count(), 2);
+    assert_eq!(super::VIEWER_JS.matches("LABELS[1]").count(), 2);
+}

@@ -5,6 +5,9 @@
   "use strict";
 
   var D = JSON.parse(document.getElementById("cordis-data").textContent);
+  // The two motions' names (their file names from `cordis render`), for the legend and the
+  // side-by-side panels; pages written before they were stored say what each motion is.
+  var LABELS = D.labels || ["trajectory", "compared"];
   var N = D.particles;
   var T = D.frames;
   var DT = D.dt > 0 && isFinite(D.dt) ? D.dt : 1 / 30;
@@ -283,11 +286,11 @@
     legend.appendChild(el("h2", "", "Motions"));
     var ra = el("div", "row");
     ra.appendChild(el("span", "swatch motion-a"));
-    ra.appendChild(el("span", "name", "A \u00b7 trajectory (solid)"));
+    ra.appendChild(el("span", "name", "A \u00b7 " + LABELS[0] + " (solid)"));
     legend.appendChild(ra);
     var rb = el("div", "row toggle");
     rb.appendChild(el("span", "swatch motion-b"));
-    rb.appendChild(el("span", "name", "B \u00b7 compared (dashed, pale)"));
+    rb.appendChild(el("span", "name", "B \u00b7 " + LABELS[1] + " (dashed, pale)"));
     rb.title = "click to hide or show";
     rb.addEventListener("click", function () {
       showB = !showB;
@@ -717,11 +720,15 @@
     ctx.clearRect(0, 0, cssW, cssH);
     // The bar at the bottom covers part of the page: centre the scene above it.
     var hUse = cssH - 64;
+    // The legend sits at the top right: the scene is drawn left of it, so that it never
+    // covers a panel (unless the window is too narrow to spare its width).
+    var reserve = legend.offsetWidth + 28;
+    var wUse = reserve <= 0.4 * cssW ? cssW - reserve : cssW;
     if (B && mode === "side") {
-      var half = cssW / 2;
+      var half = wUse / 2;
       // The halves start below the panels, which would otherwise cover them.
-      drawViewport(0, 50, half, hUse - 50, true, false, "A \u00b7 trajectory");
-      drawViewport(half, 50, half, hUse - 50, false, showB, "B \u00b7 compared");
+      drawViewport(0, 50, half, hUse - 50, true, false, "A \u00b7 " + LABELS[0]);
+      drawViewport(half, 50, wUse - half, hUse - 50, false, showB, "B \u00b7 " + LABELS[1]);
       ctx.beginPath();
       ctx.moveTo(half + 0.5, 40);
       ctx.lineTo(half + 0.5, hUse - 20);
@@ -729,10 +736,12 @@
       ctx.lineWidth = 1;
       ctx.stroke();
     } else {
-      drawViewport(0, 0, cssW, hUse, true, !!B && showB, null);
+      drawViewport(0, 0, wUse, hUse, true, !!B && showB, null);
     }
     drawAxes(40, cssH - 110);
     dirty = false;
+    // For tests: the right edge of the scene's drawing area (px), left of the legend.
+    document.body.setAttribute("data-scene-right", wUse.toFixed(0));
     // For tests (headless --dump-dom) and the curious: how fast the last frame was built.
     document.body.setAttribute("data-draw-ms", (performance.now() - started).toFixed(2));
   }
