@@ -250,29 +250,15 @@ pub fn run_typed(
     let mut last_checkpoint: Option<Instant> = None;
     let mut checkpoint_error: Option<String> = None;
     let stopped_by = loop {
-        let (_, best) = strategy.best();
-        if let Some(g) = stop.generations {
-            if generation >= g {
-                break StopReason::Generations;
-            }
-        }
-        if stop.max_evals.is_some_and(|m| problem.evals() >= m) {
-            break StopReason::MaxEvals;
-        }
-        if stop
-            .time_limit
-            .is_some_and(|t| elapsed(&start) >= t.as_secs_f64())
-        {
-            break StopReason::TimeLimit;
-        }
-        if stop.target_cost.is_some_and(|t| best <= t) {
-            break StopReason::TargetCost;
-        }
-        if interrupt.is_some_and(|f| f.load(Ordering::Relaxed)) {
-            break StopReason::Interrupted;
-        }
-        if strategy.finished() {
-            break StopReason::of_finished(&strategy.report());
+        if let Some(reason) = stop_reason(
+            stop,
+            problem,
+            &*strategy,
+            generation,
+            &|| elapsed(&start),
+            interrupt,
+        ) {
+            break reason;
         }
         generation += 1;
         // A progressive horizon grows with the generations: stored costs are then stale.
@@ -337,6 +323,64 @@ pub fn run_typed(
         .err()
         .map(|e| failed_checkpoint(e, generation));
     }
+    Ok(result_at_best(
+        problem,
+        &*strategy,
+        generation,
+        seconds,
+        history,
+        stopped_by,
+        checkpoint_error,
+    ))
+}
+
+/// The stop rule met before generation `generation + 1`, checked in this order: generations,
+/// evaluations, time (`elapsed`, s, read only when there is a limit), target cost, interrupt,
+/// the strategy finished.
+fn stop_reason(
+    stop: &StopRules,
+    problem: &Problem,
+    strategy: &dyn Strategy,
+    generation: u64,
+    elapsed: &dyn Fn() -> f64,
+    interrupt: Option<&AtomicBool>,
+) -> Option<StopReason> {
+    let (_, best) = strategy.best();
+    if stop.generations.is_some_and(|g| generation >= g) {
+        return Some(StopReason::Generations);
+    }
+    if stop.max_evals.is_some_and(|m| problem.evals() >= m) {
+        return Some(StopReason::MaxEvals);
+    }
+    if stop
+        .time_limit
+        .is_some_and(|t| elapsed() >= t.as_secs_f64())
+    {
+        return Some(StopReason::TimeLimit);
+    }
+    if stop.target_cost.is_some_and(|t| best <= t) {
+        return Some(StopReason::TargetCost);
+    }
+    if interrupt.is_some_and(|f| f.load(Ordering::Relaxed)) {
+        return Some(StopReason::Interrupted);
+    }
+    if strategy.finished() {
+        return Some(StopReason::of_finished(&strategy.report()));
+    }
+    None
+}
+
+/// The run's result at the strategy's best: genome, parameters, cost (the strategy's own when
+/// it minimises one) and RMSE, the problem's counts, and what the loop recorded.
+fn result_at_best(
+    problem: &Problem,
+    strategy: &dyn Strategy,
+    generations: u64,
+    seconds: f64,
+    history: Vec<HistoryRow>,
+    stopped_by: StopReason,
+    checkpoint_error: Option<String>,
+) -> RunResult {
     let (genome, cost) = strategy.best();
     let mut params = problem.space.base.clone();
     problem.space.fill_params(genome, &mut params);
@@ -344,21 +388,21 @@ pub fn run_typed(
         Some((own, terms)) => (own, (own / terms.max(1) as f64).sqrt()),
         None => (cost, problem.rmse(cost)),
     };
-    Ok(RunResult {
+    RunResult {
         strategy: strategy.name(),
         genome: genome.to_vec(),
         params,
         cost,
         rmse,
         evals: problem.evals(),
-        generations: generation,
+        generations,
         seconds,
         eval_seconds: problem.eval_seconds(),
         param_error_pct: problem.error_pct(genome),
         history,
         stopped_by,
         checkpoint_error,
-    })
+    }
 }
 
 /// A failed checkpoint write as [`RunResult::checkpoint_error`] says it: the file and the
