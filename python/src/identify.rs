@@ -574,12 +574,26 @@ pub fn identify(
             )));
         }
     }
+    let remote = executor.map(|ex| (ex, scene.core().to_json_string(), cost));
+    run_session(py, req, remote, callback)
+}
+
+/// Runs the request: warnings raised as they come, the executor (with the scene's JSON and the
+/// cost kind its workers compile) closed whatever happens, the callback's or the executor's
+/// own exception raised as it was, a Ctrl-C or an unwritable checkpoint raised with the whole
+/// result on it.
+fn run_session(
+    py: Python<'_>,
+    req: IdentifyRequest,
+    executor: Option<(Bound<'_, PyAny>, String, &str)>,
+    callback: Option<Bound<'_, PyAny>>,
+) -> PyResult<IdentifyResult> {
     let mut session = py.detach(|| Session::new(req)).map_err(cost_to_py)?;
     warn_all(py, session.warnings())?;
     let early = session.warnings().len();
     let evaluator = match &executor {
-        Some(ex) => {
-            let (s, ev) = attach(py, session, ex, &scene.core().to_json_string(), cost)?;
+        Some((ex, scene_json, cost)) => {
+            let (s, ev) = attach(py, session, ex, scene_json, cost)?;
             session = s;
             Some(ev)
         }
