@@ -783,6 +783,12 @@ class DiscoverResult:
     def notes(self) -> List[str]:
         """How the answer was reached."""
     @property
+    def noise_level(self) -> float:
+        """The position noise used, m: given, or estimated when ``noise_estimated``."""
+    @property
+    def noise_estimated(self) -> bool:
+        """Whether ``noise_level`` was estimated from the data (no ``noise_level`` given)."""
+    @property
     def undetermined(self) -> List[Dict[str, Any]]:
         """What the data cannot decide, by name: ``what`` (``masses``…), ``particles``,
         ``links``, ``why`` (each also raised with ``warnings.warn``)."""
@@ -821,7 +827,7 @@ def discover(
     total_mass: Optional[float] = None,
     masses: Optional[Sequence[float]] = None,
     max_range: Optional[float] = None,
-    noise_level: float = 0.0,
+    noise_level: Optional[float] = None,
     threshold_scale: float = 1.0,
     type_tolerance: float = 1e-3,
     gravity: Optional[Tuple[float, float, float]] = None,

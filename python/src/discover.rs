@@ -40,6 +40,11 @@ pub struct DiscoverResult {
     /// How the answer was reached.
     #[pyo3(get)]
     notes: Vec<String>,
+    /// The position noise used, m: given, or estimated when `noise_estimated`.
+    #[pyo3(get)]
+    noise_level: f64,
+    #[pyo3(get)]
+    noise_estimated: bool,
     /// What the data cannot decide, by name: `what` (`masses`, `gravity`…), `particles`,
     /// `links`, `why` (also raised as warnings).
     #[pyo3(get)]
@@ -76,6 +81,8 @@ fn to_py(py: Python<'_>, d: Discovery) -> PyResult<DiscoverResult> {
         candidates: d.candidates,
         cost: d.cost,
         rmse: d.rmse,
+        noise_level: d.noise_level,
+        noise_estimated: d.estimated_noise,
         notes: d.notes,
     })
 }
@@ -83,7 +90,9 @@ fn to_py(py: Python<'_>, d: Discovery) -> PyResult<DiscoverResult> {
 /// Proposes a spring network from positions alone: `traj` `(T, N, 3)` (m) sampled every `dt`
 /// s. Give `total_mass` (kg, of the moving particles) or every particle's `masses`: masses and
 /// stiffnesses share one scale. `max_range` (m) bounds the candidate pairs (default 2.2 × the
-/// median nearest-neighbour distance); `noise_level` (m) > 0 smooths the positions first;
+/// median nearest-neighbour distance); `noise_level` (m) > 0 smooths the positions first
+/// (default `None`: estimated from the data, with a warning when they look noisy; 0:
+/// noiseless);
 /// `threshold_scale` multiplies the selection threshold; `type_tolerance` is the relative
 /// tolerance under which two links are of one type; `gravity` (m/s², `[x, y, z]`) when known,
 /// else it is estimated. `res.undetermined` names what the data cannot decide (also raised as
@@ -93,7 +102,7 @@ fn to_py(py: Python<'_>, d: Discovery) -> PyResult<DiscoverResult> {
 /// >>> traj = truth.simulate(300)
 /// >>> res = cordis.discover(traj, truth.dt, total_mass=12.3)   # doctest: +SKIP
 #[pyfunction]
-#[pyo3(signature = (traj, dt, total_mass = None, masses = None, max_range = None, noise_level = 0.0, threshold_scale = 1.0, type_tolerance = 1e-3, gravity = None))]
+#[pyo3(signature = (traj, dt, total_mass = None, masses = None, max_range = None, noise_level = None, threshold_scale = 1.0, type_tolerance = 1e-3, gravity = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn discover(
     py: Python<'_>,
@@ -102,7 +111,7 @@ pub fn discover(
     total_mass: Option<f64>,
     masses: Option<Vec<f64>>,
     max_range: Option<f64>,
-    noise_level: f64,
+    noise_level: Option<f64>,
     threshold_scale: f64,
     type_tolerance: f64,
     gravity: Option<[f64; 3]>,

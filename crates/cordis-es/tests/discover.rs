@@ -33,7 +33,7 @@ fn free_total(scene: &Scene) -> f64 {
 fn run(truth: &Scene, traj: &Trajectory, noise: f64) -> Discovery {
     let opt = DiscoverOptions {
         total_mass: Some(free_total(truth)),
-        noise_level: noise,
+        noise_level: Some(noise),
         threshold_scale: std::env::var("TSCALE")
             .ok()
             .and_then(|s| s.parse().ok())

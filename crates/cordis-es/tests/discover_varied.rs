@@ -43,17 +43,33 @@ struct Outcome {
     extra: Vec<[usize; 2]>,
     links: usize,
     worst_mass: f64,
-    d: Discovery,
+    /// The discovery, or the error it refused with.
+    d: Result<Discovery, String>,
 }
 
 fn survey_one(truth: &Scene, traj: &Trajectory, noise: f64, given: bool) -> Outcome {
     let opt = DiscoverOptions {
         total_mass: Some(free_total(truth)),
-        noise_level: if given { noise } else { 0.0 },
+        noise_level: if given { Some(noise) } else { None },
         ..DiscoverOptions::default()
     };
-    let d = discover(traj, truth.dt, &opt).unwrap();
-    let (want, got) = (true_pairs(truth), found_pairs(&d.scene));
+    let want = true_pairs(truth);
+    let d = match discover(traj, truth.dt, &opt) {
+        Ok(d) => d,
+        // A refusal (no link explains the motion) says so: every link is missed, none silently.
+        Err(e) => {
+            let mut missing: Vec<_> = want.iter().copied().collect();
+            missing.sort();
+            return Outcome {
+                missing,
+                extra: Vec::new(),
+                links: want.len(),
+                worst_mass: f64::INFINITY,
+                d: Err(e.to_string()),
+            };
+        }
+    };
+    let got = found_pairs(&d.scene);
     let mut missing: Vec<_> = want.difference(&got).copied().collect();
     let mut extra: Vec<_> = got.difference(&want).copied().collect();
     missing.sort();
@@ -70,7 +86,7 @@ fn survey_one(truth: &Scene, traj: &Trajectory, noise: f64, given: bool) -> Outc
         extra,
         links: want.len(),
         worst_mass,
-        d,
+        d: Ok(d),
     }
 }
 
@@ -83,12 +99,21 @@ struct Rates {
     /// Networks whose every mass off by more than 0.1 % is named in `undetermined`.
     wrong_masses_named: usize,
     silently_wrong: Vec<u64>,
+    /// Networks discovery refused (no link found), by seed.
+    refused: Vec<u64>,
     links: usize,
     found: usize,
     extra: usize,
 }
 
-fn survey(seeds: std::ops::Range<u64>, kinds: VariedKinds, noise: f64, print: bool) -> Rates {
+/// `given`: the noise level is told to discovery; otherwise it estimates it.
+fn survey(
+    seeds: std::ops::Range<u64>,
+    kinds: VariedKinds,
+    noise: f64,
+    given: bool,
+    print: bool,
+) -> Rates {
     let mut r = Rates::default();
     for seed in seeds {
         let (truth, case) = varied_network(seed, kinds);
@@ -99,25 +124,36 @@ fn survey(seeds: std::ops::Range<u64>, kinds: VariedKinds, noise: f64, print: bo
         } else {
             traj.clone()
         };
-        let o = survey_one(&truth, &obs, sigma, true);
-        let flagged: HashSet<usize> =
-            o.d.undetermined
-                .iter()
-                .filter(|u| u.what == "masses")
-                .flat_map(|u| u.particles.iter().copied())
-                .collect();
+        let o = survey_one(&truth, &obs, sigma, given);
+        r.networks += 1;
+        let d = match &o.d {
+            Ok(d) => d,
+            Err(e) => {
+                if print {
+                    println!("seed {seed} {case:?} refused: {e}");
+                }
+                r.refused.push(seed);
+                r.links += o.links;
+                continue;
+            }
+        };
+        let flagged: HashSet<usize> = d
+            .undetermined
+            .iter()
+            .filter(|u| u.what == "masses")
+            .flat_map(|u| u.particles.iter().copied())
+            .collect();
         let wrong: Vec<usize> = (0..truth.num_particles())
             .filter(|&i| !truth.particles[i].fixed)
             .filter(|&i| {
                 let (a, b) = (
                     truth.particles[i].mass.value(),
-                    o.d.scene.particles[i].mass.value(),
+                    d.scene.particles[i].mass.value(),
                 );
                 (a - b).abs() > 1e-3 * a
             })
             .collect();
         let exact = o.missing.is_empty() && o.extra.is_empty();
-        r.networks += 1;
         r.exact_links += exact as usize;
         r.exact_masses += (exact && wrong.is_empty()) as usize;
         let named = wrong.iter().all(|i| flagged.contains(i));
@@ -137,10 +173,7 @@ fn survey(seeds: std::ops::Range<u64>, kinds: VariedKinds, noise: f64, print: bo
                 o.missing,
                 o.extra,
                 o.worst_mass,
-                o.d.undetermined
-                    .iter()
-                    .map(|u| u.line())
-                    .collect::<Vec<_>>()
+                d.undetermined.iter().map(|u| u.line()).collect::<Vec<_>>()
             );
         }
     }
@@ -153,10 +186,36 @@ fn survey(seeds: std::ops::Range<u64>, kinds: VariedKinds, noise: f64, print: bo
 /// determined; at least 90 % of the networks get every mass within 0.1 %.
 #[test]
 fn noiseless_varied_networks_are_exact_or_named_as_not_determined() {
-    let r = survey(0..40, VariedKinds::SPRINGS, 0.0, false);
+    let r = survey(0..40, VariedKinds::SPRINGS, 0.0, false, false);
     assert!(r.silently_wrong.is_empty(), "silently wrong: {r:?}");
     assert_eq!(r.exact_links, r.networks, "{r:?}");
     assert!(r.exact_masses * 10 >= r.networks * 9, "{r:?}");
+}
+
+/// Issue 20's noise line on a CI-sized survey of draws the method was not developed on (seeds
+/// 200–229; development used 0–39 and 100–139): positions with Gaussian noise of 1e-4 of the
+/// motion's size, the noise level not given. Discovery estimates it (within 10 %, and says
+/// so in a warning) and keeps ≥ 95 % of the links with ≤ 5 % extra.
+#[test]
+fn noisy_varied_networks_keep_their_links_with_the_noise_estimated() {
+    let mut r = Rates::default();
+    let mut worst_noise: f64 = 0.0;
+    for seed in 200..230 {
+        let (truth, _) = varied_network(seed, VariedKinds::SPRINGS);
+        let traj = truth.simulate(FRAMES).unwrap();
+        let sigma = 1e-4 * traj.scale();
+        let o = survey_one(&truth, &add_noise(&traj, sigma, seed), sigma, false);
+        let d = o.d.as_ref().expect("a network is found");
+        assert!(d.estimated_noise && d.data_warnings.iter().any(|w| w.contains("noisy")));
+        worst_noise = worst_noise.max((d.noise_level / sigma - 1.0).abs());
+        r.networks += 1;
+        r.links += o.links;
+        r.found += o.links - o.missing.len();
+        r.extra += o.extra.len();
+    }
+    assert!(worst_noise < 0.1, "noise estimated {worst_noise:.3} off");
+    assert!(r.found * 100 >= r.links * 95, "{r:?}");
+    assert!(r.extra * 100 <= r.links * 5, "{r:?}");
 }
 
 /// The full survey (BENCHMARKS.md): `COUNT=200 NOISE=1e-4 cargo test --release -p cordis-es
@@ -179,11 +238,19 @@ fn varied_survey() {
         _ => VariedKinds::ALL,
     };
     let t0 = std::time::Instant::now();
-    let r = survey(first..first + count, kinds, noise, env("PRINT", 0.0) > 0.0);
+    let given = env("GIVEN", 0.0) > 0.0;
+    let r = survey(
+        first..first + count,
+        kinds,
+        noise,
+        given,
+        env("PRINT", 0.0) > 0.0,
+    );
     println!(
-        "{kinds:?} noise {noise:e}: {} networks, exact links {} ({:.1} %), exact links and \
-         masses {} ({:.1} %), wrong masses all named {}, silently wrong {} {:?}; links found \
+        "{kinds:?} noise {noise:e} ({}): {} networks, exact links {} ({:.1} %), exact links and \
+         masses {} ({:.1} %), wrong masses all named {}, silently wrong {} {:?}, refused {:?}; links found \
          {:.2} %, extra {:.2} % of {}; {:.1} s",
+        if given { "given" } else { "estimated" },
         r.networks,
         r.exact_links,
         100.0 * r.exact_links as f64 / r.networks as f64,
@@ -192,6 +259,7 @@ fn varied_survey() {
         r.wrong_masses_named,
         r.silently_wrong.len(),
         r.silently_wrong,
+        r.refused,
         100.0 * r.found as f64 / r.links as f64,
         100.0 * r.extra as f64 / r.links as f64,
         r.links,
@@ -205,7 +273,16 @@ fn varied_debug() {
     let seed: u64 = std::env::var("SEED").unwrap().parse().unwrap();
     let (truth, case) = varied_network(seed, VariedKinds::SPRINGS);
     let traj = truth.simulate(FRAMES).unwrap();
-    let o = survey_one(&truth, &traj, 0.0, true);
+    let noise: f64 = std::env::var("NOISE").map_or(0.0, |s| s.parse().unwrap());
+    let sigma = noise * traj.scale();
+    let obs = if noise > 0.0 {
+        add_noise(&traj, sigma, seed)
+    } else {
+        traj.clone()
+    };
+    println!("sigma {sigma:e} scale {}", traj.scale());
+    let o = survey_one(&truth, &obs, sigma, std::env::var("GIVEN").is_ok());
+    let d = o.d.as_ref().expect("discovery");
     println!("{case:?} missing {:?} extra {:?}", o.missing, o.extra);
     for (i, p) in truth.particles.iter().enumerate() {
         let deg: Vec<usize> = truth
@@ -218,10 +295,10 @@ fn varied_debug() {
             "p{i} fixed {} m {:.3} -> {:.3} links {deg:?}",
             p.fixed,
             p.mass.value(),
-            o.d.scene.particles[i].mass.value()
+            d.scene.particles[i].mass.value()
         );
     }
-    for l in &o.d.links {
+    for l in &d.links {
         println!(
             "{:?} {} K {:.4} l0 {:.4} Z {:.4} score {:.3e} thr {:.1}",
             l.particles, l.type_name, l.stiffness, l.rest_length, l.damping, l.score, l.threshold
@@ -234,5 +311,5 @@ fn varied_debug() {
             t.params.iter().map(|p| p.value()).collect::<Vec<_>>()
         );
     }
-    println!("notes {:?} solver {:?}", o.d.notes, o.d.solver);
+    println!("notes {:?} solver {:?}", d.notes, d.solver);
 }

@@ -28,9 +28,10 @@ pub struct Args {
     /// median nearest-neighbour distance).
     #[arg(long)]
     max_range: Option<f64>,
-    /// Standard deviation of the position noise, m (0: noiseless; > 0 smooths first).
-    #[arg(long, default_value_t = 0.0)]
-    noise_level: f64,
+    /// Standard deviation of the position noise, m (0: noiseless; > 0 smooths first; default:
+    /// estimated from the positions' differences, with a warning when they look noisy).
+    #[arg(long)]
+    noise_level: Option<f64>,
     /// Multiplies the selection threshold (lower keeps more links).
     #[arg(long, default_value_t = 1.0)]
     threshold_scale: f64,
@@ -41,7 +42,7 @@ pub struct Args {
     #[arg(
         long,
         value_delimiter = ',',
-        num_args = 3,
+        num_args = 1..=3,
         allow_negative_numbers = true
     )]
     gravity: Option<Vec<f64>>,
@@ -117,6 +118,8 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         "near_misses": d.near_misses,
         "solver": d.solver,
         "undetermined": d.undetermined,
+        "noise_level": d.noise_level,
+        "noise_estimated": d.estimated_noise,
         "notes": d.notes,
         "seconds": seconds,
     });

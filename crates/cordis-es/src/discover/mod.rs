@@ -30,8 +30,12 @@ use cluster::Estimate;
 /// estimates are kept and a note says so.
 pub const MAX_REFIT_TYPES: usize = 32;
 
-/// The BIC threshold's factor on smoothed (noisy) data.
-pub const SMOOTHED_THRESHOLD: f64 = 0.25;
+/// Noisy positions are told from a smooth noiseless motion by their differences: white noise's
+/// estimates from orders 3 and 6 agree, a motion's own fall as `(ω dt)³` from one to the
+/// other. The data are taken as noisy when the 6th-order estimate is at least this share of
+/// the 3rd's (white noise: 1 within 2 %, for ~10⁴ differences; the varied generator's
+/// noiseless motions: below 0.01).
+pub const NOISY_ORDER_RATIO: f64 = 0.5;
 
 /// What [`discover`] is told besides the trajectory.
 #[derive(Clone, Debug)]
@@ -44,8 +48,9 @@ pub struct DiscoverOptions {
     /// [`candidates::RADIUS_PER_NEAREST`] × the median nearest-neighbour distance).
     pub max_range: Option<f64>,
     /// Standard deviation of the position noise, m (0: noiseless). Sets the tolerance under
-    /// which a particle counts as fixed.
-    pub noise_level: f64,
+    /// which a particle counts as fixed. `None`: estimated from the data
+    /// ([`estimate_noise_level`]).
+    pub noise_level: Option<f64>,
     /// Multiplies the selection threshold (1: BIC).
     pub threshold_scale: f64,
     /// Relative tolerance under which two links' parameters are taken as equal (one type).
@@ -60,7 +65,7 @@ impl Default for DiscoverOptions {
             total_mass: None,
             masses: None,
             max_range: None,
-            noise_level: 0.0,
+            noise_level: None,
             threshold_scale: 1.0,
             type_tolerance: 1e-3,
             gravity: None,
@@ -149,6 +154,9 @@ pub struct Discovery {
     pub undetermined: Vec<Undetermined>,
     /// What a user should know about the data (noisy positions, an estimated noise level).
     pub data_warnings: Vec<String>,
+    /// The position noise used, m (given, or estimated when `estimated_noise`).
+    pub noise_level: f64,
+    pub estimated_noise: bool,
     pub notes: Vec<String>,
 }
 
@@ -223,8 +231,10 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
         }
         _ => {}
     }
-    if !(opt.noise_level >= 0.0 && opt.noise_level.is_finite()) {
-        return Err(bad("noise_level", "must be a non-negative number of m"));
+    if let Some(s) = opt.noise_level {
+        if !(s >= 0.0 && s.is_finite()) {
+            return Err(bad("noise_level", "must be a non-negative number of m"));
+        }
     }
     // NaN or inf here used to pass silently (NaN keeps every link or none).
     use cordis_core::arg::{number, Low};
@@ -252,32 +262,46 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
     }
     let scale = traj.scale().max(f64::MIN_POSITIVE);
     let mut notes = Vec::new();
-    let data_warnings: Vec<String> = Vec::new();
+    let mut data_warnings: Vec<String> = Vec::new();
+    let noise = match opt.noise_level {
+        Some(s) => s,
+        None => {
+            let (s, line) = estimate_noise_level(traj);
+            if s > 0.0 {
+                data_warnings.push(line);
+            } else {
+                notes.push(line);
+            }
+            s
+        }
+    };
 
     // Stage 1: fixed particles and candidates.
-    let fixed = candidates::fixed_particles(traj, (3.0 * opt.noise_level).max(1e-12 * scale));
+    let fixed = candidates::fixed_particles(traj, (3.0 * noise).max(1e-12 * scale));
     let free: Vec<bool> = fixed.iter().map(|f| !f).collect();
     if !free.iter().any(|&f| f) {
         return Err(bad("trajectory", "no particle moves: nothing to discover"));
     }
+    let raw = traj;
     let smoothed;
-    let mut smoothed_with = None;
-    let traj = if opt.noise_level > 0.0 {
-        match smooth::smooth(traj, &fixed, opt.noise_level) {
-            Some((s, h)) => {
-                notes.push(format!(
-                    "noisy positions: cubic Savitzky-Golay filter over {} frames ({h} frames \
-                     dropped at each end)",
-                    2 * h + 1
-                ));
-                smoothed = s;
-                smoothed_with = Some(h);
-                &smoothed
-            }
-            None => traj,
+    let mut accel = None;
+    let traj = match smooth::smooth(traj, &fixed, noise).filter(|_| noise > 0.0) {
+        Some((s, h)) => {
+            accel = smooth::Accelerations::new(raw, h, dt);
+            notes.push(format!(
+                "noisy positions: cubic Savitzky-Golay filter over {} frames ({h} frames \
+                 dropped at each end{})",
+                2 * h + 1,
+                if accel.is_some() {
+                    "; accelerations from the raw positions by a kernel uncorrelated with it"
+                } else {
+                    ""
+                }
+            ));
+            smoothed = s;
+            &smoothed
         }
-    } else {
-        traj
+        None => traj,
     };
     let x0: Vec<Vec3> = (0..n).map(|i| traj.pos(0, i)).collect();
     let radius = match opt.max_range {
@@ -296,15 +320,20 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
     } else {
         "trajectory"
     };
+    let row_frames = accel
+        .as_ref()
+        .map_or(traj.frames() - 2, |a: &smooth::Accelerations| {
+            a.last - a.first
+        });
     let within = candidates::degrees_within(&x0, &fixed, radius);
-    check_candidates(traj, &within, &free, radius, place)?;
+    check_candidates(row_frames, accel.is_some(), &within, &free, radius, place)?;
     let cands = candidates::candidate_pairs(&x0, &fixed, radius, opt.max_range.is_none());
     let mut degree = vec![0; n];
     for ([i, j], _) in &cands {
         degree[*i] += 1;
         degree[*j] += 1;
     }
-    check_candidates(traj, &degree, &free, radius, place)?;
+    check_candidates(row_frames, accel.is_some(), &degree, &free, radius, place)?;
     let pairs: Vec<[usize; 2]> = cands.iter().map(|(p, _)| *p).collect();
     if pairs.is_empty() {
         return Err(bad(
@@ -314,21 +343,32 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
     }
 
     // Stages 2–3: local systems and selection.
-    let locals = select::build(traj, dt, &free, &pairs);
-    let floor = select::rounding_floor(traj, dt);
-    // Calibrated on generated networks at noise 1e-4 of their size (docs/discover.md): after
-    // smoothing, plain BIC misses weak links and never keeps a spurious one; a quarter of it
-    // keeps every link with ≤ 4% extra.
-    let scale = if smoothed_with.is_some() {
-        SMOOTHED_THRESHOLD
-    } else {
-        1.0
-    };
-    let threshold = opt.threshold_scale * scale;
+    let locals = select::build(traj, dt, &free, &pairs, accel.as_ref());
+    // The least residual variance per row: rounding, or the position noise carried into the
+    // accelerations (σ² Σg²/dt⁴): a pair is then tested against the noise the data are
+    // known to carry, not against a residual it may have fitted.
+    let noise_floor = accel
+        .as_ref()
+        .map_or(0.0, |a| noise * noise * a.gain / dt.powi(4));
+    let floor = select::rounding_floor(traj, dt).max(noise_floor);
+    let threshold = opt.threshold_scale;
+    let noise_model = accel.as_ref().map(|a| select::Noise {
+        variance: noise * noise,
+        dt,
+        accel_autocorrelation: a.accel_autocorrelation.clone(),
+        smooth_autocorrelation: a.smooth_autocorrelation.clone(),
+    });
     let gravity = match opt.gravity {
         Some(g) => Some(Vector3::from(g)),
         None => {
-            let first = select::select(&locals, pairs.len(), threshold, floor, None);
+            let first = select::select(
+                &locals,
+                pairs.len(),
+                threshold,
+                floor,
+                None,
+                noise_model.as_ref(),
+            );
             let g = select::shared_gravity(&locals, &first.fits, &first.active);
             if g.is_none() {
                 notes.push(
@@ -341,7 +381,14 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
             g
         }
     };
-    let mut sel = select::select(&locals, pairs.len(), threshold, floor, gravity);
+    let mut sel = select::select(
+        &locals,
+        pairs.len(),
+        threshold,
+        floor,
+        gravity,
+        noise_model.as_ref(),
+    );
     let kept: Vec<usize> = (0..pairs.len()).filter(|&p| sel.active[p]).collect();
     if kept.is_empty() {
         return Err(bad(
@@ -613,6 +660,8 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
         solver,
         undetermined,
         data_warnings,
+        noise_level: noise,
+        estimated_noise: opt.noise_level.is_none(),
         notes,
     })
 }
@@ -677,6 +726,39 @@ fn undetermined_mass_groups(
     out
 }
 
+/// The position noise (m) read from the data, and a line saying so: the 6th-difference
+/// estimate ([`crate::output_error::start::difference_noise_level`]) when it agrees with the
+/// 3rd's (ratio ≥ [`NOISY_ORDER_RATIO`], white noise) and stands above the positions' rounding
+/// (10⁴ ε max|x|); 0 otherwise (a smooth motion: the differences are its own).
+pub fn estimate_noise_level(traj: &Trajectory) -> (f64, String) {
+    use crate::output_error::{observations::Take, start::difference_noise_level};
+    let take = Take::complete(traj);
+    let (s3, _) = difference_noise_level(&take, 3);
+    let (s6, samples) = difference_noise_level(&take, 6);
+    let xmax = traj.as_flat().iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let rounding = 1e4 * f64::EPSILON * xmax;
+    let size = traj.scale().max(f64::MIN_POSITIVE);
+    if s6 >= NOISY_ORDER_RATIO * s3 && s6 > rounding {
+        (
+            s6,
+            format!(
+                "the positions look noisy: noise level {s6:.3e} m ({:.1e} of the motion's \
+                 size) estimated from {samples} 6th differences (3rd: {s3:.3e} m); smoothed \
+                 before differentiating (give --noise-level when it is known)",
+                s6 / size
+            ),
+        )
+    } else {
+        (
+            0.0,
+            format!(
+                "positions taken as noiseless: their differences are the motion's own (noise \
+                 read from 6th differences {s6:.3e} m, from 3rd {s3:.3e} m)"
+            ),
+        )
+    }
+}
+
 /// Refuses, before any pair is stored, candidate sets the selection cannot use or hold (issue
 /// 17: `--max-range 10` on 6,000 particles of a gas aborted at 3.6 GB). A free particle's
 /// equation has `3 + 3·pairs` unknowns and `3·(frames − 2)` rows: with no more rows than
@@ -684,13 +766,14 @@ fn undetermined_mass_groups(
 /// answer is noise (300 such particles kept all 44,719 candidates, of 44,706 types). Then the
 /// factors' memory, which grows as pairs² per particle, against the memory available.
 fn check_candidates(
-    traj: &Trajectory,
+    row_frames: usize,
+    noisy: bool,
     degree: &[usize],
     free: &[bool],
     radius: f64,
     place: &str,
 ) -> Result<(), CostError> {
-    let rows = 3 * (traj.frames() - 2);
+    let rows = 3 * row_frames;
     let worst = (0..degree.len())
         .filter(|&i| free[i])
         .max_by_key(|&i| (degree[i], std::cmp::Reverse(i)));
@@ -704,13 +787,19 @@ fn check_candidates(
                      its equation of motion from {rows} equations ({} frames); give at least {} \
                      frames or a smaller max range",
                     degree[i],
-                    traj.frames(),
+                    row_frames + 2,
                     degree[i] + 4,
                 ),
             ));
         }
     }
-    let bytes = select::memory_bytes(degree, free, rayon::current_num_threads());
+    let bytes = select::memory_bytes(
+        degree,
+        free,
+        rayon::current_num_threads(),
+        3 * row_frames,
+        noisy,
+    );
     cordis_core::arg::fits_in_memory(
         place,
         bytes,

@@ -25,6 +25,7 @@ use cordis_core::{Trajectory, Vec3};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use rayon::prelude::*;
 
+use super::smooth::Accelerations;
 use crate::linalg::givens::Factor;
 
 /// One free particle's factor: columns `[1x, 1y, 1z, pair 0 (K, K·l0, Z), pair 1, …, a]`.
@@ -35,6 +36,39 @@ pub struct Local {
     pub factor: DMatrix<f64>,
     /// Rows of the equation (3 per interior frame).
     pub rows: usize,
+    /// Noisy positions: `(Xᵀ R_g X, Xᵀ R_c X)` over the factor's columns (the right-hand
+    /// side last), `R_g` and `R_c` the frame-to-frame covariances (per σ²) of the
+    /// accelerations' noise and of the smoothed positions' (see [`Noise`]).
+    pub meat: Option<(DMatrix<f64>, DMatrix<f64>)>,
+}
+
+/// The position noise the fits are tested against: white, variance `variance` (m²), sampled
+/// every `dt` s; the accelerations and features read it through the kernels of
+/// [`Accelerations`].
+#[derive(Clone, Debug)]
+pub struct Noise {
+    pub variance: f64,
+    pub dt: f64,
+    /// The autocorrelations of the two kernels (lags 0, 1, …; see [`Accelerations`]).
+    pub accel_autocorrelation: Vec<f64>,
+    pub smooth_autocorrelation: Vec<f64>,
+}
+
+impl Noise {
+    /// The expected `eᵀ R_c e` per row of the noise `e` of an equation whose features carry
+    /// `q_feat` × the smoothed noise: `Σ_l (2 - δ_l0) R_c(l) Σ(l)`, `Σ(l) = σ² (R_g(l)/dt⁴ +
+    /// q_feat R_c(l))` the noise's covariance at lag l.
+    fn smoothed_power_per_row(&self, q_feat: f64) -> f64 {
+        let dt4 = self.dt.powi(4);
+        let rc = &self.smooth_autocorrelation;
+        (0..rc.len())
+            .map(|l| {
+                let rg = self.accel_autocorrelation.get(l).copied().unwrap_or(0.0);
+                let w = if l == 0 { 1.0 } else { 2.0 };
+                w * rc[l] * self.variance * (rg / dt4 + q_feat * rc[l])
+            })
+            .sum()
+    }
 }
 
 /// A particle's fit on its active pairs.
@@ -50,6 +84,9 @@ pub struct Fit {
     pub gravity: Vector3<f64>,
     /// Residual variance per row, (m/s²)².
     pub sigma2: f64,
+    /// Noisy positions: the residual's power in the features' band over the noise's (≥ 1:
+    /// the covariance was scaled by it).
+    pub inflation: f64,
 }
 
 /// Features of pair `[a, b]` seen from its end `i` at frame t: `(u L, -u, u s)`, each a vector.
@@ -71,18 +108,68 @@ pub fn columns(degree: usize) -> usize {
 /// k its [`columns`]) and fit (~110 bytes per pair), and per thread the transient of one build
 /// or fit (~7 k² of the largest: the Givens factor and its copy, the equilibrated matrix, the
 /// SVD's U and Vᵀ, the covariance factor).
-pub fn memory_bytes(degree: &[usize], free: &[bool], threads: usize) -> f64 {
+///
+/// With noisy positions (`noisy`), each factor has two more matrices of its size (the
+/// noise's covariance terms) and each thread holds the rows of one particle three times
+/// (`3 · rows · k`).
+pub fn memory_bytes(
+    degree: &[usize],
+    free: &[bool],
+    threads: usize,
+    rows: usize,
+    noisy: bool,
+) -> f64 {
     let (mut held, mut largest) = (0.0, 0.0f64);
+    let copies = if noisy { 3.0 } else { 1.0 };
     for (&d, _) in degree.iter().zip(free).filter(|(_, &f)| f) {
         let k = columns(d) as f64;
-        held += 8.0 * k * k + 110.0 * d as f64;
+        held += copies * 8.0 * k * k + 110.0 * d as f64;
         largest = largest.max(k);
     }
-    held + 8.0 * 7.0 * largest * largest * threads.max(1) as f64
+    let rows_bytes = if noisy {
+        8.0 * 3.0 * rows as f64 * largest
+    } else {
+        0.0
+    };
+    held + (8.0 * 7.0 * largest * largest + rows_bytes) * threads.max(1) as f64
 }
 
-/// Builds the factor of every free particle over its candidate pairs (in parallel).
-pub fn build(traj: &Trajectory, dt: f64, free: &[bool], pairs: &[[usize; 2]]) -> Vec<Local> {
+/// `Xᵀ (R ⋆ X)`: the rows `x` (3 per frame, one per axis) against the same axis' rows at
+/// every lag `l` weighted by `r[|l|]`, symmetrised.
+fn lagged_gram(x: &DMatrix<f64>, r: &[f64]) -> DMatrix<f64> {
+    let (rows, k) = (x.nrows(), x.ncols());
+    let frames = rows / 3;
+    let mut filtered = DMatrix::zeros(rows, k);
+    for t in 0..frames {
+        for (l, &w) in r.iter().enumerate() {
+            for (s, first) in [(t + l, true), (t.wrapping_sub(l), false)] {
+                if s >= frames || (l == 0 && !first) {
+                    continue;
+                }
+                for ax in 0..3 {
+                    let (to, from) = (3 * t + ax, 3 * s + ax);
+                    for c in 0..k {
+                        filtered[(to, c)] += w * x[(from, c)];
+                    }
+                }
+            }
+        }
+    }
+    let m = x.transpose() * filtered;
+    (&m + m.transpose()) * 0.5
+}
+
+/// Builds the factor of every free particle over its candidate pairs (in parallel). The
+/// accelerations are the trajectory's second differences, or `accel` (noisy positions: read
+/// from the raw ones, uncorrelated with the smoothed positions the features read; see
+/// [`super::smooth`]) at its frames only.
+pub fn build(
+    traj: &Trajectory,
+    dt: f64,
+    free: &[bool],
+    pairs: &[[usize; 2]],
+    accel: Option<&Accelerations>,
+) -> Vec<Local> {
     let n = traj.particles();
     let mut incident: Vec<Vec<usize>> = vec![Vec::new(); n];
     for (k, &[i, j]) in pairs.iter().enumerate() {
@@ -90,6 +177,8 @@ pub fn build(traj: &Trajectory, dt: f64, free: &[bool], pairs: &[[usize; 2]]) ->
         incident[j].push(k);
     }
     let frames = traj.frames();
+    let row_frames = accel.map_or(1..frames - 1, |a| a.first..a.last);
+    let n_rows = 3 * row_frames.len();
     (0..n)
         .into_par_iter()
         .filter(|&i| free[i])
@@ -99,9 +188,16 @@ pub fn build(traj: &Trajectory, dt: f64, free: &[bool], pairs: &[[usize; 2]]) ->
             let mut f = Factor::new(k);
             let mut rows = vec![[0.0; 3]; k];
             let mut row = vec![0.0; k];
-            for t in 1..frames - 1 {
-                let a =
-                    (traj.pos(t + 1, i) - traj.pos(t, i) * 2.0 + traj.pos(t - 1, i)) / (dt * dt);
+            // Noisy positions: the rows themselves, for the noise's covariance terms.
+            let mut kept = accel.map(|_| DMatrix::zeros(n_rows, k));
+            let mut r_at = 0;
+            for t in row_frames.clone() {
+                let a = match accel {
+                    Some(acc) => acc.at(t, i),
+                    None => {
+                        (traj.pos(t + 1, i) - traj.pos(t, i) * 2.0 + traj.pos(t - 1, i)) / (dt * dt)
+                    }
+                };
                 for r in rows.iter_mut() {
                     *r = [0.0; 3];
                 }
@@ -123,14 +219,27 @@ pub fn build(traj: &Trajectory, dt: f64, free: &[bool], pairs: &[[usize; 2]]) ->
                         *v = if c == ax { 1.0 } else { 0.0 };
                     }
                     row[k - 1] = a[ax];
+                    if let Some(x) = kept.as_mut() {
+                        for c in 0..k {
+                            x[(r_at, c)] = row[c];
+                        }
+                    }
+                    r_at += 1;
                     f.add_row(&mut row);
                 }
             }
+            let meat = accel.zip(kept).map(|(acc, x)| {
+                (
+                    lagged_gram(&x, &acc.accel_autocorrelation),
+                    lagged_gram(&x, &acc.smooth_autocorrelation),
+                )
+            });
             Local {
                 particle: i,
                 pairs: local,
                 factor: f.matrix(),
-                rows: 3 * (frames - 2),
+                rows: n_rows,
+                meat,
             }
         })
         .collect()
@@ -220,7 +329,13 @@ fn solve(r: &DMatrix<f64>, cols: &[usize], rhs: &DVector<f64>) -> Solved {
 /// "covariance" made every one of them look significant (issue 20: spurious links to fixed
 /// particles with l0 = 0 kept at 1e21 × the threshold); the score is then the cost increase
 /// itself, from a solve without the pair, so a pair the others can replace scores 0.
-pub fn fit(local: &Local, active: &[bool], floor: f64, gravity: Option<Vector3<f64>>) -> Fit {
+pub fn fit(
+    local: &Local,
+    active: &[bool],
+    floor: f64,
+    gravity: Option<Vector3<f64>>,
+    noise: Option<&Noise>,
+) -> Fit {
     let m = local.pairs.len();
     let k = local.factor.ncols() - 1;
     let pair_cols = |q: usize| [3 + 3 * q, 4 + 3 * q, 5 + 3 * q];
@@ -245,9 +360,56 @@ pub fn fit(local: &Local, active: &[bool], floor: f64, gravity: Option<Vector3<f
     let dof = local.rows.saturating_sub(cols.len()).max(1) as f64;
     let sigma2 = (sol.rss.max(1e-30 * yy).max(f64::MIN_POSITIVE) / dof).max(floor);
     let (x, w) = (&sol.x, &sol.w);
-    let (gravity, mut c) = match gravity {
+    let gravity_known = gravity;
+    let (gravity, c0) = match gravity {
         Some(g) => (g, 0),
         None => (Vector3::new(x[0], x[1], x[2]), 3),
+    };
+    // The covariance of the solution: white rows of variance σ² (`σ² W Wᵀ`), or with noisy
+    // positions the noise's own (module docs), `G Xᵀ Σ X G` with `G = W Wᵀ`.
+    let mut inflation_used = 1.0;
+    let cov_all: DMatrix<f64> = match (noise, &local.meat, sol.deficient) {
+        (Some(nz), Some((m_accel, m_smooth)), false) => {
+            let g_inv = w * w.transpose();
+            // The features' noise: each stiffness (per mass) times the smoothed noise of the
+            // link's vector, the particle's own shared by all its pairs.
+            let ks: Vec<f64> = (0..m)
+                .filter(|&q| active[q])
+                .enumerate()
+                .map(|(e, _)| x[c0 + 3 * e])
+                .collect();
+            let q_feat = ks.iter().map(|v| v.abs()).sum::<f64>().powi(2)
+                + ks.iter().map(|v| v * v).sum::<f64>();
+            let dt4 = nz.dt.powi(4);
+            let n = cols.len();
+            let mut meat = DMatrix::zeros(n, n);
+            for (a, &ca) in cols.iter().enumerate() {
+                for (b, &cb) in cols.iter().enumerate() {
+                    meat[(a, b)] =
+                        nz.variance * (m_accel[(ca, cb)] / dt4 + q_feat * m_smooth[(ca, cb)]);
+                }
+            }
+            // A residual above what the noise explains (a motion the pairs cannot follow, the
+            // smoothing's bias) scales the covariance up, as an F-test would. It is measured
+            // in the band the features live in (the residual's power through the smoothing,
+            // `eᵀ R_c e`): over all frequencies the accelerations' noise would hide it.
+            let mut z = DVector::zeros(k + 1);
+            z[k] = 1.0;
+            for (e, &col) in cols.iter().enumerate() {
+                z[col] = -x[e];
+            }
+            if let Some(g) = gravity_known {
+                for c in 0..3 {
+                    z[c] = -g[c];
+                }
+            }
+            let observed = (z.transpose() * m_smooth * &z)[0] / local.rows as f64;
+            let expected = nz.smoothed_power_per_row(q_feat);
+            let inflation = (observed / expected.max(f64::MIN_POSITIVE)).max(1.0);
+            inflation_used = observed / expected.max(f64::MIN_POSITIVE);
+            &g_inv * meat * &g_inv * inflation
+        }
+        _ => w * w.transpose() * sigma2,
     };
     let mut out = Fit {
         beta: vec![Vector3::zeros(); m],
@@ -255,11 +417,12 @@ pub fn fit(local: &Local, active: &[bool], floor: f64, gravity: Option<Vector3<f
         wald: vec![0.0; m],
         gravity,
         sigma2,
+        inflation: inflation_used,
     };
+    let mut c = c0;
     for q in (0..m).filter(|&q| active[q]) {
         let b = Vector3::new(x[c], x[c + 1], x[c + 2]);
-        let wq = w.rows(c, 3);
-        let cov: Matrix3<f64> = (wq * wq.transpose()).fixed_view::<3, 3>(0, 0).into_owned();
+        let cov: Matrix3<f64> = cov_all.fixed_view::<3, 3>(c, c).into_owned();
         let wald = if sol.deficient {
             let without: Vec<usize> = cols
                 .iter()
@@ -269,11 +432,11 @@ pub fn fit(local: &Local, active: &[bool], floor: f64, gravity: Option<Vector3<f
             (solve(r, &without, &rhs).rss - sol.rss) / sigma2
         } else {
             cov.try_inverse()
-                .map(|ci| (b.transpose() * ci * b)[0] / sigma2)
+                .map(|ci| (b.transpose() * ci * b)[0])
                 .unwrap_or(0.0)
         };
         out.beta[q] = b;
-        out.cov[q] = cov * sigma2;
+        out.cov[q] = cov;
         out.wald[q] = if wald.is_finite() { wald.max(0.0) } else { 0.0 };
         c += 3;
     }
@@ -339,6 +502,57 @@ pub fn shared_gravity(locals: &[Local], fits: &[Fit], active: &[bool]) -> Option
         .filter(|g| g.iter().all(|c| c.is_finite()))
 }
 
+/// Forward steps after the backward elimination has settled (noisy positions only).
+const MAX_FORWARD_ROUNDS: usize = 5;
+
+/// One forward step: each removed pair not re-added before is scored as if added alone to
+/// its ends' fits (its Wald statistics summed, as in the backward step); per particle the
+/// strongest of those above their threshold comes back. Under noise the backward
+/// elimination could drop a true link while many candidates stood in for it, and the
+/// candidates around its end then stayed in its place (issue 20: varied seeds 8, 11, 21 at
+/// noise 1e-4 kept 4–6 extra links about one particle that had lost one).
+fn forward_step(
+    locals: &[Local],
+    seen: &[Vec<(usize, usize)>],
+    active: &[bool],
+    threshold: &[f64],
+    readded: &mut [bool],
+    fit_with: impl Fn(&Local, &[bool]) -> Fit + Sync,
+) -> Vec<usize> {
+    let tries: Vec<(usize, usize, usize)> = (0..active.len())
+        .filter(|&p| !active[p] && !readded[p])
+        .flat_map(|p| seen[p].iter().map(move |&(l, q)| (p, l, q)))
+        .collect();
+    let walds: Vec<(usize, usize, f64)> = tries
+        .par_iter()
+        .map(|&(p, l, q)| {
+            let loc = &locals[l];
+            let mut act: Vec<bool> = loc.pairs.iter().map(|&r| active[r]).collect();
+            act[q] = true;
+            (p, l, fit_with(loc, &act).wald[q])
+        })
+        .collect();
+    let mut score = vec![0.0; active.len()];
+    for &(p, _, w) in &walds {
+        score[p] += w;
+    }
+    let mut best: Vec<Option<usize>> = vec![None; locals.len()];
+    for &(p, l, _) in &walds {
+        if score[p] >= threshold[p] && best[l].is_none_or(|b| (score[p], p) > (score[b], b)) {
+            best[l] = Some(p);
+        }
+    }
+    let mut add: Vec<usize> = (0..active.len())
+        .filter(|&p| score[p] >= threshold[p])
+        .filter(|&p| seen[p].iter().all(|&(l, _)| best[l] == Some(p)))
+        .collect();
+    add.dedup();
+    for &p in &add {
+        readded[p] = true;
+    }
+    add
+}
+
 /// The outcome of the selection.
 pub struct Selection {
     /// Per candidate pair: kept.
@@ -362,6 +576,7 @@ pub fn select(
     threshold_scale: f64,
     floor: f64,
     gravity: Option<Vector3<f64>>,
+    noise: Option<&Noise>,
 ) -> Selection {
     let mut active = vec![true; num_pairs];
     let mut threshold = vec![0.0; num_pairs];
@@ -378,6 +593,7 @@ pub fn select(
     let mut dirty = vec![true; locals.len()];
     let mut score = vec![0.0; num_pairs];
     let mut rounds = 0;
+    let (mut forward_rounds, mut readded) = (0, vec![false; num_pairs]);
     loop {
         rounds += 1;
         let updated: Vec<(usize, Fit)> = locals
@@ -386,7 +602,7 @@ pub fn select(
             .filter(|(l, _)| dirty[*l])
             .map(|(l, loc)| {
                 let act: Vec<bool> = loc.pairs.iter().map(|&p| active[p]).collect();
-                (l, fit(loc, &act, floor, gravity))
+                (l, fit(loc, &act, floor, gravity, noise))
             })
             .collect();
         for (l, f) in updated {
@@ -396,8 +612,11 @@ pub fn select(
         for p in (0..num_pairs).filter(|&p| active[p]) {
             score[p] = seen[p].iter().map(|&(l, q)| fits[l].wald[q]).sum();
         }
-        // The weakest pair of each particle (by the score, then the index).
-        let weaker = |a: usize, b: usize| (score[a], a) < (score[b], b);
+        // The weakest pair of each particle (by the score over its threshold, then the index:
+        // by the score alone, a pair below its threshold could stay for good behind a weaker
+        // one above its own).
+        let ratio = |p: usize| score[p] / threshold[p];
+        let weaker = |a: usize, b: usize| (ratio(a), a) < (ratio(b), b);
         let mut weakest: Vec<Option<usize>> = vec![None; locals.len()];
         for (l, loc) in locals.iter().enumerate() {
             for &p in loc.pairs.iter().filter(|&&p| active[p]) {
@@ -411,7 +630,30 @@ pub fn select(
             .filter(|&p| seen[p].iter().all(|&(l, _)| weakest[l] == Some(p)))
             .collect();
         if remove.is_empty() {
-            break;
+            match noise {
+                Some(_) if forward_rounds < MAX_FORWARD_ROUNDS => {
+                    forward_rounds += 1;
+                    let add = forward_step(
+                        locals,
+                        &seen,
+                        &active,
+                        &threshold,
+                        &mut readded,
+                        |loc, act| fit(loc, act, floor, gravity, noise),
+                    );
+                    if add.is_empty() {
+                        break;
+                    }
+                    for p in add {
+                        active[p] = true;
+                        for &(l, _) in &seen[p] {
+                            dirty[l] = true;
+                        }
+                    }
+                    continue;
+                }
+                _ => break,
+            }
         }
         for p in remove {
             active[p] = false;

@@ -22,14 +22,41 @@ pub fn noise_level(take: &Take) -> f64 {
 /// median's relative standard deviation is `1.17/√n` for independent samples, about `2/√n`
 /// for these overlapping ones, whose neighbours correlate at −0.75).
 pub fn noise_level_and_samples(take: &Take) -> (f64, usize) {
+    difference_noise_level(take, 3)
+}
+
+/// The noise level (m) from differences of any `order` ≥ 1: white noise's `Δᵏe` has variance
+/// `C(2k, k) σ²` (20 for k = 3), so the estimate is `√(median (Δᵏx)² / 0.455 / C(2k, k))`.
+/// A smooth motion's own share falls as `(ω dt)ᵏ` with the order while white noise's estimate
+/// stays the same: two orders that agree say the differences are noise (structure discovery
+/// reads orders 3 and 6 to tell noisy positions from a smooth noiseless motion).
+pub fn difference_noise_level(take: &Take, order: usize) -> (f64, usize) {
+    let order = order.max(1);
+    // Binomial coefficients of Δᵏ, alternating.
+    let mut coef = vec![1.0f64];
+    for _ in 0..order {
+        let mut next = vec![0.0; coef.len() + 1];
+        for (j, c) in coef.iter().enumerate() {
+            next[j] -= c;
+            next[j + 1] += c;
+        }
+        coef = next;
+    }
+    let var_gain: f64 = coef.iter().map(|c| c * c).sum();
     let mut sq = Vec::new();
     for i in 0..take.particles() {
         for c in 0..3 {
-            for t in 3..take.frames() {
-                let at = |k: usize| take.at(k, i, c);
-                let q = [at(t - 3), at(t - 2), at(t - 1), at(t)];
-                if q.iter().all(|(_, w)| *w > 0.0) {
-                    let d = q[3].0 - 3.0 * q[2].0 + 3.0 * q[1].0 - q[0].0;
+            for t in order..take.frames() {
+                let mut d = 0.0;
+                let mut seen = true;
+                // Newest frame first: order 3 sums as `x₃ - 3x₂ + 3x₁ - x₀`, bit for bit the
+                // output-error start's noise level as it always was.
+                for (j, w) in coef.iter().enumerate().rev() {
+                    let (x, weight) = take.at(t - order + j, i, c);
+                    seen &= weight > 0.0;
+                    d += w * x;
+                }
+                if seen {
                     sq.push(d * d);
                 }
             }
@@ -40,7 +67,7 @@ pub fn noise_level_and_samples(take: &Take) -> (f64, usize) {
     }
     sq.sort_by(f64::total_cmp);
     let median = sq[sq.len() / 2];
-    ((median / 0.455 / 20.0).sqrt(), sq.len())
+    ((median / 0.455 / var_gain).sqrt(), sq.len())
 }
 
 /// The starting genome: the short cost's exact minimum on smoothed, gap-filled positions when
