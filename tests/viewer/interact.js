@@ -27,6 +27,15 @@ window.addEventListener("load", function () {
       var right = +body.getAttribute("data-scene-right");
       check("the scene is drawn left of the legend (" + right + " px)", right > 0 &&
             right <= document.querySelector(".legend").getBoundingClientRect().left);
+      // The PNG button downloads the current frame: catch the link it clicks.
+      var clicked = null, click = HTMLAnchorElement.prototype.click;
+      HTMLAnchorElement.prototype.click = function () { clicked = this; };
+      document.querySelector(".controls .png").click();
+      HTMLAnchorElement.prototype.click = click;
+      if (clicked) body.setAttribute("data-png", clicked.href);
+      check("PNG export (" + (clicked ? clicked.download + ", " + clicked.href.length + " chars" : "none") + ")",
+            !!clicked && clicked.href.indexOf("data:image/png;base64,") === 0 &&
+            clicked.href.length > 20000 && /-frame\d+\.png$/.test(clicked.download));
       key(" ");
     },
     function () {

@@ -85,6 +85,10 @@ echo "controls: $result"
 if [ -z "$result" ] || echo "$result" | grep -q FAIL; then
     echo "FAIL: the controls do not respond as expected"; exit 1
 fi
+# The frame the PNG button exported decodes and drew something.
+grep -o 'data-png="data:image/png;base64,[^"]*"' "$out/interact.dom" \
+    | sed 's/^data-png="data:image\/png;base64,//; s/"$//' | base64 -d >"$out/exported.png"
+python3 "$here/png_check.py" "$out/exported.png" 800 any
 
 # A large scene: the page stays small, and building a frame's drawing is fast: `#bench=10`
 # makes the page draw ten times and record the mean time in <body data-draw-ms> (the time of

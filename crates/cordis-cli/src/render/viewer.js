@@ -343,12 +343,15 @@
     seg.title = "A and B overlaid or side by side (S)";
     bar.appendChild(seg);
   }
+  var pngBtn = el("button", "png", "PNG");
+  pngBtn.title = "save the current frame as a PNG image (P)";
+  bar.appendChild(pngBtn);
   var resetBtn = el("button", "reset", "Reset view");
   resetBtn.title = "reset the camera (R, or double-click)";
   bar.appendChild(resetBtn);
   document.body.appendChild(bar);
   var help = el("div", "help", "drag: orbit \u00b7 shift-drag / right-drag: pan \u00b7 wheel: zoom \u00b7 " +
-    "space: play \u00b7 \u2190 \u2192: step \u00b7 R: reset");
+    "space: play \u00b7 \u2190 \u2192: step \u00b7 R: reset \u00b7 P: PNG");
   document.body.appendChild(help);
 
   // ---- state ----------------------------------------------------------------------------
@@ -746,6 +749,29 @@
     document.body.setAttribute("data-draw-ms", (performance.now() - started).toFixed(2));
   }
 
+  // The current frame as a PNG file: the drawing at the screen's resolution (the scene, the
+  // panel labels and the axes; not the HTML panels) on the page's darkest background colour,
+  // named after the page's title and the frame. A data: URL, so nothing leaves the page.
+  function savePng() {
+    draw();
+    var out = document.createElement("canvas");
+    out.width = canvas.width;
+    out.height = canvas.height;
+    var g = out.getContext("2d");
+    g.fillStyle = "#090c14";
+    g.fillRect(0, 0, out.width, out.height);
+    g.drawImage(canvas, 0, 0);
+    var a = document.createElement("a");
+    var name = String(D.title || "cordis").replace(/[^A-Za-z0-9._-]+/g, "_").slice(0, 60);
+    a.download = name + "-frame" + frame + ".png";
+    a.href = out.toDataURL("image/png");
+    document.body.appendChild(a);
+    a.click();
+    a.remove();
+    return a;
+  }
+  pngBtn.addEventListener("click", function () { savePng(); pngBtn.blur(); });
+
   // ---- interaction ----------------------------------------------------------------------
   var pointers = new Map(), dragMode = null, pinchDist = 0;
   canvas.addEventListener("contextmenu", function (e) { e.preventDefault(); });
@@ -813,6 +839,7 @@
     } else if (key === "Home") setFrame(0);
     else if (key === "End") setFrame(T - 1);
     else if (key === "r" || key === "R") { defaultView(); redraw(); }
+    else if (key === "p" || key === "P") savePng();
     else if ((key === "s" || key === "S") && B) setMode(mode === "side" ? "overlay" : "side");
     else return;
     e.preventDefault();
