@@ -245,15 +245,8 @@ pub fn bench_scene(name: &str, seed: u64) -> Result<BenchScene> {
 
 pub fn run(a: Args, output: crate::Output) -> Result<()> {
     let out = Report(output);
-    let mut budgets = a.budgets.clone();
-    budgets.sort_unstable();
-    budgets.dedup();
-    let Some(&max_budget) = budgets.last() else {
-        bail!("--budgets: give at least one budget");
-    };
-    if budgets[0] == 0 {
-        bail!("--budgets: a budget is a positive number of evaluations");
-    }
+    let budgets = sorted_budgets(&a.budgets)?;
+    let max_budget = budgets[budgets.len() - 1];
     if a.time_limit.is_nan() || a.time_limit <= 0.0 {
         bail!("--time-limit: must be a positive number of seconds");
     }
@@ -298,18 +291,7 @@ pub fn run(a: Args, output: crate::Output) -> Result<()> {
         let mut reaches: Vec<(String, Option<f64>, f64)> = Vec::new();
         for (label, name) in &strategies {
             let setup_start = Instant::now();
-            let mut req = IdentifyRequest::new(s.unknown.clone(), s.traj.clone());
-            req.scene_place = s.name.clone();
-            req.truth = Some(s.truth.clone());
-            req.strategy = *name;
-            req.population = Some(a.population);
-            req.seed = a.seed;
-            // 0: all cores, as rayon counts.
-            req.threads = (a.threads > 0).then_some(a.threads);
-            req.generations = Generations::Unlimited;
-            req.max_evals = Some(max_budget);
-            req.time_limit = Some(a.time_limit);
-            let session = match Session::new(req) {
+            let session = match Session::new(request(s, *name, &a, max_budget)) {
                 Ok(session) => session,
                 Err(CostError::Refused {
                     message: reason, ..
@@ -334,49 +316,9 @@ pub fn run(a: Args, output: crate::Output) -> Result<()> {
                 .run(&mut [], None)
                 .map_err(|e| anyhow!("{} with {label}: {e}", s.name))?
                 .result;
-            for (budget, row) in points(&result.history, &budgets) {
-                let stop = if budget.is_none() {
-                    format!("{:?}", result.stopped_by)
-                } else {
-                    String::new()
-                };
-                out.table(format!(
-                    "{:<7} {:<14} {:>10} {:>10} {:>9.3} {:>11.3e} {:>12}  {}",
-                    s.name,
-                    label,
-                    budget.map(|b| b.to_string()).unwrap_or("-".into()),
-                    row.evals,
-                    setup + row.seconds,
-                    row.best_cost,
-                    row.param_error_pct
-                        .map(|e| format!("{e:.3e}"))
-                        .unwrap_or_default(),
-                    stop
-                ));
-                out.record(
-                    &mut lines,
-                    json!({
-                        "bench": "pareto", "record": "point", "scene": s.name, "strategy": label,
-                        "budget": budget, "evals": row.evals, "generations": row.generation,
-                        "seconds": setup + row.seconds, "cost": finite(row.best_cost),
-                        "param_error_pct": row.param_error_pct.and_then(finite),
-                        "stopped_by": budget.is_none().then(|| json!(result.stopped_by)),
-                    }),
-                );
-            }
-            let reach = reach(&result, s.target_pct);
-            let run_seconds = setup + result.seconds;
-            out.record(
-                &mut lines,
-                json!({
-                    "bench": "pareto", "record": "reach", "scene": s.name, "strategy": label,
-                    "target_pct": s.target_pct,
-                    "seconds": reach.map(|r| setup + r.seconds),
-                    "evals": reach.map(|r| r.evals),
-                    "run_seconds": run_seconds, "run_evals": result.evals,
-                }),
-            );
-            reaches.push((label.clone(), reach.map(|r| setup + r.seconds), run_seconds));
+            reaches.push(record_run(
+                &out, &mut lines, s, label, setup, &result, &budgets,
+            ));
         }
         if let Some(sp) = speedup(&s.name, s.target_pct, &reaches) {
             speedups.push(sp.clone());
@@ -391,6 +333,98 @@ pub fn run(a: Args, output: crate::Output) -> Result<()> {
         eprintln!("wrote {} ({} records)", a.out.display(), lines.len());
     }
     Ok(())
+}
+
+/// The session request of one bench run: `name` on scene `s`, the bench's population, seed and
+/// threads, no generation limit, at most `max_budget` evaluations and `--time-limit` seconds.
+fn request(s: &BenchScene, name: StrategyName, a: &Args, max_budget: u64) -> IdentifyRequest {
+    let mut req = IdentifyRequest::new(s.unknown.clone(), s.traj.clone());
+    req.scene_place = s.name.clone();
+    req.truth = Some(s.truth.clone());
+    req.strategy = name;
+    req.population = Some(a.population);
+    req.seed = a.seed;
+    // 0: all cores, as rayon counts.
+    req.threads = (a.threads > 0).then_some(a.threads);
+    req.generations = Generations::Unlimited;
+    req.max_evals = Some(max_budget);
+    req.time_limit = Some(a.time_limit);
+    req
+}
+
+/// `--budgets` sorted, without repeats; at least one, each positive.
+fn sorted_budgets(given: &[u64]) -> Result<Vec<u64>> {
+    let mut budgets = given.to_vec();
+    budgets.sort_unstable();
+    budgets.dedup();
+    if budgets.is_empty() {
+        bail!("--budgets: give at least one budget");
+    }
+    if budgets[0] == 0 {
+        bail!("--budgets: a budget is a positive number of evaluations");
+    }
+    Ok(budgets)
+}
+
+/// One run's table rows and `point` records (one per budget it reached, and its end), its
+/// `reach` record; returns the strategy's label, its time to the target (s, `setup`
+/// included) and its whole run time, for the speed-up.
+fn record_run(
+    out: &Report,
+    lines: &mut Vec<Value>,
+    s: &BenchScene,
+    label: &str,
+    setup: f64,
+    result: &RunResult,
+    budgets: &[u64],
+) -> (String, Option<f64>, f64) {
+    for (budget, row) in points(&result.history, budgets) {
+        let stop = if budget.is_none() {
+            format!("{:?}", result.stopped_by)
+        } else {
+            String::new()
+        };
+        out.table(format!(
+            "{:<7} {:<14} {:>10} {:>10} {:>9.3} {:>11.3e} {:>12}  {}",
+            s.name,
+            label,
+            budget.map(|b| b.to_string()).unwrap_or("-".into()),
+            row.evals,
+            setup + row.seconds,
+            row.best_cost,
+            row.param_error_pct
+                .map(|e| format!("{e:.3e}"))
+                .unwrap_or_default(),
+            stop
+        ));
+        out.record(
+            lines,
+            json!({
+                "bench": "pareto", "record": "point", "scene": s.name, "strategy": label,
+                "budget": budget, "evals": row.evals, "generations": row.generation,
+                "seconds": setup + row.seconds, "cost": finite(row.best_cost),
+                "param_error_pct": row.param_error_pct.and_then(finite),
+                "stopped_by": budget.is_none().then(|| json!(result.stopped_by)),
+            }),
+        );
+    }
+    let reach = reach(result, s.target_pct);
+    let run_seconds = setup + result.seconds;
+    out.record(
+        lines,
+        json!({
+            "bench": "pareto", "record": "reach", "scene": s.name, "strategy": label,
+            "target_pct": s.target_pct,
+            "seconds": reach.map(|r| setup + r.seconds),
+            "evals": reach.map(|r| r.evals),
+            "run_seconds": run_seconds, "run_evals": result.evals,
+        }),
+    );
+    (
+        label.to_string(),
+        reach.map(|r| setup + r.seconds),
+        run_seconds,
+    )
 }
 
 /// The history rows each budget ends at: the first with at least that many evaluations; and
