@@ -218,11 +218,11 @@ impl Scene {
         for (k, &which) in t.optional.iter().enumerate() {
             let place = format!("{at}.{}", which.name());
             if !which.kinds().contains(&t.kind) {
-                let kinds: Vec<&str> = which.kinds().iter().map(|k| k.name()).collect();
-                return Err(CordisError::scene(
-                    place,
-                    format!("only {} types have it", kinds.join(" and ")),
-                ));
+                let who = match which {
+                    OptionalParam::MaxElongation => "only springs have it",
+                    OptionalParam::DampingQuadratic => "only springs and conditional links have it",
+                };
+                return Err(CordisError::scene(place, who));
             }
             if t.optional[..k].contains(&which) {
                 return Err(CordisError::scene(place, "given twice"));
@@ -417,11 +417,30 @@ impl Scene {
                 at,
                 "a force_transmitter needs `source`: the index in `links` of a spring",
             )),
-            (true, Some(li)) => match self.links.get(li).map(|l| self.types[l.type_index].kind) {
-                Some(LinkKind::Spring) => Ok(()),
-                Some(k) => Err(CordisError::scene(
+            (true, Some(li)) => match self.links.get(li).map(|l| &self.types[l.type_index]) {
+                // The transmitter reads `K (L - l0) + Z s`: a quadratic viscosity would be
+                // left out of the tension it sends.
+                Some(t)
+                    if t.kind == LinkKind::Spring
+                        && t.optional_param(OptionalParam::DampingQuadratic)
+                            .is_some_and(|z| !z.is_known_zero()) =>
+                {
+                    Err(CordisError::scene(
+                        place,
+                        format!(
+                            "link {li}'s type `{}` has a damping_quadratic: a force transmitter \
+                             sends K (L - l0) + Z s only",
+                            t.name
+                        ),
+                    ))
+                }
+                Some(t) if t.kind == LinkKind::Spring => Ok(()),
+                Some(t) => Err(CordisError::scene(
                     place,
-                    format!("link {li} is a `{k}`: a force transmitter reads a spring's tension"),
+                    format!(
+                        "link {li} is a `{}`: a force transmitter reads a spring's tension",
+                        t.kind
+                    ),
                 )),
                 None => Err(CordisError::scene(
                     place,

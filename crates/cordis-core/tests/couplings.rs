@@ -203,3 +203,24 @@ fn couplings_round_trip_and_are_validated() {
     });
     assert_eq!(p, "links[2].type");
 }
+
+/// A force transmitter sends `K (L - l0) + Z s`: a source spring with a quadratic viscosity
+/// would lose its `Z₂ s |s|` on the way, so the scene is refused, naming the coupling.
+#[test]
+fn a_force_transmitter_refuses_a_source_with_a_quadratic_viscosity() {
+    let mut s = Scene::new(MAIN_DT);
+    s.add_type(
+        spring("source", 5.0, 1.0).with_optional(cordis_core::OptionalParam::DampingQuadratic, 0.3),
+    );
+    s.add_type(LinkType::new("tx", LinkKind::ForceTransmitter));
+    for x in [0.0, 0.5, 2.0, 3.0] {
+        s.add_particle(Particle::new(1.0, [x, 0.0, 0.0]));
+    }
+    let src = s.add_link("source", &[0, 1]);
+    s.add_force_transmitter("tx", [2, 3], src);
+    let e = s.validate().unwrap_err().to_string();
+    assert!(
+        e.starts_with("couplings[0].source: link 0's type `source` has a damping_quadratic"),
+        "{e}"
+    );
+}
