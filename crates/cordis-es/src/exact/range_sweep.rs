@@ -705,24 +705,10 @@ mod tests {
     /// estimate, having stored no more than its share; within it, it is built.
     #[test]
     fn pairs_beyond_the_memory_are_refused_with_the_estimate() {
-        let truth = gas();
-        let unknown = with_unknown_boxes(&truth, 25.0, 5);
-        let traj = truth.simulate(60).unwrap();
-        let problem = Problem::new(&unknown, &traj, CostKind::Short).unwrap();
+        let (_, problem) = gas_problem();
         let cols = exact::generic_cols(&problem.scene).unwrap();
         let sp = split(&problem);
-        let dims: Vec<(usize, Vec<f64>)> = sp
-            .nonlinear
-            .iter()
-            .map(|&k| {
-                (
-                    k,
-                    crate::strategies::hybrid::candidates(&problem, k)
-                        .unwrap()
-                        .0,
-                )
-            })
-            .collect();
+        let dims = range_dims(&problem, &sp.nonlinear);
         let pairs = |memory| {
             Sweeper::within(&problem, &cols, &sp.linear, dims.clone(), memory)
                 .map(|s| s.dims.iter().map(|d| d.pairs.len()).sum::<usize>())
@@ -771,30 +757,38 @@ mod tests {
         crate::strategies::test_scenes::anchored_gas(&pts, true)
     }
 
+    /// The gas with every parameter of its types unknown (boxes 25× wide), over 60 frames.
+    fn gas_problem() -> (Scene, Problem) {
+        let truth = gas();
+        let unknown = with_unknown_boxes(&truth, 25.0, 5);
+        let traj = truth.simulate(60).unwrap();
+        let problem = Problem::new(&unknown, &traj, CostKind::Short).unwrap();
+        (truth, problem)
+    }
+
+    /// Each range unknown of `nonlinear` with its candidate values.
+    fn range_dims(problem: &Problem, nonlinear: &[usize]) -> Vec<(usize, Vec<f64>)> {
+        nonlinear
+            .iter()
+            .map(|&k| {
+                (
+                    k,
+                    crate::strategies::hybrid::candidates(problem, k).unwrap().0,
+                )
+            })
+            .collect()
+    }
+
     /// The sweep's bound of every interval against a full inner solve built the old way
     /// (the scene's force passes per column, per-particle factors, [`exact::solve`]): never
     /// above it, and equal to it wherever the full solve clamped and held nothing.
     #[test]
     fn sweep_bounds_match_full_solves_on_every_interval() {
-        let truth = gas();
-        let unknown = with_unknown_boxes(&truth, 25.0, 5);
-        let traj = truth.simulate(60).unwrap();
-        let problem = Problem::new(&unknown, &traj, CostKind::Short).unwrap();
+        let (truth, problem) = gas_problem();
         let cols = exact::generic_cols(&problem.scene).unwrap();
         let sp = split(&problem);
         assert!(applies(&problem, cols.len(), &sp.nonlinear, sp.free_masses));
-        let dims: Vec<(usize, Vec<f64>)> = sp
-            .nonlinear
-            .iter()
-            .map(|&k| {
-                (
-                    k,
-                    crate::strategies::hybrid::candidates(&problem, k)
-                        .unwrap()
-                        .0,
-                )
-            })
-            .collect();
+        let dims = range_dims(&problem, &sp.nonlinear);
         assert_eq!(dims.len(), 2);
         let mut sw = Sweeper::new(&problem, &cols, &sp.linear, dims).unwrap();
         let space = &problem.space;
