@@ -278,8 +278,10 @@ pub fn with_unknowns(scene: &Scene, width: f64) -> Result<Scene> {
         let names: Vec<String> = (0..t.params.len()).map(|k| t.param_name(k)).collect();
         for (p, name) in t.params.iter_mut().zip(&names) {
             let Param::Known(v) = *p else { continue };
+            // Optional parameters (τc, Z₂) stay known, as before they were parameters.
             let kept = name.starts_with("w_")
                 || name.starts_with("tendon_")
+                || crate::OptionalParam::from_name(name).is_some()
                 || matches!(name.as_str(), "gain" | "threshold" | "rest_cos");
             if v <= 0.0 || kept {
                 continue;
@@ -297,6 +299,21 @@ pub fn with_unknowns(scene: &Scene, width: f64) -> Result<Scene> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// τc stays a known number (it was not a parameter before issue 19); the stiffnesses
+    /// become unknown as before.
+    #[test]
+    fn with_unknowns_leaves_provots_limit_known() {
+        let cloth = crate::examples::cloth(4, 4);
+        let u = with_unknowns(&cloth, 4.0).unwrap();
+        let limited: Vec<_> = u.types.iter().filter_map(|t| t.max_elongation()).collect();
+        assert_eq!(limited.len(), 2);
+        assert!(limited.iter().all(|tau| !tau.is_unknown()));
+        assert!(u
+            .types
+            .iter()
+            .all(|t| t.param("stiffness").unwrap().is_unknown()));
+    }
 
     /// A 2 × 2 square of markers, pitch 0.1 m, the left column still, the right one moving.
     fn square(frames: usize) -> Observations {

@@ -7,6 +7,7 @@
 use cordis_core::{examples, Bounds, LinkKind, LinkType, OptionalParam, Param, Particle, Scene};
 use cordis_es::cost::CostKind;
 use cordis_es::executor::{self, RunConfig, StopReason, StopRules};
+use cordis_es::identify::with_unknown_boxes;
 use cordis_es::problem::Problem;
 use cordis_es::strategies::levenberg_marquardt::{LevenbergMarquardt, LmConfig};
 use cordis_es::strategies::{hybrid, least_squares};
@@ -247,4 +248,26 @@ fn provots_tau_is_identified_by_levenberg_marquardt_and_refused_by_the_exact_sol
     );
     assert_eq!(r.stopped_by, StopReason::Converged);
     assert!(err < 1e-6, "mean parameter error {err} %");
+}
+
+/// `cordis example cloth --unknowns` draws the same boxes as before τc was a parameter: τc
+/// stays known and draws nothing, so every other box is bit for bit that of the cloth
+/// without the limit.
+#[test]
+fn unknown_boxes_leave_tau_known_and_draw_the_same_boxes() {
+    let cloth = examples::cloth(8, 8);
+    let mut plain = cloth.clone();
+    for t in &mut plain.types {
+        t.set_optional(OptionalParam::MaxElongation, None);
+    }
+    for seed in [0, 3] {
+        let (with, without) = (
+            with_unknown_boxes(&cloth, 25.0, seed),
+            with_unknown_boxes(&plain, 25.0, seed),
+        );
+        for (a, b) in with.types.iter().zip(&without.types) {
+            assert_eq!(a.params[..3], b.params[..3], "{}", a.name);
+            assert!(a.max_elongation().is_none_or(|tau| !tau.is_unknown()));
+        }
+    }
 }
