@@ -212,6 +212,8 @@ fn unit(kind: LinkKind, param: &str) -> &'static str {
         (_, "damping" | "tendon_damping" | "z1" | "z2") => "N·s/m",
         (_, "rest_length" | "range") => "m",
         (_, "v_max") => "m/s",
+        (_, "damping_quadratic") => "N·s²/m²",
+        (_, "max_elongation") => "1",
         (_, "tendon_mass") => "kg",
         (LinkKind::Muscle, "gain") => "N",
         (LinkKind::Plane, "friction") => "1",
