@@ -271,3 +271,15 @@ fn unknown_boxes_leave_tau_known_and_draw_the_same_boxes() {
         }
     }
 }
+
+/// The output-error estimator has no sensitivities of `Z₂ s |s|` yet: it refuses the scene
+/// naming the parameter (so `auto` does not pick it on noisy data).
+#[test]
+fn output_error_refuses_a_quadratic_viscosity_by_name() {
+    let truth = quadratic_chain(true);
+    let traj = truth.simulate(50).unwrap();
+    let problem = Problem::new(&quadratic_chain(false), &traj, CostKind::Short).unwrap();
+    let e = cordis_es::strategies::output_error::supported(&problem).unwrap_err();
+    assert!(e.starts_with("types.visc.damping_quadratic:"), "{e}");
+    assert!(e.contains("no exact sensitivities"), "{e}");
+}
