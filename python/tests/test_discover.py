@@ -34,3 +34,36 @@ def test_discover_needs_a_mass_scale():
         cordis.discover(traj, 0.005)
     with pytest.raises(ValueError, match="dt"):
         cordis.discover(traj, -1.0, total_mass=5.0)
+
+
+def test_discover_takes_gravity_as_given():
+    truth = cordis.random_network(2, 14, 4)
+    traj = truth.simulate(300)
+    d = truth.to_dict()
+    total = sum(p["mass"] for p in d["particles"] if not p.get("fixed", False))
+    g = tuple(d["gravity"])
+    res = cordis.discover(traj, truth.dt, total_mass=total, gravity=g)
+    assert tuple(res.scene.to_dict()["gravity"]) == g
+    assert _pairs(res.scene) == _pairs(truth)
+    assert res.undetermined == []
+    # Noiseless data: the noise level was estimated, as none.
+    assert res.noise_estimated and res.noise_level == 0.0
+    with pytest.raises(cordis.CordisError, match=r"gravity\[1\]"):
+        cordis.discover(traj, truth.dt, total_mass=total, gravity=(0.0, float("nan"), 0.0))
+
+
+def test_discover_estimates_the_noise_and_warns_when_the_data_look_noisy():
+    np = pytest.importorskip("numpy")
+    truth = cordis.random_network(2, 14, 4)
+    traj = np.asarray(truth.simulate(300))
+    d = truth.to_dict()
+    total = sum(p["mass"] for p in d["particles"] if not p.get("fixed", False))
+    size = float(np.max(traj.max(axis=(0, 1)) - traj.min(axis=(0, 1))))
+    sigma = 1e-4 * size
+    noisy = traj + np.random.default_rng(7).normal(0.0, sigma, traj.shape)
+    with pytest.warns(UserWarning, match="look noisy"):
+        res = cordis.discover(noisy, truth.dt, total_mass=total)
+    assert res.noise_estimated
+    assert res.noise_level == pytest.approx(sigma, rel=0.1)
+    given = cordis.discover(noisy, truth.dt, total_mass=total, noise_level=sigma)
+    assert not given.noise_estimated and given.noise_level == sigma
