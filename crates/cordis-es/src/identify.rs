@@ -4,6 +4,7 @@
 use cordis_core::thesis::GeneParams;
 use cordis_core::Trajectory;
 
+use crate::error::CostError;
 use crate::output_error;
 use crate::problem::space::Role;
 use crate::problem::Problem;
@@ -223,7 +224,7 @@ pub fn make_islands(
     problem: &Problem,
     options: &StrategyOptions,
     config: IslandConfig,
-) -> Result<(Box<dyn Strategy>, &'static str), String> {
+) -> Result<(Box<dyn Strategy>, &'static str), CostError> {
     let name = match name {
         StrategyName::Auto => StrategyName::Thesis,
         other => other,

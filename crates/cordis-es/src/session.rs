@@ -258,8 +258,16 @@ impl Session {
         check_memory(&req, &problem, &options)?;
         check_horizon_time(&req, &problem)?;
         let (strategy, ran) = match req.islands {
-            Some(c) => make_islands(req.strategy, &problem, &options, c)
-                .map_err(|e| CostError::invalid(req.opt("islands"), e))?,
+            // The option's place as the front end spells it (`--islands`, `islands`).
+            Some(c) => make_islands(req.strategy, &problem, &options, c).map_err(|e| match e {
+                CostError::Refused { message, .. } => {
+                    CostError::refused(req.opt("islands"), message)
+                }
+                CostError::Invalid { place, message } => {
+                    CostError::invalid(req.opt(&place), message)
+                }
+                other => other,
+            })?,
             None => make_strategy(req.strategy, &problem, &options),
         };
         check(&req, ran, &problem)?;

@@ -60,21 +60,27 @@ pub fn island_seed(seed: u64, island: usize) -> u64 {
 impl Islands {
     /// Islands running the strategies `islands` (the same strategy, freshly made, K of them).
     /// Errors when the strategy cannot exchange individuals or the layout is degenerate.
-    pub fn new(config: IslandConfig, islands: Vec<Box<dyn Strategy>>) -> Result<Self, String> {
+    pub fn new(config: IslandConfig, islands: Vec<Box<dyn Strategy>>) -> Result<Self, CostError> {
         if config.islands < 2 || islands.len() != config.islands {
-            return Err(format!(
-                "islands: need 2 or more islands, got {}",
-                config.islands
+            return Err(CostError::invalid(
+                "islands",
+                format!("need 2 or more islands, got {}", config.islands),
             ));
         }
         if config.migrate_every == 0 {
-            return Err("migrate_every: must be 1 or more generations".into());
+            return Err(CostError::invalid(
+                "migrate_every",
+                "must be 1 or more generations",
+            ));
         }
         if let Some(s) = islands.iter().find(|s| !s.migrates()) {
-            return Err(format!(
-                "strategy `{}` cannot run on islands (it cannot exchange individuals; use \
-                 thesis)",
-                s.name()
+            return Err(CostError::refused(
+                "islands",
+                format!(
+                    "strategy `{}` cannot run on islands (it cannot exchange individuals; use \
+                     thesis)",
+                    s.name()
+                ),
             ));
         }
         Ok(Islands {
