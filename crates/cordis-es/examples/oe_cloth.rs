@@ -37,16 +37,6 @@ fn cpu_seconds() -> f64 {
     (ticks(11) + ticks(12)) / 100.0
 }
 
-/// `[x0, v0]` per free particle of the scene's initial state.
-fn truth_state(scene: &cordis_core::Scene) -> Vec<f64> {
-    let mut out = Vec::new();
-    for p in scene.particles.iter().filter(|p| !p.fixed) {
-        out.extend_from_slice(&p.pos);
-        out.extend_from_slice(&p.vel);
-    }
-    out
-}
-
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let side: usize = args.get(1).map_or(32, |s| s.parse().unwrap());
@@ -89,7 +79,7 @@ fn main() {
             // Diagnosis: the fit started at the truth (parameters and initial state).
             let cfg = Config {
                 start: Some(space.genome_of(&tv)),
-                start_states: Some(vec![truth_state(&truth)]),
+                start_states: Some(vec![cordis_es::output_error::start::scene_state(&truth)]),
                 ..Config::default()
             };
             let e = estimate(&guess, &space, std::slice::from_ref(&take), &cfg).unwrap();

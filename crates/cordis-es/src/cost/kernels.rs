@@ -142,6 +142,13 @@ impl PairGeometry {
         PairGeometry { start, data }
     }
 
+    /// Frame t's stored columns (u's three components, L, s) of pairs `range`.
+    fn columns(&self, t: usize, range: std::ops::Range<usize>) -> [&[f64]; 5] {
+        let block = &self.data[self.start[t]..self.start[t + 1]];
+        let m = block.len() / 5;
+        std::array::from_fn(|c| &block[c * m + range.start..c * m + range.end])
+    }
+
     /// Adds the forces of pairs `range` of frame t's list `pairs` (the list the geometry was
     /// built from) at the step that starts from frame t, with a quadratic viscosity Z₂:
     /// `(K (L - l0) + Z s + Z₂ s |s|) u` (`cordis_core::forces::spring`'s arithmetic).
@@ -153,11 +160,8 @@ impl PairGeometry {
         [k, l0, z, z2]: [f64; 4],
         f: &mut [Vec3],
     ) {
-        let block = &self.data[self.start[t]..self.start[t + 1]];
-        let m = block.len() / 5;
-        let at = |c: usize| &block[c * m + range.start..c * m + range.end];
-        let (ux, uy, uz, l, s) = (at(0), at(1), at(2), at(3), at(4));
-        for (a, &[i, j]) in pairs[range.clone()].iter().enumerate() {
+        let [ux, uy, uz, l, s] = self.columns(t, range.clone());
+        for (a, &[i, j]) in pairs[range].iter().enumerate() {
             let mag = k * (l[a] - l0) + z * s[a] + z2 * (s[a] * s[a].abs());
             let fi = Vec3::new(ux[a] * mag, uy[a] * mag, uz[a] * mag);
             f[i as usize] += fi;
@@ -175,11 +179,8 @@ impl PairGeometry {
         [k, l0, z]: [f64; 3],
         f: &mut [Vec3],
     ) {
-        let block = &self.data[self.start[t]..self.start[t + 1]];
-        let m = block.len() / 5;
-        let at = |c: usize| &block[c * m + range.start..c * m + range.end];
-        let (ux, uy, uz, l, s) = (at(0), at(1), at(2), at(3), at(4));
-        for (a, &[i, j]) in pairs[range.clone()].iter().enumerate() {
+        let [ux, uy, uz, l, s] = self.columns(t, range.clone());
+        for (a, &[i, j]) in pairs[range].iter().enumerate() {
             let mut mag = k * (l[a] - l0);
             if DAMPED {
                 mag += z * s[a];

@@ -315,6 +315,17 @@ impl RigidStart {
     }
 }
 
+/// The scene's own initial state in the fit's layout: `[x0, v0]` per free particle, in scene
+/// order (what `Config::start_states` takes per take).
+pub fn scene_state(scene: &Scene) -> Vec<f64> {
+    scene
+        .particles
+        .iter()
+        .filter(|p| !p.fixed)
+        .flat_map(|p| p.pos.into_iter().chain(p.vel))
+        .collect()
+}
+
 /// Least-squares `x = a + b t + c t²` through the points.
 fn quadratic(pts: &[(f64, f64)]) -> (f64, f64, f64) {
     let mut m = nalgebra::Matrix3::zeros();

@@ -66,16 +66,6 @@ fn network(seed: u64, masses: usize, types: usize) -> (Scene, Scene) {
     (truth, guess)
 }
 
-/// `[x0, v0]` per free particle in scene order (the estimator's state layout).
-fn initial_state_of(scene: &Scene) -> Vec<f64> {
-    scene
-        .particles
-        .iter()
-        .filter(|p| !p.fixed)
-        .flat_map(|p| p.pos.into_iter().chain(p.vel))
-        .collect()
-}
-
 fn mix(t: usize, i: usize, c: usize, seed: u64) -> u64 {
     let mut h = (t as u64)
         ^ ((i as u64) << 20)
@@ -131,7 +121,9 @@ fn one_draw(a: &Args, seed: u64, rel: f64, pattern: &str, cell: &mut Cell) {
     let config = Config {
         first_window: a.first_window.map_or(defaults.first_window, |w| w as usize),
         start: a.from_truth.then(|| space.genome_of(&tv)),
-        start_states: a.from_truth.then(|| vec![initial_state_of(&truth)]),
+        start_states: a
+            .from_truth
+            .then(|| vec![cordis_es::output_error::start::scene_state(&truth)]),
         ..defaults
     };
     let t0 = Instant::now();
