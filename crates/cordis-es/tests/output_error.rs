@@ -223,15 +223,20 @@ fn a_free_particle_no_observation_reaches_is_refused_by_name() {
 fn kinds_without_sensitivities_are_refused_by_name() {
     let mut s = cordis_core::examples::rigid();
     s.add_type(
-        LinkType::new("bend", LinkKind::Angle)
-            .with("stiffness", 1.0)
-            .with("rest_cos", 0.5),
+        LinkType::new("swirl", LinkKind::NonlinearDrag)
+            .with("z1", 0.1)
+            .with("z2", 0.2)
+            .with("v_max", 1.0),
     );
-    s.add_link("bend", &[0, 1, 2]);
+    s.add_link("swirl", &[1]);
     let traj = s.simulate(10).unwrap();
     let space = ParameterSpace::from_scene(&s);
     let e = estimate(&s, &space, &[Take::complete(&traj)], &Config::default()).unwrap_err();
-    assert!(e.to_string().starts_with("types.bend: kind `angle`"), "{e}");
+    assert!(
+        e.to_string()
+            .starts_with("types.swirl: kind `nonlinear_drag`"),
+        "{e}"
+    );
 }
 
 #[test]

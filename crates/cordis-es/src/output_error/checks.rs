@@ -24,9 +24,12 @@ pub(crate) fn check_takes(
     let n = scene.num_particles();
     let mut adj = vec![Vec::new(); n];
     for l in &scene.links {
-        if let [a, b] = l.particles[..] {
-            adj[a].push(b);
-            adj[b].push(a);
+        // Every pair of a link's particles (an angle ties its three).
+        for (n, &a) in l.particles.iter().enumerate() {
+            for &b in &l.particles[n + 1..] {
+                adj[a].push(b);
+                adj[b].push(a);
+            }
         }
     }
     for (k, take) in takes.iter().enumerate() {

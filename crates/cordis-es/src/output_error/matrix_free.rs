@@ -24,7 +24,9 @@
 //!   with `h = dt²/m` per particle (0 rows for fixed particles), `K = ∂F/∂x`, `C = ∂F/∂v`
 //!   assembled from the per-link 3×3 blocks `A = ∂f/∂d`, `B = ∂f/∂w = Z u uᵀ` of
 //!   [`super::tangent`] (`K_ii = K_jj = -A`, `K_ij = K_ji = A` for a link i–j), `G = ∂F/∂θ`
-//!   (with the mass column `-F/m`), and `s(0) = v_x0`, `s(-1) = v_x0 - dt v_v0`.
+//!   (with the mass column `-F/m`), and `s(0) = v_x0`, `s(-1) = v_x0 - dt v_v0`. An angle adds
+//!   its 6×6 block `∂(f_i, f_k)/∂(a, b)` instead ([`super::tangent::angle`], which holds its
+//!   forward, adjoint and local-block passes).
 //! - **`Jᵀ u`** (reverse, [`Mf::adjoint`]): the transpose of that linear recursion, run
 //!   backwards over the stored linearisation. With `z(n) = (s(n), s(n-1))` the forward map is
 //!   `z(n+1) = Φ(n) z(n) + …`; the adjoint `λ(n) = (a(n), b(n))` obeys
@@ -93,7 +95,7 @@ use cordis_core::Vec3;
 use nalgebra::{DMatrix, DVector, Matrix6};
 
 use super::fit::{Counts, Fitter, LmSettings, StageEnd};
-use super::tangent::{spring_link, NONE};
+use super::tangent::{angle, spring_link, NONE};
 
 /// Floats stored per spring or anchor per step: A (9, row-major), u (3), `l - l0`, `s = w·u`
 /// (∂f_i/∂(K, l0, Z) = (l - l0, -K, s) u). The passes are bound by reading this: 14 floats,
@@ -119,8 +121,10 @@ pub(crate) fn check_memory(
     const LIMIT: f64 = 8.0 * (1u64 << 30) as f64;
     let plan = &tangent.plan;
     let links = (plan.springs.pairs.len() + plan.anchors.particles.len()) as f64;
-    let per_frame =
-        14.0 * links + 3.0 * plan.dampers.pairs.len() as f64 + 4.0 * 3.0 * plan.n as f64;
+    let per_frame = LINK as f64 * links
+        + angle::ANGLE as f64 * plan.angles.triples.len() as f64
+        + 3.0 * plan.dampers.pairs.len() as f64
+        + 4.0 * 3.0 * plan.n as f64;
     let frames: f64 = takes.iter().map(|t| t.frames() as f64).sum();
     let longest = takes.iter().map(|t| t.frames()).max().unwrap_or(0) as f64;
     let theta = plan.layout.len as f64;
@@ -199,6 +203,8 @@ pub(crate) struct Lin {
     anchors: Vec<f64>,
     /// `[(n · dampers + l) · 3 ..]`: `v_j - v_i` (∂f_i/∂Z).
     dampers: Vec<f64>,
+    /// `[(n · angles + l) · ANGLE ..]` ([`angle::store`]).
+    angles: Vec<f64>,
     /// `[n · 3N + r]`: v(n) (drags' ∂f/∂Z) and F(n) (the mass column).
     vel: Vec<f64>,
     force: Vec<f64>,
@@ -303,6 +309,8 @@ impl<'a, 'b> Mf<'a, 'b> {
         lin.springs.resize(steps * nsp * LINK, 0.0);
         lin.anchors.resize(steps * nan * LINK, 0.0);
         lin.dampers.resize(steps * nd * 3, 0.0);
+        let nag = plan.angles.triples.len();
+        lin.angles.resize(steps * nag * angle::ANGLE, 0.0);
         lin.vel.resize(steps * rows, 0.0);
         lin.force.resize(steps * rows, 0.0);
         lin.wsq.resize(frames * rows, 0.0);
@@ -357,7 +365,7 @@ impl<'a, 'b> Mf<'a, 'b> {
                 let (kk, l0, z) = (p[r.param], p[r.param + 1], p[r.param + 2]);
                 for (l, &[i, j]) in plan.springs.pairs[r.start..r.end].iter().enumerate() {
                     let (i, j) = (i as usize, j as usize);
-                    let lk = spring_link(&xn[j], &xn[i], &v[j], &v[i], kk, l0, z);
+                    let lk = spring_link(&xn[j], &xn[i], &v[j], &v[i], kk, l0, z, 0.0);
                     let d = &mut lin.springs[(t * nsp + r.start + l) * LINK..][..LINK];
                     store_link(d, &lk);
                 }
@@ -369,7 +377,7 @@ impl<'a, 'b> Mf<'a, 'b> {
                     .zip(&plan.anchors.points[r.start..r.end]);
                 for (l, (&i, point)) in items.enumerate() {
                     let i = i as usize;
-                    let lk = spring_link(point, &xn[i], &Vec3::zeros(), &v[i], kk, l0, z);
+                    let lk = spring_link(point, &xn[i], &Vec3::zeros(), &v[i], kk, l0, z, 0.0);
                     let d = &mut lin.anchors[(t * nan + r.start + l) * LINK..][..LINK];
                     store_link(d, &lk);
                 }
@@ -377,6 +385,10 @@ impl<'a, 'b> Mf<'a, 'b> {
             for (l, &[i, j]) in plan.dampers.pairs.iter().enumerate() {
                 let rel = v[j as usize] - v[i as usize];
                 lin.dampers[(t * nd + l) * 3..][..3].copy_from_slice(rel.as_slice());
+            }
+            if nag > 0 {
+                let out = &mut lin.angles[t * nag * angle::ANGLE..][..nag * angle::ANGLE];
+                angle::store(&plan.angles, p, xn, out);
             }
             for i in 0..n {
                 for c in 0..3 {
@@ -488,6 +500,11 @@ impl<'a, 'b> Mf<'a, 'b> {
                 for &i in &plan.drags.particles[r.start..r.end] {
                     sub(cii, i as usize, &id);
                 }
+            }
+            let nag = plan.angles.triples.len();
+            if nag > 0 {
+                let recs = &lin.angles[t * nag * angle::ANGLE..][..nag * angle::ANGLE];
+                angle::local(&plan.angles, recs, kii);
             }
             for (f, &i) in free.iter().enumerate() {
                 let h = dt * dt / p[mo + i];
@@ -665,6 +682,11 @@ impl<'a, 'b> Mf<'a, 'b> {
                 }
             }
         }
+        let nag = plan.angles.triples.len();
+        if nag > 0 {
+            let recs = &lin.angles[t * nag * angle::ANGLE..][..nag * angle::ANGLE];
+            angle::forward(&plan.angles, recs, p, of_slot, w, cur, df, dth);
+        }
         let mo = plan.layout.mass_offset;
         let dt2 = dt * dt;
         for i in 0..n {
@@ -829,6 +851,11 @@ impl<'a, 'b> Mf<'a, 'b> {
                         }
                     }
                 }
+            }
+            let nag = plan.angles.triples.len();
+            if nag > 0 {
+                let recs = &lin.angles[t * nag * angle::ANGLE..][..nag * angle::ANGLE];
+                angle::adjoint(&plan.angles, recs, p, of_slot, w, phi, na, grad);
             }
             for i in 0..n {
                 let ms = of_slot[mo + i];

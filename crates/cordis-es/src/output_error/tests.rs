@@ -5,8 +5,9 @@ use cordis_core::{Bounds, LinkKind, LinkType, Param, Scene, Vec3};
 
 use super::tangent::{Sens, Tangent};
 
-/// A random network with every damping non-zero, a damper, an anchor and a drag: every term
-/// of the tangent recursion (also the matrix-free path's test scene).
+/// A random network with every damping non-zero, a damper, an anchor, a drag and two angles
+/// (one at a free vertex, one with a fixed end): every term of the tangent recursion (also the
+/// matrix-free path's test scene).
 pub(super) fn every_term_scene(seed: u64) -> Scene {
     let mut s = random_network(seed, 6, 2);
     for t in &mut s.types {
@@ -26,6 +27,19 @@ pub(super) fn every_term_scene(seed: u64) -> Scene {
     let x = s.particles[3].pos;
     s.links[a].point = Some([x[0] + 0.2, x[1] - 0.1, x[2] + 0.05]);
     s.add_link("air", &[4]);
+    // Rest cosines off the initial ones, so the angles push from frame 0.
+    let c = |s: &Scene, [i, j, k]: [usize; 3]| {
+        let x = |n: usize| Vec3::from(s.particles[n].pos);
+        cordis_core::forces::angle::cos_angle(&x(i), &x(j), &x(k)).unwrap()
+    };
+    let rest = 0.5 * (c(&s, [1, 2, 3]) + c(&s, [0, 4, 5]));
+    s.add_type(
+        LinkType::new("bend", LinkKind::Angle)
+            .with("stiffness", 5.0)
+            .with("rest_cos", rest - 0.1),
+    );
+    s.add_link("bend", &[1, 2, 3]);
+    s.add_link("bend", &[0, 4, 5]);
     s
 }
 

@@ -14,20 +14,12 @@
 //! positions themselves come from the core's compiled [`Plan::step`], so the trajectory this
 //! module differentiates is bit for bit the one `cordis simulate` writes.
 //!
-//! `∂F/∂x` is never formed: each link adds its 3×3 blocks times the sensitivity rows of its two
-//! ends (sparsity: a particle's force depends on its neighbours only). For a spring from i to j
-//! with `d = x_j - x_i`, `l = |d|`, `u = d/l`, `w = v_j - v_i`, `s = w·u` and
-//! `f_i = (K (l - l0) + Z s) u = -f_j`:
-//!
-//! ```text
-//! ∂f_i/∂d = K u uᵀ + (m/l) (I - u uᵀ) + (Z/l) u ((I - u uᵀ) w)ᵀ,   m = K (l - l0) + Z s
-//! ∂f_i/∂w = Z u uᵀ
-//! ∂f_i/∂K = (l - l0) u,  ∂f_i/∂l0 = -K u,  ∂f_i/∂Z = s u
-//! ```
-//!
-//! An anchor is the same with `x_j` the fixed point; a damper `f_i = Z w`, a drag `f_i = -Z v_i`.
-//! Kinds without a tangent here (angles, conditional links, muscles, couplings, Provot limits,
-//! several worlds) are refused by name before any work.
+//! `∂F/∂x` is never formed: each link adds its 3×3 blocks times the sensitivity rows of its
+//! ends (sparsity: a particle's force depends on its neighbours only). One file per kind gives
+//! its force's derivatives: [`spring`] (springs and anchors, with the quadratic viscosity Z₂),
+//! [`angle`]; a damper `f_i = Z w` and a drag `f_i = -Z v_i` are written out here. Kinds
+//! without a tangent (conditional links, planes, muscles, couplings, nonlinear drags, Provot
+//! limits, several worlds) are refused by name before any work ([`Tangent::supports`]).
 //!
 //! Cost per step: about 30 P multiply-adds per link and 6 P per particle for P sensitivity
 //! columns, no allocation (the matrices are caller-owned scratch, row-major `3N × P`, so each
@@ -39,6 +31,11 @@ use cordis_core::{LinkKind, OptionalParam, Runaway, Scene, Vec3};
 
 use super::observations::Take;
 use crate::error::CostError;
+
+pub(crate) mod angle;
+mod spring;
+
+pub(crate) use spring::{spring_link, SpringLink};
 
 /// No column: a known parameter.
 pub(crate) const NONE: usize = usize::MAX;
@@ -118,14 +115,18 @@ impl Tangent {
                 || ty.kind == LinkKind::Conditional;
             let supported = matches!(
                 ty.kind,
-                LinkKind::Spring | LinkKind::Damper | LinkKind::Anchor | LinkKind::Drag
+                LinkKind::Spring
+                    | LinkKind::Damper
+                    | LinkKind::Anchor
+                    | LinkKind::Drag
+                    | LinkKind::Angle
             );
             if used && !supported {
                 return Err(CostError::mismatch(
                     format!("types.{}", ty.name),
                     format!(
                         "kind `{}` has no exact sensitivities yet: the output-error estimator \
-                         takes springs, dampers, anchors and drags",
+                         takes springs, dampers, anchors, drags and angles",
                         ty.kind.name()
                     ),
                 ));
@@ -270,25 +271,37 @@ impl Tangent {
         df.iter_mut().for_each(|x| *x = 0.0);
         let v = &scratch.v;
         let cx = Ctx { s, vel, w };
-        for r in &plan.springs.runs {
+        for (ri, r) in plan.springs.runs.iter().enumerate() {
             let (k, l0, z) = (p[r.param], p[r.param + 1], p[r.param + 2]);
-            let slots = [r.param, r.param + 1, r.param + 2].map(|q| c.of_slot[q]);
+            let quadratic = plan.springs.quadratic.get(ri).copied().flatten();
+            let z2 = quadratic.map_or(0.0, |q| p[q]);
+            let slots = [
+                c.of_slot[r.param],
+                c.of_slot[r.param + 1],
+                c.of_slot[r.param + 2],
+                quadratic.map_or(NONE, |q| c.of_slot[q]),
+            ];
             for &[i, j] in &plan.springs.pairs[r.start..r.end] {
                 let (i, j) = (i as usize, j as usize);
-                let lk = spring_link(&xn[j], &xn[i], &v[j], &v[i], k, l0, z);
+                let lk = spring_link(&xn[j], &xn[i], &v[j], &v[i], k, l0, z, z2);
                 cx.diff_rows(Some(j), i, diff);
                 lk.add(df, diff, w, i, Some(j), slots);
             }
         }
         for r in &plan.anchors.runs {
             let (k, l0, z) = (p[r.param], p[r.param + 1], p[r.param + 2]);
-            let slots = [r.param, r.param + 1, r.param + 2].map(|q| c.of_slot[q]);
+            let slots = [
+                c.of_slot[r.param],
+                c.of_slot[r.param + 1],
+                c.of_slot[r.param + 2],
+                NONE,
+            ];
             let items = plan.anchors.particles[r.start..r.end]
                 .iter()
                 .zip(&plan.anchors.points[r.start..r.end]);
             for (&i, point) in items {
                 let i = i as usize;
-                let lk = spring_link(point, &xn[i], &Vec3::zeros(), &v[i], k, l0, z);
+                let lk = spring_link(point, &xn[i], &Vec3::zeros(), &v[i], k, l0, z, 0.0);
                 cx.diff_rows(None, i, diff);
                 lk.add(df, diff, w, i, None, slots);
             }
@@ -328,6 +341,9 @@ impl Tangent {
                     }
                 }
             }
+        }
+        if !plan.angles.runs.is_empty() {
+            angle::dense(&plan.angles, p, &c.of_slot, xn, s, w, df, diff);
         }
         let mo = plan.layout.mass_offset;
         let dt2 = dt * dt;
@@ -387,109 +403,6 @@ impl Ctx<'_> {
                     for q in 0..w {
                         dd[q] = -self.s[ri + q];
                         dv[q] = -self.vel[ri + q];
-                    }
-                }
-            }
-        }
-    }
-}
-
-/// One spring's force on its end i and its derivatives (module docs).
-pub(crate) struct SpringLink {
-    /// ∂f_i/∂d.
-    pub a: [[f64; 3]; 3],
-    /// ∂f_i/∂w (zero when undamped).
-    b: [[f64; 3]; 3],
-    /// ∂f_i/∂(K, l0, Z).
-    pub dp: [Vec3; 3],
-    /// The unit direction u (∂f_i/∂w = Z u uᵀ: the matrix-free passes apply it as a rank one),
-    /// the elongation `l - l0` and the rate `s = w·u` (∂f_i/∂θ = (l - l0, -K, s) u).
-    pub u: Vec3,
-    pub e: f64,
-    pub s: f64,
-    damped: bool,
-}
-
-/// The spring from `xi` to `xj` (the force acts on i): see the module docs.
-pub(crate) fn spring_link(
-    xj: &Vec3,
-    xi: &Vec3,
-    vj: &Vec3,
-    vi: &Vec3,
-    k: f64,
-    l0: f64,
-    z: f64,
-) -> SpringLink {
-    let d = xj - xi;
-    let l = d.norm();
-    let inv = if l >= cordis_core::forces::MIN_LENGTH {
-        1.0 / l
-    } else {
-        0.0
-    };
-    let u = d * inv;
-    let wv = vj - vi;
-    // The rate is needed even at Z = 0: ∂f/∂Z = s u is what moves an unknown damping off 0.
-    let s = wv.dot(&u);
-    let mag = k * (l - l0) + z * s;
-    let perp = wv - u * s;
-    let mut a = [[0.0; 3]; 3];
-    let mut b = [[0.0; 3]; 3];
-    for r in 0..3 {
-        for c in 0..3 {
-            let id = if r == c { 1.0 } else { 0.0 };
-            a[r][c] = k * u[r] * u[c] + mag * inv * (id - u[r] * u[c]) + z * inv * u[r] * perp[c];
-            b[r][c] = z * u[r] * u[c];
-        }
-    }
-    SpringLink {
-        a,
-        b,
-        dp: [u * (l - l0), -u * k, u * s],
-        u,
-        e: l - l0,
-        s,
-        damped: z != 0.0,
-    }
-}
-
-impl SpringLink {
-    /// Adds this link's tangent force into `df` rows of i (and minus it into j's).
-    fn add(
-        &self,
-        df: &mut [f64],
-        diff: &[f64],
-        w: usize,
-        i: usize,
-        j: Option<usize>,
-        slots: [usize; 3],
-    ) {
-        for r in 0..3 {
-            let ri = (3 * i + r) * w;
-            let rj = j.map(|j| (3 * j + r) * w);
-            let a = self.a[r];
-            let b = self.b[r];
-            let (d0, d1, d2) = (&diff[0..w], &diff[w..2 * w], &diff[2 * w..3 * w]);
-            let (e0, e1, e2) = (
-                &diff[3 * w..4 * w],
-                &diff[4 * w..5 * w],
-                &diff[5 * w..6 * w],
-            );
-            for q in 0..w {
-                let mut g = a[0] * d0[q] + a[1] * d1[q] + a[2] * d2[q];
-                if self.damped {
-                    g += b[0] * e0[q] + b[1] * e1[q] + b[2] * e2[q];
-                }
-                df[ri + q] += g;
-                if let Some(rj) = rj {
-                    df[rj + q] -= g;
-                }
-            }
-            for (t, &col) in slots.iter().enumerate() {
-                if col != NONE {
-                    df[ri + col] += self.dp[t][r];
-                    if let Some(rj) = rj {
-                        df[rj + col] -= self.dp[t][r];
                     }
                 }
             }

@@ -1,0 +1,160 @@
+//! The output-error estimator through every kind it has exact sensitivities for, beyond the
+//! springs, dampers, anchors and drags of `output_error.rs`: noiseless takes identified to
+//! rounding, noisy ones at the Cramér–Rao bound. The tangents themselves are checked against
+//! finite differences beside the code (`output_error::tests`, `output_error::tangent::*`).
+
+use cordis_core::examples::random_network;
+use cordis_core::forces::angle::cos_angle;
+use cordis_core::{Bounds, LinkKind, LinkType, Param, Scene, Vec3};
+use cordis_es::identify::{add_noise, with_unknown_boxes};
+use cordis_es::output_error::{cramer_rao, estimate, expected_error_pct, Config, Take};
+use cordis_es::space::ParameterSpace;
+
+/// Makes parameter `name` of type `ty` unknown in a box `[v - half, v + half]` around its value.
+fn unknown_around(scene: &mut Scene, ty: &str, name: &str, half: f64) {
+    let t = scene.types.iter_mut().find(|t| t.name == ty).unwrap();
+    let k = (0..t.params.len())
+        .find(|&k| t.param_name(k) == name)
+        .unwrap();
+    let v = t.params[k].value();
+    t.params[k] = Param::Unknown(Bounds {
+        min: v - half,
+        max: v + half,
+        init: None,
+    });
+}
+
+/// What one fit gave: the mean parameter error (%), the Cramér–Rao bound (%), how the fit
+/// ended, and its residuals' rms in units of the positions' rounding (ε × the largest
+/// coordinate).
+struct Fit {
+    error: f64,
+    bound: f64,
+    converged: bool,
+    end: String,
+    rounding: f64,
+}
+
+/// Fits `guess` to `truth`'s motion over `frames` frames with noise `rel` of its size.
+fn fit(truth: &Scene, guess: &Scene, frames: usize, rel: f64, seed: u64) -> Fit {
+    let traj = truth.simulate(frames).unwrap();
+    let sigma = rel * traj.scale();
+    let noisy = add_noise(&traj, sigma, seed);
+    let take = Take::complete(&noisy);
+    let space = ParameterSpace::from_scene(guess);
+    let e = estimate(
+        guess,
+        &space,
+        std::slice::from_ref(&take),
+        &Config::default(),
+    )
+    .unwrap();
+    let tv = truth.param_values();
+    let values: Vec<f64> = space.unknowns.iter().map(|u| tv[u.slot]).collect();
+    let sd = cramer_rao(truth, &space, &[take], sigma.max(1e-300)).unwrap();
+    let size = noisy.as_flat().iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    Fit {
+        error: space.error_pct(&e.genome, &tv),
+        bound: expected_error_pct(&sd, &values),
+        converged: e.converged,
+        end: format!("{} after {} iterations", e.end, e.iterations),
+        rounding: (e.cost / e.observed as f64).sqrt() / (f64::EPSILON * size),
+    }
+}
+
+/// Noiseless data are fitted to rounding: the parameters to < 1e-6 %, the residuals within
+/// 1000 ε of the positions. (Once there no step lowers the cost: the fit may end `stalled`
+/// rather than `converged` when its residuals sit above the fit's rounding floor of 8 ε.)
+fn assert_noiseless(label: &str, f: &Fit) {
+    eprintln!(
+        "{label}: error {:e} %, residual rms {:.1} ε, {}",
+        f.error, f.rounding, f.end
+    );
+    assert!(f.error < 1e-6, "{label}: {} %", f.error);
+    assert!(f.rounding < 1e3, "{label}: residual rms {} ε", f.rounding);
+}
+
+/// Mean error over draws within `factor` × the mean Cramér–Rao bound, every fit converged.
+fn assert_at_bound(label: &str, fits: &[Fit], factor: f64) {
+    for (n, f) in fits.iter().enumerate() {
+        eprintln!(
+            "{label} draw {n}: error {:.4} %, bound {:.4} %, {}",
+            f.error, f.bound, f.end
+        );
+        assert!(f.converged, "{label} draw {n}: {}", f.end);
+    }
+    let mean = |g: fn(&Fit) -> f64| fits.iter().map(g).sum::<f64>() / fits.len() as f64;
+    let (err, bound) = (mean(|f| f.error), mean(|f| f.bound));
+    assert!(
+        err <= factor * bound,
+        "{label}: mean error {err:.4} % against a bound of {bound:.4} %"
+    );
+}
+
+/// A generated spring network (12 masses, 5 types, every spring damped) with bending angles at
+/// up to four vertices joined to two neighbours by springs; the angles' stiffness and rest
+/// cosine unknown beside every spring parameter (boxes 25× wide; the rest cosine ±0.5).
+fn network_with_angles(seed: u64) -> (Scene, Scene) {
+    let mut truth = random_network(2000 + seed, 12, 5);
+    for (k, t) in truth.types.iter_mut().enumerate() {
+        t.params[2] = Param::Known(0.05 + 0.05 * k as f64);
+    }
+    let pos = |s: &Scene, n: usize| Vec3::from(s.particles[n].pos);
+    let mut triples = Vec::new();
+    for j in 1..truth.num_particles() {
+        let ends: Vec<usize> = truth
+            .links
+            .iter()
+            .filter_map(|l| match l.particles[..] {
+                [a, b] if a == j => Some(b),
+                [a, b] if b == j => Some(a),
+                _ => None,
+            })
+            .collect();
+        if let [i, k, ..] = ends[..] {
+            triples.push([i, j, k]);
+        }
+        if triples.len() == 4 {
+            break;
+        }
+    }
+    assert!(triples.len() >= 2, "seed {seed}: too few vertices");
+    let mean: f64 = triples
+        .iter()
+        .map(|&[i, j, k]| cos_angle(&pos(&truth, i), &pos(&truth, j), &pos(&truth, k)).unwrap())
+        .sum::<f64>()
+        / triples.len() as f64;
+    truth.add_type(
+        LinkType::new("bend", LinkKind::Angle)
+            .with("stiffness", 3.0)
+            .with("rest_cos", mean - 0.1),
+    );
+    for t in &triples {
+        truth.add_link("bend", t);
+    }
+    let mut guess = with_unknown_boxes(&truth, 25.0, seed);
+    unknown_around(&mut guess, "bend", "rest_cos", 0.5);
+    (truth, guess)
+}
+
+#[test]
+fn angles_noiseless_are_identified_to_rounding() {
+    for seed in 0..3 {
+        let (truth, guess) = network_with_angles(seed);
+        assert_noiseless(
+            &format!("seed {seed}"),
+            &fit(&truth, &guess, 200, 0.0, seed),
+        );
+    }
+}
+
+#[test]
+fn angles_under_noise_reach_the_cramer_rao_bound() {
+    let fits: Vec<Fit> = (0..4)
+        .map(|seed| {
+            let (truth, guess) = network_with_angles(seed);
+            fit(&truth, &guess, 200, 1e-3, 10 + seed)
+        })
+        .collect();
+    assert_at_bound("angles, σ = 1e-3", &fits, 1.2);
+}
