@@ -29,6 +29,10 @@ Pictures (``pip install cordis-anima[plot]`` for matplotlib): :mod:`cordis.plot`
 convergence curves, original vs identified frames, local costs and Pareto fronts;
 ``cordis.animate(scene, traj, "motion.gif")`` writes an animation.
 
+MuJoCo (``pip install mujoco``): ``cordis.export_mjcf(scene, "model.xml")`` then
+``cordis.mujoco.load("model.xml")`` runs it in MuJoCo with what MJCF has no element for (angle,
+conditional and plane links, Provot's limit) applied while MuJoCo integrates.
+
 Errors are subclasses of :class:`CordisError` (:class:`SceneError`, :class:`TrajectoryError`,
 :class:`CostKindError`…) and name the place of the fault, e.g.
 ``links[3].particles[1]: particle 40 does not exist``. The GIL is released during

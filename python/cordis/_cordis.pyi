@@ -446,7 +446,10 @@ def read_trajectory(
 def export_mjcf(scene: Scene, path: _PathLike) -> None:
     """Writes MuJoCo's MJCF model of ``scene`` atomically (``cordis export --mjcf``): body
     ``p{i}`` per particle on slide joints, tendons, semi-implicit Euler equal to the CORDIS
-    step. Kinds MuJoCo cannot express raise SceneError naming them.
+    step. Angle, conditional and plane links, ``damping_quadratic`` and ``max_elongation``
+    have no MJCF element: their data go into ``<custom>`` and :func:`cordis.mujoco.load`
+    applies them while MuJoCo integrates. Muscles, TGRs, transmitters, nonlinear drags,
+    signals, worlds and unknown parameters raise SceneError naming them.
 
     >>> cordis.export_mjcf(cordis.example("rigid"), "rigid.xml")
     """

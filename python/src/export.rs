@@ -9,7 +9,8 @@ use crate::errors::to_py;
 use crate::scene::Scene;
 use crate::trajectory::{check_dt, traj_from_py};
 
-/// Writes the MJCF model of `scene` (refused, naming them, for kinds MuJoCo cannot express).
+/// Writes the MJCF model of `scene` (kinds without an MJCF element as `<custom>` data for
+/// `cordis.mujoco`; refused, naming them, for kinds it cannot replay).
 #[pyfunction]
 pub fn export_mjcf(py: Python<'_>, scene: &Scene, path: PathBuf) -> PyResult<()> {
     let scene = scene.core();

@@ -193,8 +193,8 @@ def test_python_export_writes_the_same_files_as_the_cli(tmp_path):
     cordis.export_gltf(scene, traj, tmp_path / "py.gltf")
     assert (tmp_path / "py.xml").read_bytes() == (tmp_path / "cli.xml").read_bytes()
     assert (tmp_path / "py.gltf").read_bytes() == (tmp_path / "cli.gltf").read_bytes()
-    with pytest.raises(cordis.SceneError, match="cannot express angle"):
-        cordis.export_mjcf(cordis.example("horse"), tmp_path / "horse.xml")
-    assert not (tmp_path / "horse.xml").exists()
+    with pytest.raises(cordis.SceneError, match="cannot express muscle"):
+        cordis.export_mjcf(cordis.example("muscle"), tmp_path / "muscle.xml")
+    assert not (tmp_path / "muscle.xml").exists()
     with pytest.raises(cordis.TrajectoryError, match="has 3 particles, the scene has 15"):
         cordis.export_gltf(scene, np.zeros((4, 3, 3)), tmp_path / "bad.gltf")

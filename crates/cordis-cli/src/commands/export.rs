@@ -9,7 +9,7 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
-use cordis_core::export::{to_gltf, to_mjcf};
+use cordis_core::export::{callback_kinds, to_gltf, to_mjcf};
 use cordis_core::io::{read_trajectory_with, write_atomic, write_trajectory};
 use cordis_core::{Scene, Simulator, Trajectory};
 
@@ -20,8 +20,10 @@ pub struct Args {
     /// Scene file (JSON, cordis-scene/1).
     scene: PathBuf,
     /// MuJoCo model to write (MJCF XML): body `p{i}` per particle, slide joints, tendons,
-    /// semi-implicit Euler equal to the CORDIS step; refused, naming them, for kinds MuJoCo
-    /// cannot express.
+    /// semi-implicit Euler equal to the CORDIS step. Angle, conditional and plane links,
+    /// damping_quadratic and max_elongation go into <custom> data that Python's
+    /// `cordis.mujoco.load` applies; muscles, TGRs, transmitters, nonlinear drags, signals,
+    /// worlds and unknowns are refused, naming them.
     #[arg(long)]
     mjcf: Option<PathBuf>,
     /// glTF 2.0 animation to write (.gltf, self-contained): points and links, one morph target
@@ -74,6 +76,10 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         .map(|_| to_mjcf(&scene))
         .transpose()
         .with_context(|| scene_name.clone())?;
+    let callbacks = match &mjcf {
+        Some(_) => callback_kinds(&scene)?,
+        None => Vec::new(),
+    };
     let motion = if wants_motion {
         Some(motion(&a, &scene)?)
     } else {
@@ -112,6 +118,14 @@ pub fn run(a: Args, output: Output) -> Result<()> {
             };
             eprintln!("wrote {}{size}", path.display());
         }
+        if let (Some(path), false) = (&a.mjcf, callbacks.is_empty()) {
+            eprintln!(
+                "note: {}: MJCF has no element for: {}; cordis.mujoco.load(path) (Python) adds \
+                 them while MuJoCo integrates, plain MuJoCo leaves them out",
+                path.display(),
+                callbacks.join(", ")
+            );
+        }
     }
     if output.json {
         let mut summary = serde_json::json!({
@@ -120,6 +134,9 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         });
         for (key, path, _) in &wrote {
             summary[*key] = path.display().to_string().into();
+        }
+        if a.mjcf.is_some() {
+            summary["mjcf_callbacks"] = callbacks.into();
         }
         output.json_line(&summary)?;
     }

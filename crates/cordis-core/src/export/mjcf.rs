@@ -25,21 +25,25 @@
 //! - `drag` (Z, `F = -Z v`): the slide joints' `damping`.
 //! - gravity: `<option gravity>` (fixed bodies have no joint to move).
 //! - initial velocities: the keyframe `cordis_start` (`mj_resetDataKeyframe(model, data, 0)`).
+//! - angle, conditional and plane links, a spring's or conditional's `damping_quadratic` and
+//!   Provot's `max_elongation` have no MJCF element: their data go into `<custom>` numeric
+//!   fields and `cordis.mujoco` applies them while MuJoCo integrates (the passive-force
+//!   callback for the forces, a projection between steps for Provot's limit): see
+//!   [`super::mjcf_callback`], and a comment in the file says so.
 //!
-//! **What is refused** (one line naming every kind and type): angle links (no MuJoCo potential
-//! of a cosine), conditional links (pairs found each step), nonlinear drag, muscles, TGRs,
-//! quadripoles and transmitters (state and signals), a spring's `damping_quadratic` (a tendon
-//! has no quadratic damping), Provot's `max_elongation` (a projection
-//! after the step, not a force), extra worlds (another `dt`), unknown parameters, and a tendon
-//! of zero length at the start (MuJoCo gives it a direction where CORDIS takes `u = 0`).
+//! **What is refused** (one line naming every kind and type): muscles, TGRs, quadripoles and
+//! transmitters (state and signals), nonlinear drag, extra worlds (another `dt`), signals,
+//! unknown parameters, and a tendon of zero length at the start (MuJoCo gives it a direction
+//! where CORDIS takes `u = 0`).
 
 use std::collections::BTreeMap;
 use std::fmt::Write;
 
+use super::mjcf_callback::{callback_kinds, custom_fields};
 use crate::{CordisError, LinkKind, Param, Result, Scene};
 
 /// Shortest text that reads back as the same f64 (`1e-9`, `0.1`, `2.0`).
-fn num(v: f64) -> String {
+pub(super) fn num(v: f64) -> String {
     format!("{v:?}")
 }
 
@@ -76,24 +80,17 @@ pub fn mjcf_refusal(scene: &Scene) -> Option<CordisError> {
     };
     for t in &scene.types {
         let used_as = match t.kind {
-            LinkKind::Spring | LinkKind::Damper | LinkKind::Anchor | LinkKind::Drag => None,
+            LinkKind::Spring
+            | LinkKind::Damper
+            | LinkKind::Anchor
+            | LinkKind::Drag
+            | LinkKind::Angle
+            | LinkKind::Conditional
+            | LinkKind::Plane => None,
             other => Some(other.name().to_string()),
         };
         if let Some(kind) = used_as {
             note(kind, &t.name, format!("types.{}.kind", t.name));
-        }
-        for which in &t.optional {
-            let what = match which {
-                crate::OptionalParam::MaxElongation => {
-                    "spring max_elongation (Provot's projection)"
-                }
-                crate::OptionalParam::DampingQuadratic => "damping_quadratic (a viscosity Z₂ s|s|)",
-            };
-            note(
-                what.into(),
-                &t.name,
-                format!("types.{}.{}", t.name, which.name()),
-            );
         }
         for (k, p) in t.params.iter().enumerate() {
             if p.is_unknown() {
@@ -143,7 +140,8 @@ pub fn mjcf_refusal(scene: &Scene) -> Option<CordisError> {
         place,
         format!(
             "MuJoCo (MJCF) cannot express {}; MJCF export covers spring, damper, anchor and drag \
-             links, fixed particles and gravity",
+             links, fixed particles and gravity, and with cordis.mujoco angle, conditional and \
+             plane links, damping_quadratic and max_elongation",
             kinds.join("; ")
         ),
     ))
@@ -261,6 +259,9 @@ pub fn to_mjcf(scene: &Scene) -> Result<String> {
                     loads[lp[0]].damping += param("damping");
                 }
             }
+            // Forces of the state that MJCF has no element for: `<custom>` data for the
+            // passive callback of cordis.mujoco (see `mjcf_callback`).
+            LinkKind::Angle | LinkKind::Plane => {}
             _ => unreachable!("refused by mjcf_refusal"),
         }
     }
@@ -298,6 +299,8 @@ pub fn to_mjcf(scene: &Scene) -> Result<String> {
         }
         let _ = writeln!(bodies, "<site name=\"s{i}\"/></body>");
     }
+    let custom = custom_fields(scene)?;
+    let callbacks = callback_kinds(scene)?;
     let mut xml = String::new();
     let _ = writeln!(
         xml,
@@ -306,6 +309,15 @@ pub fn to_mjcf(scene: &Scene) -> Result<String> {
          mj_resetDataKeyframe(model, data, 0) to get the initial velocities. -->",
         env!("CARGO_PKG_VERSION")
     );
+    if !callbacks.is_empty() {
+        let _ = writeln!(
+            xml,
+            "<!-- MJCF has no element for this scene's {}: their data are in <custom>, and \
+             cordis.mujoco.load(path) (Python) adds them while MuJoCo integrates (forces by \
+             the passive callback, Provot's limit between steps). Plain MuJoCo leaves them out. -->",
+            callbacks.join(", ")
+        );
+    }
     let _ = writeln!(
         xml,
         "<option timestep=\"{}\" gravity=\"{}\" integrator=\"Euler\">\
@@ -326,6 +338,7 @@ pub fn to_mjcf(scene: &Scene) -> Result<String> {
             v.join(" ")
         );
     }
+    xml.push_str(&custom);
     xml.push_str("</mujoco>\n");
     Ok(xml)
 }
@@ -370,21 +383,37 @@ mod tests {
 
     #[test]
     fn refusal_names_every_kind_it_cannot_express_on_one_line() {
-        let e = to_mjcf(&examples::horse()).unwrap_err().to_string();
-        assert!(!e.contains('\n'), "{e}");
-        assert!(
-            e.contains("cannot express angle (poll-crest-withers"),
-            "{e}"
-        );
-        let e = to_mjcf(&examples::cloth(4, 4)).unwrap_err().to_string();
-        assert!(
-            e.starts_with("types.structural_h.max_elongation: MuJoCo (MJCF) cannot express spring max_elongation"),
-            "{e}"
-        );
         let e = to_mjcf(&examples::follower()).unwrap_err().to_string();
+        assert!(!e.contains('\n'), "{e}");
         for kind in ["extra worlds", "tgr", "nonlinear_drag", "signals"] {
             assert!(e.contains(kind), "{kind} missing from {e}");
         }
+        let e = to_mjcf(&examples::muscle()).unwrap_err().to_string();
+        assert!(
+            e.starts_with("types.left.kind: MuJoCo (MJCF) cannot express muscle (left, right)"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn kinds_without_an_element_are_exported_with_their_callback_data_and_a_comment() {
+        for (scene, kinds) in [
+            (examples::horse(), "angle:"),
+            (examples::cloth(4, 4), "max_elongation:"),
+            (examples::fluid(6, 6), "conditional:"),
+            (examples::bouncing_ball(), "plane:"),
+        ] {
+            let xml = to_mjcf(&scene).unwrap();
+            assert!(
+                xml.contains(&format!(
+                    "MJCF has no element for this scene's {}",
+                    &kinds[..kinds.len() - 1]
+                )),
+                "{xml}"
+            );
+            assert!(xml.contains("<numeric name=\"cordis_format\" size=\"1\" data=\"1.0\"/>"));
+        }
+        assert!(!to_mjcf(&examples::rigid()).unwrap().contains("<custom>"));
     }
 
     #[test]

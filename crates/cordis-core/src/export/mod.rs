@@ -4,6 +4,8 @@
 
 pub mod gltf;
 pub mod mjcf;
+pub mod mjcf_callback;
 
 pub use gltf::to_gltf;
 pub use mjcf::{mjcf_refusal, to_mjcf};
+pub use mjcf_callback::callback_kinds;
