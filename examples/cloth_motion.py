@@ -5,7 +5,8 @@
 The cloth example (the thesis' §4.2, after Provot) is a 32 × 32 grid of particles about 1 m
 square (structural, shear and bending springs, a 10 % elongation limit on the structural
 ones), held horizontal by one pinned edge and released: it falls, swings past the vertical and
-stretches against the limit. It is drawn side on (the z-y plane). The GIF is made with
+stretches against the limit. It is drawn in 3-D (cordis.plot's automatic view for a motion
+that spreads along every axis: gravity up, the swing across the picture). The GIF is made with
 ``cordis.animate`` (matplotlib); the HTML page by the ``cordis render`` command, which needs
 no Python at all to view. The output directory is ``$CORDIS_OUT`` or ``./out``. A few seconds.
 """
@@ -36,7 +37,7 @@ def main() -> None:
     print(f"simulated {scene.num_particles} particles, {scene.num_links} links, "
           f"{frames} frames of {scene.dt} s")
 
-    gif = cordis.animate(scene, traj, out / "cloth.gif", fps=15, every=16, plane="zy")
+    gif = cordis.animate(scene, traj, out / "cloth.gif", fps=15, every=16)
     print(f"wrote {gif}")
 
     html = out / "cloth.html"

@@ -26,8 +26,10 @@ if ! "$venv/bin/python" -m pip install --quiet "${wheel[0]}[ray]" pytest mypy hy
     "$venv/bin/python" -m pip install --quiet "${wheel[0]}" pytest mypy hypothesis
 fi
 (cd "$venv" && "$venv/bin/python" -c 'import cordis; print("python-test: installed cordis", cordis.__version__, "from", cordis.__file__)')
-# The plot extra, for cordis.plot's tests and the examples/ scripts (a wheel: a few seconds).
-"$venv/bin/python" -m pip install --quiet matplotlib
+# The plot extra, for cordis.plot's tests and the examples/ scripts (a wheel: a few seconds),
+# and imageio-ffmpeg (the video extra: an ffmpeg binary in a wheel) so that the .mp4 test of
+# cordis.animate runs rather than skips without a system ffmpeg.
+"$venv/bin/python" -m pip install --quiet matplotlib imageio-ffmpeg
 # MuJoCo, for the MJCF export's replay test (test_mujoco.py) and the prediction score on MuJoCo's
 # own cable (test_mujoco_prediction.py, benches/mujoco_prediction.py: 4.x flexcomp rods and the
 # `discrete` integrator). Required: a test of an installable tool never skips in CI.

@@ -20,9 +20,12 @@ Example::
     cordis.plot.trajectories(truth, traj, res.scene.simulate(100)).savefig("frames.png")
     cordis.animate(truth, traj, "rigid.gif", compare=res.scene.simulate(100))
 
-Motions are drawn projected on the plane of the two coordinate axes along which the motion
-spreads furthest (the vertical one, when gravity is along one of them, drawn upwards); pass
-``plane="zy"`` (horizontal axis first) to choose another view.
+Motions are drawn in the view that shows their largest extent: a flat motion (its least
+extent under a tenth of its largest) on the plane of the two axes along which it spreads
+furthest, the vertical one, when gravity is along one of them, upwards; any other in 3-D,
+gravity (or the least extent) upwards and the largest horizontal extent across the picture,
+so that a sheet such as the cloth is never seen edge-on. ``plane="zy"`` (horizontal axis
+first) or ``plane="3d"`` chooses the view.
 """
 
 from __future__ import annotations
@@ -31,7 +34,8 @@ import json
 import os
 import pathlib
 import shutil
-from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import (TYPE_CHECKING, Any, Dict, List, Mapping, NamedTuple, Optional, Sequence,
+                    Tuple, Union)
 
 import numpy as np
 
@@ -92,71 +96,162 @@ def _fixed(scene: "Scene") -> np.ndarray:
     return np.array([bool(p.get("fixed", False)) for p in scene.to_dict()["particles"]], dtype=bool)
 
 
-def _plane(traj: np.ndarray, scene: "Scene", plane: Optional[str] = None) -> Tuple[int, int]:
-    """The two coordinate axes along which ``traj`` spreads furthest, as (horizontal, vertical),
-    unless ``plane`` names them (``"xy"``, ``"zy"``…: horizontal axis first)."""
+# A motion whose smallest extent is below this fraction of its largest is drawn flat (the two
+# largest axes); any other is drawn in 3-D, so that a sheet is never seen edge-on.
+_FLAT = 0.1
+# The 3-D camera: this far above the horizontal plane, and turned this far from looking
+# straight along the horizontal axis of least extent (depth stays visible).
+_ELEVATION = 25.0
+_TURN = 30.0
+
+
+class _View(NamedTuple):
+    """How positions are drawn: ``axes`` are the coordinates shown, ``(horizontal, vertical)``
+    in 2-D or ``(0, 1, 2)`` in 3-D, where ``vertical`` points up the page and the camera
+    stands at ``azim`` degrees (matplotlib's ``view_init``) and ``_ELEVATION`` above."""
+
+    axes: Tuple[int, ...]
+    vertical: int = 2
+    azim: float = -60.0
+
+    @property
+    def is_3d(self) -> bool:
+        return len(self.axes) == 3
+
+
+def _view(traj: np.ndarray, scene: "Scene", plane: Optional[str] = None,
+          ax: Any = None) -> _View:
+    """The view of ``traj``: ``plane`` names it (``"xy"``, ``"zy"``…: horizontal axis first;
+    ``"3d"``), or it is chosen to show the motion's largest extent: flat on the two axes along
+    which it spreads furthest when its third extent is under ``_FLAT`` of the largest (the
+    vertical one, when gravity is along one of them, drawn upwards), else in 3-D with gravity
+    (or the least extent) upwards and the largest horizontal extent across the picture. Axes
+    ``ax`` given by the caller decide between 2-D and 3-D."""
+    extent = np.ptp(traj.reshape(-1, 3), axis=0)
+    extent = np.where(np.isfinite(extent), extent, 0.0)
+    given_3d = ax is not None and getattr(ax, "name", "") == "3d"
     if plane is not None:
         p = str(plane).lower()
+        if p == "3d":
+            if ax is not None and not given_3d:
+                raise ValueError("plane='3d' needs 3-D axes: "
+                                 "fig.add_subplot(projection='3d')")
+            return _view_3d(extent, scene)
         if len(p) != 2 or p[0] == p[1] or any(c not in "xyz" for c in p):
-            raise ValueError(f"plane: expected two of x, y, z such as 'xy' or 'zy', got {plane!r}")
-        return "xyz".index(p[0]), "xyz".index(p[1])
-    extent = np.ptp(traj.reshape(-1, 3), axis=0)
+            raise ValueError(
+                f"plane: expected two of x, y, z such as 'xy' or 'zy', or '3d', got {plane!r}")
+        if given_3d:
+            raise ValueError(f"plane={plane!r} is a flat view: give 2-D axes or plane='3d'")
+        return _View(("xyz".index(p[0]), "xyz".index(p[1])))
+    if given_3d or (ax is None and extent.min() > _FLAT * extent.max()):
+        return _view_3d(extent, scene)
     a, b = sorted(int(i) for i in np.argsort(-extent, kind="stable")[:2])
     g = np.abs(np.asarray(scene.gravity, dtype=np.float64))
     if g.max() > 0 and int(np.argmax(g)) == a:
         a, b = b, a  # gravity's axis upwards on the page
-    return a, b
+    return _View((a, b))
 
 
-def _limits(arrays: Sequence[np.ndarray], a: int, b: int) -> Tuple[Tuple[float, float], ...]:
+def _view_3d(extent: np.ndarray, scene: "Scene") -> _View:
+    g = np.abs(np.asarray(scene.gravity, dtype=np.float64))
+    up = int(np.argmax(g)) if g.max() > 0 else int(np.argmin(extent))
+    # matplotlib's camera at azim -90 looks along axis up+2 (axis up+1 across the picture), at
+    # azim 0 along up+1 (up+2 across): turn from the one that puts the largest extent across.
+    across_at_minus_90, across_at_0 = (up + 1) % 3, (up + 2) % 3
+    if extent[across_at_minus_90] >= extent[across_at_0]:
+        azim = -90.0 + _TURN
+    else:
+        azim = 0.0 - _TURN
+    return _View((0, 1, 2), vertical=up, azim=azim)
+
+
+def _limits(arrays: Sequence[np.ndarray], view: _View) -> List[Tuple[float, float]]:
+    """Each shown axis' range over ``arrays``, padded by 5 % of the largest span."""
     pts = np.concatenate([x.reshape(-1, 3) for x in arrays])
     lo, hi = pts.min(axis=0), pts.max(axis=0)
-    pad = 0.05 * max(float(hi[a] - lo[a]), float(hi[b] - lo[b]), 1e-9)
-    return (lo[a] - pad, hi[a] + pad), (lo[b] - pad, hi[b] + pad)
+    pad = 0.05 * max(max(float(hi[k] - lo[k]) for k in view.axes), 1e-9)
+    return [(float(lo[k] - pad), float(hi[k] + pad)) for k in view.axes]
+
+
+def _frame_axes(ax: Any, view: _View, limits: Sequence[Tuple[float, float]]) -> None:
+    """Limits, one scale on every axis, labels and (3-D) the camera."""
+    ax.set_xlim(*limits[0])
+    ax.set_ylim(*limits[1])
+    if view.is_3d:
+        ax.set_zlim(*limits[2])
+        # The camera first: view_init(vertical_axis=…) re-orders a box aspect set before it.
+        ax.view_init(elev=_ELEVATION, azim=view.azim, vertical_axis="xyz"[view.vertical])
+        spans = np.array([hi - lo for lo, hi in limits])
+        ax.set_box_aspect(np.maximum(spans, 0.05 * spans.max()))  # one scale on every axis
+        ax.set_zlabel("z (m)")
+        from matplotlib.ticker import MaxNLocator
+
+        for axis in (ax.xaxis, ax.yaxis, ax.zaxis):  # few ticks: a 3-D axis is short
+            axis.set_major_locator(MaxNLocator(4))
+        ax.tick_params(labelsize="x-small", pad=0)
+    else:
+        ax.set_aspect("equal")
+    ax.set_xlabel(f"{'xyz'[view.axes[0]]} (m)")
+    ax.set_ylabel(f"{'xyz'[view.axes[1]]} (m)")
+
+
+def _segments(frame: np.ndarray, pairs: np.ndarray, view: _View) -> np.ndarray:
+    cols = list(view.axes)
+    return np.stack([frame[pairs[:, 0]][:, cols], frame[pairs[:, 1]][:, cols]], axis=1)
 
 
 def _draw_shape(ax: "Axes", frame: np.ndarray, pairs: np.ndarray, fixed: np.ndarray,
-                a: int, b: int, color: str, linestyle: str = "-", alpha: float = 1.0,
+                view: _View, color: str, linestyle: str = "-", alpha: float = 1.0,
                 label: Optional[str] = None, particles: bool = True) -> List[Any]:
     from matplotlib.collections import LineCollection
 
     artists: List[Any] = []
     if len(pairs):
-        segs = list(np.stack([frame[pairs[:, 0]][:, [a, b]], frame[pairs[:, 1]][:, [a, b]]],
-                             axis=1))
         lw = 0.4 if len(pairs) > 1000 else 1.2
-        lc = LineCollection(segs, colors=color, linewidths=lw, linestyles=linestyle, alpha=alpha,
-                            label=label)
+        style: Dict[str, Any] = dict(colors=color, linewidths=lw, linestyles=linestyle,
+                                     alpha=alpha, label=label)
+        if view.is_3d:
+            from mpl_toolkits.mplot3d.art3d import Line3DCollection
+
+            lc: Any = Line3DCollection(list(_segments(frame, pairs, view)), **style)
+        else:
+            lc = LineCollection(list(_segments(frame, pairs, view)), **style)
         ax.add_collection(lc)
         artists.append(lc)
         label = None
     if particles:
         size = 2.0 if len(frame) > 500 else 14.0
-        free = ~fixed
-        artists.append(ax.scatter(frame[free, a], frame[free, b], s=size, color=color,
-                                  alpha=alpha, zorder=3, label=label, linewidths=0))
-        if fixed.any():
-            artists.append(ax.scatter(frame[fixed, a], frame[fixed, b], s=size * 1.5, marker="s",
-                                      color="black", zorder=3, linewidths=0))
+        for which, marker, scale, colour in ((~fixed, "o", 1.0, color),
+                                             (fixed, "s", 1.5, "black")):
+            if which is fixed and not fixed.any():
+                continue
+            pts = frame[which][:, list(view.axes)].T
+            # Markers as a line without segments: Line2D / Line3D move by set_data(_3d),
+            # public API in both (a 3-D scatter would need its private _offsets3d).
+            (line,) = ax.plot(*pts, linestyle="none", marker=marker,
+                              markersize=np.sqrt(size * scale), color=colour,
+                              alpha=alpha if colour == color else 1.0, zorder=3,
+                              markeredgewidth=0, label=label if colour == color else None)
+            artists.append(line)
     return artists
 
 
 def _move_shape(artists: List[Any], frame: np.ndarray, pairs: np.ndarray, fixed: np.ndarray,
-                a: int, b: int) -> None:
+                view: _View) -> None:
     """Moves the artists made by :func:`_draw_shape` (same order) to another frame."""
     k = 0
     if len(pairs):
-        artists[0].set_segments(np.stack([frame[pairs[:, 0]][:, [a, b]],
-                                          frame[pairs[:, 1]][:, [a, b]]], axis=1))
+        artists[0].set_segments(_segments(frame, pairs, view))
         k = 1
-    artists[k].set_offsets(frame[~fixed][:, [a, b]])
-    if fixed.any():
-        artists[k + 1].set_offsets(frame[fixed][:, [a, b]])
-
-
-def _axis_labels(ax: "Axes", a: int, b: int) -> None:
-    ax.set_xlabel(f"{'xyz'[a]} (m)")
-    ax.set_ylabel(f"{'xyz'[b]} (m)")
+    for which in (~fixed, fixed):
+        if which is fixed and not fixed.any():
+            continue
+        pts = frame[which][:, list(view.axes)].T
+        if view.is_3d:
+            artists[k].set_data_3d(*pts)
+        else:
+            artists[k].set_data(*pts)
+        k += 1
 
 
 # ---------------------------------------------------------------- convergence
@@ -334,58 +429,57 @@ def trajectories(
         if not 0 <= f < count:
             raise ValueError(f"frames: frame {f} is outside 0..{count - 1}")
     pairs, fixed = _pairs(scene), _fixed(scene)
-    a, b = _plane(orig, scene, plane)
-    xlim, ylim = _limits([orig[frames], ident[frames]], a, b)
+    view = _view(orig, scene, plane, ax)
+    limits = _limits([orig[frames], ident[frames]], view)
     dt = scene.dt
     plt = _pyplot()
 
     if ax is not None:
         fig = ax.figure
         for k, f in enumerate(frames):
-            _draw_shape(ax, orig[f], pairs, fixed, a, b, _ORIGINAL,
+            _draw_shape(ax, orig[f], pairs, fixed, view, _ORIGINAL,
                         label=labels[0] if k == 0 else None)
-            _draw_shape(ax, ident[f], pairs, fixed, a, b, _IDENTIFIED, linestyle="--",
+            _draw_shape(ax, ident[f], pairs, fixed, view, _IDENTIFIED, linestyle="--",
                         alpha=0.8, label=labels[1] if k == 0 else None)
-        ax.set_xlim(*xlim)
-        ax.set_ylim(*ylim)
-        ax.set_aspect("equal")
-        _axis_labels(ax, a, b)
+        _frame_axes(ax, view, limits)
         ax.legend(fontsize="small")
         return fig
 
     n = len(frames)
-    windows = [(xlim, ylim)] * n
+    windows = [limits] * n
     if follow:
-        shown = [np.concatenate([orig[f], ident[f]])[:, [a, b]] for f in frames]
-        half_x = max(float(np.ptp(p[:, 0])) for p in shown) / 2 * 1.1 + 1e-9
-        half_y = max(float(np.ptp(p[:, 1])) for p in shown) / 2 * 1.1 + 1e-9
+        cols = list(view.axes)
+        shown = [np.concatenate([orig[f], ident[f]])[:, cols] for f in frames]
+        half = [max(float(np.ptp(p[:, k])) for p in shown) / 2 * 1.1 + 1e-9
+                for k in range(len(cols))]
         centres = [(p.min(axis=0) + p.max(axis=0)) / 2 for p in shown]
-        windows = [((c[0] - half_x, c[0] + half_x), (c[1] - half_y, c[1] + half_y))
+        windows = [[(c[k] - half[k], c[k] + half[k]) for k in range(len(cols))]
                    for c in centres]
-        xlim, ylim = windows[0]
-    width = xlim[1] - xlim[0]
-    height = ylim[1] - ylim[0]
+    (x0, x1), (y0, y1) = windows[0][0], windows[0][1]
     panel = 2.4
-    aspect = height / width if width > 0 else 1.0
+    aspect = 0.75 if view.is_3d else ((y1 - y0) / (x1 - x0) if x1 > x0 else 1.0)
+    shared: Dict[str, Any] = (dict(subplot_kw={"projection": "3d"}) if view.is_3d else
+                              dict(sharex="none" if follow else True,
+                                   sharey="none" if follow else True))
     fig, axes = plt.subplots(2, n, figsize=(panel * n + 0.8,
                                             2 * panel * min(max(aspect, 0.25), 2.5) + 0.9),
-                             squeeze=False, sharex="none" if follow else True,
-                             sharey="none" if follow else True, layout="constrained")
+                             squeeze=False, layout="constrained", **shared)
     for col, f in enumerate(frames):
         for row, (pos, color, name) in enumerate(
                 [(orig, _ORIGINAL, labels[0]), (ident, _IDENTIFIED, labels[1])]):
             axis = axes[row][col]
-            _draw_shape(axis, pos[f], pairs, fixed, a, b, color)
-            axis.set_xlim(*windows[col][0])
-            axis.set_ylim(*windows[col][1])
-            axis.set_aspect("equal")
+            _draw_shape(axis, pos[f], pairs, fixed, view, color)
+            _frame_axes(axis, view, windows[col])
             axis.tick_params(labelsize="small")
             if row == 0:
                 axis.set_title(f"frame {f}  (t = {f * dt:.3g} s)", fontsize="medium")
-            if col == 0:
-                axis.set_ylabel(f"{name}\n{'xyz'[b]} (m)")
-            if row == 1:
-                axis.set_xlabel(f"{'xyz'[a]} (m)")
+            # Flat panels share their axes: the labels go on the outer ones only.
+            if not view.is_3d:
+                axis.set_xlabel(f"{'xyz'[view.axes[0]]} (m)" if row == 1 else "")
+                axis.set_ylabel(f"{name}\n{'xyz'[view.axes[1]]} (m)" if col == 0 else "")
+            elif col == 0:
+                axis.text2D(0.0, 1.0, name, transform=axis.transAxes, fontsize="small",
+                            va="top", color=color)
     return fig
 
 
@@ -547,33 +641,33 @@ def local_costs(
     from matplotlib.colors import LogNorm
 
     plt = _pyplot()
-    a, b = _plane(pos, scene, plane)
+    view = _view(pos, scene, plane, ax)
     shape = pos[frame]
-    xlim, ylim = _limits([shape[None]], a, b)
+    limits = _limits([shape[None]], view)
     if ax is None:
-        aspect = (ylim[1] - ylim[0]) / (xlim[1] - xlim[0])
+        (x0, x1), (y0, y1) = limits[0], limits[1]
+        aspect = 1.0 if view.is_3d else (y1 - y0) / (x1 - x0)
         fig, ax = plt.subplots(figsize=(6.4, 5.0 * min(max(aspect, 0.3), 1.5) + 1.2),
-                               layout="constrained")
+                               layout="constrained",
+                               subplot_kw={"projection": "3d"} if view.is_3d else None)
     else:
         fig = ax.figure
-    _draw_shape(ax, shape, _pairs(scene), np.zeros(len(shape), bool), a, b, "#b0b0b0",
+    _draw_shape(ax, shape, _pairs(scene), np.zeros(len(shape), bool), view, "#b0b0b0",
                 particles=False)
     positive = np.isfinite(per) & (per > 0)
     size = 8.0 if len(shape) > 500 else 60.0
+    cols = list(view.axes)
     if positive.any():
         lo, hi = float(per[positive].min()), float(per[positive].max())
         norm = LogNorm(vmin=lo, vmax=hi if hi > lo else lo * 10)
-        sc = ax.scatter(shape[positive, a], shape[positive, b], c=per[positive], norm=norm,
+        sc = ax.scatter(*shape[positive][:, cols].T, c=per[positive], norm=norm,
                         cmap="viridis", s=size, zorder=3, edgecolors="none")
-        fig.colorbar(sc, ax=ax, label="local cost $c_i$ (m²)")
+        fig.colorbar(sc, ax=ax, label="local cost $c_i$ (m²)", shrink=0.8 if view.is_3d else 1.0)
     if (~positive).any():
-        ax.scatter(shape[~positive, a], shape[~positive, b], s=size / 3, marker="s",
+        ax.scatter(*shape[~positive][:, cols].T, s=size / 3, marker="s",
                    color="black", zorder=3, label="cost 0")
         ax.legend(fontsize="small", loc="best")
-    ax.set_xlim(*xlim)
-    ax.set_ylim(*ylim)
-    ax.set_aspect("equal")
-    _axis_labels(ax, a, b)
+    _frame_axes(ax, view, limits)
     ax.set_title(f"local costs, frame {frame}", fontsize="medium")
     return fig
 
@@ -666,6 +760,22 @@ def pareto(records_or_path: Any, ax: Any = None,
 # ---------------------------------------------------------------- animation
 
 
+def _ffmpeg() -> Optional[str]:
+    """The ffmpeg program for .mp4: on PATH, else the one the ``imageio-ffmpeg`` package ships
+    (``pip install imageio-ffmpeg``), else None."""
+    found = shutil.which("ffmpeg")
+    if found is not None:
+        return found
+    try:
+        import imageio_ffmpeg
+    except ImportError:
+        return None
+    try:
+        return str(imageio_ffmpeg.get_ffmpeg_exe())
+    except RuntimeError:  # the package without its binary for this platform
+        return None
+
+
 def animate(
     scene: "Scene",
     traj: Any,
@@ -680,11 +790,15 @@ def animate(
     """Writes the motion ``traj`` ``(T, N, 3)`` of ``scene`` as an animated GIF or MP4.
 
     The format follows the extension: ``.gif`` (Pillow, installed with matplotlib) or
-    ``.mp4`` (needs ``ffmpeg`` on PATH). ``compare`` is a second motion of the same scene
-    (e.g. the identified model's), drawn dashed over the first. ``every`` keeps one frame in
-    ``every``; ``fps`` is the playback rate. ``width`` (inches) and ``dpi`` set the picture's
-    size, ``width × dpi`` pixels across (the height follows the motion's shape). Returns the
-    path written.
+    ``.mp4`` (H.264, needs ``ffmpeg`` on PATH or the ``imageio-ffmpeg`` package). ``compare``
+    is a second motion of the same scene (e.g. the identified model's), drawn dashed over the
+    first. ``every`` keeps one frame in ``every``; ``fps`` is the playback rate (frames per
+    second, an integer; ``round(1 / (every * scene.dt))`` plays in real time; a GIF stores
+    each frame's duration in hundredths of a second, so above 50 fps it is rounded). ``plane`` chooses the view
+    as in :func:`trajectories` (``"3d"``, ``"xy"``…; by default the view that shows the
+    motion's largest extent, 3-D unless the motion is flat). ``width`` (inches) and ``dpi``
+    set the picture's size, ``width × dpi`` pixels across (the height follows the motion's
+    shape). Returns the path written.
 
     >>> cordis.animate(scene, scene.simulate(200), "motion.gif", every=2)
     PosixPath('motion.gif')
@@ -697,8 +811,9 @@ def animate(
         other = _positions(compare, "compare")
         if other.shape[1] != pos.shape[1]:
             raise ValueError(f"compare: {other.shape[1]} particles, traj {pos.shape[1]}")
-    if fps <= 0 or every <= 0:
-        raise ValueError(f"fps and every must be positive, got fps={fps}, every={every}")
+    for name, value in (("fps", fps), ("every", every)):
+        if not (isinstance(value, (int, np.integer)) and 1 <= value <= 1000):
+            raise ValueError(f"{name}: expected an integer in [1, 1000], got {value!r}")
     if not (np.isfinite(width) and 0.5 <= width <= 50):
         raise ValueError(f"width: expected inches in [0.5, 50], got {width!r}")
     if not 10 <= int(dpi) <= 1000 or int(dpi) != dpi:
@@ -707,44 +822,48 @@ def animate(
     ext = out.suffix.lower()
     if ext not in (".gif", ".mp4"):
         raise ValueError(f"{out}: the animation format follows the extension: .gif or .mp4")
-    if ext == ".mp4" and shutil.which("ffmpeg") is None:
-        raise RuntimeError(f"{out}: writing .mp4 needs ffmpeg on PATH; write a .gif instead")
+    ffmpeg = _ffmpeg() if ext == ".mp4" else None
+    if ext == ".mp4" and ffmpeg is None:
+        raise RuntimeError(f"{out}: writing .mp4 needs ffmpeg (on PATH, or `pip install "
+                           f"imageio-ffmpeg`); write a .gif instead")
 
     plt = _pyplot()
+    import matplotlib
     from matplotlib.animation import FFMpegWriter, PillowWriter
 
     count = len(pos) if other is None else min(len(pos), len(other))
     frames = list(range(0, count, every))
     pairs, fixed = _pairs(scene), _fixed(scene)
-    a, b = _plane(pos, scene, plane)
-    xlim, ylim = _limits([pos[:count]] + ([other[:count]] if other is not None else []), a, b)
-    span_x, span_y = xlim[1] - xlim[0], ylim[1] - ylim[0]
-    aspect = min(max(span_y / span_x if span_x > 0 else 1.0, 0.5), 2.0)
+    view = _view(pos[:count], scene, plane)
+    limits = _limits([pos[:count]] + ([other[:count]] if other is not None else []), view)
+    (x0, x1), (y0, y1) = limits[0], limits[1]
+    aspect = 0.8 if view.is_3d else min(max((y1 - y0) / (x1 - x0) if x1 > x0 else 1.0, 0.5), 2.0)
     fig, ax = plt.subplots(figsize=(width, width * aspect + 0.6 * width / 5.0), dpi=dpi,
-                           layout="constrained")
-    ax.set_xlim(*xlim)
-    ax.set_ylim(*ylim)
-    ax.set_aspect("equal")
-    _axis_labels(ax, a, b)
-    motions = [(pos, _draw_shape(ax, pos[frames[0]], pairs, fixed, a, b, _ORIGINAL,
+                           layout="constrained",
+                           subplot_kw={"projection": "3d"} if view.is_3d else None)
+    _frame_axes(ax, view, limits)
+    motions = [(pos, _draw_shape(ax, pos[frames[0]], pairs, fixed, view, _ORIGINAL,
                                  label="motion" if other is not None else None))]
     if other is not None:
-        motions.append((other, _draw_shape(ax, other[frames[0]], pairs, fixed, a, b, _IDENTIFIED,
-                                           linestyle="--", alpha=0.8, label="compare")))
+        motions.append((other, _draw_shape(ax, other[frames[0]], pairs, fixed, view,
+                                           _IDENTIFIED, linestyle="--", alpha=0.8,
+                                           label="compare")))
         ax.legend(fontsize="small", loc="upper right")
     title = ax.set_title(" ", fontsize="medium")
     # The layout is computed once: every frame only moves the shapes (one draw per frame).
     fig.canvas.draw()
     fig.set_layout_engine("none")
-    writer = PillowWriter(fps=fps) if ext == ".gif" else FFMpegWriter(fps=fps)
     out.parent.mkdir(parents=True, exist_ok=True)
+    settings: Any = {"animation.ffmpeg_path": ffmpeg} if ffmpeg else {}
     try:
-        with writer.saving(fig, str(out), dpi=dpi):
-            for f in frames:
-                for motion, artists in motions:
-                    _move_shape(artists, motion[f], pairs, fixed, a, b)
-                title.set_text(f"t = {f * scene.dt:.3f} s")
-                writer.grab_frame()
+        with matplotlib.rc_context(settings):
+            writer = PillowWriter(fps=fps) if ext == ".gif" else FFMpegWriter(fps=fps)
+            with writer.saving(fig, str(out), dpi=dpi):
+                for f in frames:
+                    for motion, artists in motions:
+                        _move_shape(artists, motion[f], pairs, fixed, view)
+                    title.set_text(f"t = {f * scene.dt:.3f} s")
+                    writer.grab_frame()
     finally:
         plt.close(fig)
     return out

@@ -178,9 +178,10 @@ def test_animate_rejects_unknown_formats_and_bad_counts(rigid, tmp_path):
 
 def test_mp4_without_ffmpeg_is_a_clear_error(rigid, tmp_path, monkeypatch):
     truth, traj, _ = rigid
-    monkeypatch.setattr(cordis.plot.shutil, "which", lambda name: None)
+    monkeypatch.setattr(cordis.plot, "_ffmpeg", lambda: None)
     with pytest.raises(RuntimeError, match="ffmpeg"):
         cordis.animate(truth, traj, tmp_path / "x.mp4")
+    assert not (tmp_path / "x.mp4").exists()
 
 
 def test_missing_matplotlib_names_the_extra(rigid, monkeypatch):
@@ -275,3 +276,142 @@ def test_animate_size_follows_width_and_dpi(rigid, tmp_path):
     for bad in [dict(width=0.0), dict(width=float("nan")), dict(dpi=5), dict(dpi=72.5)]:
         with pytest.raises(ValueError, match="width|dpi"):
             cordis.animate(truth, traj, tmp_path / "x.gif", **bad)
+
+
+# ---------------------------------------------------------------- 3-D views, the automatic view
+
+
+@pytest.fixture(scope="module")
+def cloth():
+    scene = cordis.example("cloth")
+    return scene, scene.simulate(400)
+
+
+def screen(ax, pts):
+    """Display coordinates (pixels) of 3-D points as the axes draw them."""
+    from mpl_toolkits.mplot3d import proj3d
+
+    ax.figure.canvas.draw()
+    x, y, _ = proj3d.proj_transform(pts[:, 0], pts[:, 1], pts[:, 2], ax.get_proj())
+    return ax.transData.transform(np.column_stack([x, y]))
+
+
+def polygon_area(p):
+    x, y = p[:, 0], p[:, 1]
+    return 0.5 * abs(np.dot(x, np.roll(y, 1)) - np.dot(y, np.roll(x, 1)))
+
+
+def test_the_automatic_view_shows_the_cloth_face_on_in_3d(cloth, tmp_path):
+    """The cloth spreads along all three axes: the automatic view is 3-D, gravity (y) up, and
+    its flat start shows as a sheet, not as the line a flat projection made of it."""
+    scene, traj = cloth
+    fig = cordis.plot.trajectories(scene, traj, traj, frames=[0, 200])
+    ax = fig.axes[0]
+    assert ax.name == "3d" and len(fig.axes) == 4
+    assert ax._vertical_axis == 1, "gravity's axis upwards"
+    corners = [0, 31, 1023, 992]  # the 32×32 sheet, flat in x-z at frame 0
+    sheet = polygon_area(screen(ax, traj[0][corners])) / (ax.bbox.width * ax.bbox.height)
+    assert sheet > 0.02, f"the sheet covers {sheet:.3%} of its panel: seen edge-on"
+    # The old automatic view (the two axes of largest extent) saw it as a line.
+    flat = cordis.plot.trajectories(scene, traj, traj, plane="zy").axes[0]
+    assert flat.name != "3d"
+    assert np.ptp(traj[0][:, 1]) == 0.0
+    # The drawn markers are the positions: every free particle at frame 0, in 3-D.
+    free = ~cordis.plot._fixed(scene)
+    xs, ys, zs = ax.get_lines()[0].get_data_3d()
+    np.testing.assert_array_equal(np.column_stack([xs, ys, zs]), traj[0][free])
+    pixels = save(fig, tmp_path / "cloth3d.png")
+    assert (np.abs(pixels.astype(int) - [0x1F, 0x3B, 0x73]).sum(axis=2) < 40).sum() > 500, \
+        "the original's colour fills the sheets"
+
+
+def test_a_flat_motion_stays_a_flat_view_with_gravity_up(rigid):
+    truth, traj, _ = rigid
+    fig = cordis.plot.trajectories(truth, traj, traj)
+    ax = fig.axes[0]
+    assert ax.name != "3d"
+    assert fig.axes[5].get_xlabel() == "x (m)" and ax.get_ylabel().endswith("y (m)")
+    fig = cordis.plot.trajectories(truth, traj, traj, plane="3d", frames=[0, 30])
+    ax = fig.axes[0]
+    assert ax.name == "3d"
+    xs, ys, zs = ax.get_lines()[0].get_data_3d()
+    np.testing.assert_array_equal(np.column_stack([xs, ys, zs]), traj[0])
+
+
+def test_the_3d_camera_puts_the_largest_horizontal_extent_across_the_picture():
+    """A long bar along x (then along z) with gravity along y: its on-screen width exceeds its
+    depth's, whichever horizontal axis it lies on."""
+    for along in (0, 2):
+        pts = np.zeros((2, 3, 3))
+        pts[:, 1, along] = 4.0  # 4 m along the bar
+        pts[:, 2, 2 - along] = 1.0  # 1 m across it
+        pts[1, :, 1] = -1.0  # and a drop, so that the motion is not flat
+        scene = cordis.Scene.from_dict({
+            "dt": 0.01, "gravity": [0.0, -9.81, 0.0],
+            "particles": [{"mass": 1.0, "pos": p.tolist()} for p in pts[0]]})
+        view = cordis.plot._view(pts, scene)
+        assert view.is_3d and view.vertical == 1
+        fig = plt.figure()
+        ax = fig.add_subplot(projection="3d")
+        cordis.plot._frame_axes(ax, view, cordis.plot._limits([pts], view))
+        p = screen(ax, pts[0])
+        bar = abs(p[1, 0] - p[0, 0])
+        depth = abs(p[2, 0] - p[0, 0]) * 4.0  # per metre, scaled as the bar's length
+        assert bar > depth, (along, bar, depth)
+
+
+def test_local_costs_in_3d(cloth, tmp_path):
+    scene, traj = cloth
+    per = np.linspace(1e-6, 1e-3, scene.num_particles)
+    fig = cordis.plot.local_costs(scene, traj, per, frame=200, plane="3d")
+    ax = fig.axes[0]
+    assert ax.name == "3d" and len(fig.axes) == 2  # the shape and its colour bar
+    np.testing.assert_array_equal(ax.collections[-1].get_array(), per)
+    save(fig, tmp_path / "local3d.png")
+
+
+def test_views_reject_a_view_their_axes_cannot_draw(rigid):
+    truth, traj, _ = rigid
+    fig, ax = plt.subplots()
+    with pytest.raises(ValueError, match="needs 3-D axes"):
+        cordis.plot.trajectories(truth, traj, traj, ax=ax, plane="3d")
+    ax3 = plt.figure().add_subplot(projection="3d")
+    with pytest.raises(ValueError, match="flat view"):
+        cordis.plot.trajectories(truth, traj, traj, ax=ax3, plane="xy")
+    assert cordis.plot.trajectories(truth, traj, traj, ax=ax3).axes[0] is ax3
+
+
+def test_animate_in_3d_moves_the_cloth_and_keeps_the_fps(cloth, tmp_path):
+    scene, traj = cloth
+    out = cordis.animate(scene, traj, tmp_path / "cloth.gif", every=40, fps=20, width=4.0,
+                         dpi=60)
+    with Image.open(out) as im:
+        assert im.n_frames == 10 and im.size[0] == 240
+        assert im.info["duration"] == 50, "20 frames a second: 50 ms each"
+        first = np.asarray(im.convert("RGB"))
+        im.seek(5)
+        middle = np.asarray(im.convert("RGB"))
+    assert (first != middle).mean() > 0.01, "the sheet swings"
+    for bad in [dict(fps=0), dict(fps=2.5), dict(every=1.5)]:
+        with pytest.raises(ValueError, match="fps|every"):
+            cordis.animate(scene, traj, tmp_path / "x.gif", **bad)
+
+
+def test_animate_writes_an_mp4_with_ffmpeg(rigid, tmp_path):
+    """H.264 through ffmpeg (on PATH or imageio-ffmpeg's, which scripts/python-test.sh
+    installs): decoded back, the frames, their size and rate are what was asked."""
+    if cordis.plot._ffmpeg() is None:
+        pytest.skip("no ffmpeg (scripts/python-test.sh installs imageio-ffmpeg: CI runs this)")
+    imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
+    truth, traj, res = rigid
+    out = cordis.animate(truth, traj, tmp_path / "rigid.mp4", compare=res.scene.simulate(60),
+                         every=4, fps=12, width=4.0, dpi=80)
+    reader = imageio_ffmpeg.read_frames(str(out))
+    meta = next(reader)
+    frames = [np.frombuffer(f, np.uint8).reshape(meta["size"][1], meta["size"][0], 3)
+              for f in reader]
+    assert len(frames) == 15
+    assert meta["fps"] == pytest.approx(12.0)
+    assert meta["size"][0] == 320
+    assert (frames[0] != frames[-1]).any(), "the video moves"
+    assert len(np.unique(frames[7].reshape(-1, 3), axis=0)) > 10
