@@ -27,6 +27,10 @@ window.addEventListener("load", function () {
       var right = +body.getAttribute("data-scene-right");
       check("the scene is drawn left of the legend (" + right + " px)", right > 0 &&
             right <= document.querySelector(".legend").getBoundingClientRect().left);
+      // ... and below the info panel, which never covers it either.
+      var top = +body.getAttribute("data-scene-top");
+      check("the scene is drawn below the info panel (" + top + " px)", top > 0 &&
+            top >= document.querySelector(".info").getBoundingClientRect().bottom);
       // The PNG button downloads the current frame: catch the link it clicks.
       var clicked = null, click = HTMLAnchorElement.prototype.click;
       HTMLAnchorElement.prototype.click = function () { clicked = this; };

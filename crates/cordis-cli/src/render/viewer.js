@@ -727,24 +727,29 @@
     // covers a panel (unless the window is too narrow to spare its width).
     var reserve = legend.offsetWidth + 28;
     var wUse = reserve <= 0.4 * cssW ? cssW - reserve : cssW;
+    // The info panel sits at the top left: the scene starts below it, in both modes, so that
+    // it never covers the motion (unless the window is too short to spare its height).
+    var top = info.offsetTop + info.offsetHeight + 8;
+    if (top > 0.35 * hUse) top = 0;
     if (B && mode === "side") {
       var half = wUse / 2;
-      // The halves start below the panels, which would otherwise cover them.
-      drawViewport(0, 50, half, hUse - 50, true, false, "A \u00b7 " + LABELS[0]);
-      drawViewport(half, 50, wUse - half, hUse - 50, false, showB, "B \u00b7 " + LABELS[1]);
+      drawViewport(0, top, half, hUse - top, true, false, "A \u00b7 " + LABELS[0]);
+      drawViewport(half, top, wUse - half, hUse - top, false, showB, "B \u00b7 " + LABELS[1]);
       ctx.beginPath();
-      ctx.moveTo(half + 0.5, 40);
+      ctx.moveTo(half + 0.5, top);
       ctx.lineTo(half + 0.5, hUse - 20);
       ctx.strokeStyle = "rgba(255,255,255,0.12)";
       ctx.lineWidth = 1;
       ctx.stroke();
     } else {
-      drawViewport(0, 0, wUse, hUse, true, !!B && showB, null);
+      drawViewport(0, top, wUse, hUse - top, true, !!B && showB, null);
     }
     drawAxes(40, cssH - 110);
     dirty = false;
-    // For tests: the right edge of the scene's drawing area (px), left of the legend.
+    // For tests: the right edge of the scene's drawing area (px), left of the legend, and its
+    // top, below the info panel.
     document.body.setAttribute("data-scene-right", wUse.toFixed(0));
+    document.body.setAttribute("data-scene-top", top.toFixed(0));
     // For tests (headless --dump-dom) and the curious: how fast the last frame was built.
     document.body.setAttribute("data-draw-ms", (performance.now() - started).toFixed(2));
   }
