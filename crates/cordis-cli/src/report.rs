@@ -600,22 +600,9 @@ fn marker_section(out: &mut String, input: &ReportInput, model: &Trajectory, fit
     for &i in &shown {
         let mut series = Vec::new();
         for (k, class) in ["x", "y", "z"].iter().enumerate() {
-            series.push(Series {
-                class,
-                points: frames
-                    .iter()
-                    .map(|&t| (t as f64 * dt, flat[(t * n + i) * 3 + k]))
-                    .collect(),
-                dots: true,
-            });
-            series.push(Series {
-                class,
-                points: frames
-                    .iter()
-                    .map(|&t| (t as f64 * dt, model.pos(t, i)[k]))
-                    .collect(),
-                dots: false,
-            });
+            let observed = |t: usize| flat[(t * n + i) * 3 + k];
+            series.push(over_time(class, &frames, dt, true, observed));
+            series.push(over_time(class, &frames, dt, false, |t| model.pos(t, i)[k]));
         }
         let title = format!("particle {i} (RMS {} m)", num(fit.per_particle_rms[i]));
         let chart = Chart {
@@ -632,37 +619,38 @@ fn marker_section(out: &mut String, input: &ReportInput, model: &Trajectory, fit
     out.push_str("</div></section>");
 }
 
+/// A series of `value(t)` at the `frames` shown, against time `t dt` (s).
+fn over_time<'a>(
+    class: &'a str,
+    frames: &[usize],
+    dt: f64,
+    dots: bool,
+    value: impl Fn(usize) -> f64,
+) -> Series<'a> {
+    Series {
+        class,
+        points: frames.iter().map(|&t| (t as f64 * dt, value(t))).collect(),
+        dots,
+    }
+}
+
 fn residual_section(out: &mut String, fit: &Fit, dt: f64) {
     let frames = thinned(fit.per_frame_rms.len());
+    let error = over_time("model", &frames, dt, false, |t| fit.per_frame_rms[t]);
     let over_time = line_chart(
-        &Chart {
-            width: 680.0,
-            height: 220.0,
-            x_label: "t (s)",
-            y_label: "RMS error (m)",
-            log_y: false,
-            y_from_zero: true,
-            title: "position error over time (RMS over observed coordinates)",
-        },
-        &[Series {
-            class: "model",
-            points: frames
-                .iter()
-                .map(|&t| (t as f64 * dt, fit.per_frame_rms[t]))
-                .collect(),
-            dots: false,
-        }],
+        &Chart::wide(
+            "position error over time (RMS over observed coordinates)",
+            "t (s)",
+            "RMS error (m)",
+        ),
+        &[error],
     );
     let per_particle = bar_chart(
-        &Chart {
-            width: 680.0,
-            height: 220.0,
-            x_label: "particle",
-            y_label: "RMS error (m)",
-            log_y: false,
-            y_from_zero: true,
-            title: "position error per particle (RMS over frames)",
-        },
+        &Chart::wide(
+            "position error per particle (RMS over frames)",
+            "particle",
+            "RMS error (m)",
+        ),
         &fit.per_particle_rms,
     );
     let _ = write!(
@@ -678,13 +666,8 @@ fn convergence_section(out: &mut String, convergence: Option<&[ConvergencePoint]
             let pick = thinned(rows.len());
             out.push_str(&line_chart(
                 &Chart {
-                    width: 680.0,
-                    height: 220.0,
-                    x_label: "generation",
-                    y_label: "best cost",
                     log_y: rows.iter().all(|r| r.best_cost > 0.0),
-                    y_from_zero: true,
-                    title: "best cost per generation",
+                    ..Chart::wide("best cost per generation", "generation", "best cost")
                 },
                 &[Series {
                     class: "model",

@@ -22,6 +22,30 @@ pub struct Chart<'a> {
     pub title: &'a str,
 }
 
+impl<'a> Chart<'a> {
+    /// A page-wide chart (680 × 220 px), linear y from 0: the report's residual and
+    /// convergence panels.
+    pub fn wide(title: &'a str, x_label: &'a str, y_label: &'a str) -> Self {
+        Chart {
+            width: 680.0,
+            height: 220.0,
+            x_label,
+            y_label,
+            log_y: false,
+            y_from_zero: true,
+            title,
+        }
+    }
+
+    /// Width and height of the plotting area inside the padding, px.
+    fn plot_area(&self) -> (f64, f64) {
+        (
+            self.width - PAD_LEFT - PAD_RIGHT,
+            self.height - PAD_TOP - PAD_BOTTOM,
+        )
+    }
+}
+
 const PAD_LEFT: f64 = 58.0;
 const PAD_RIGHT: f64 = 10.0;
 const PAD_TOP: f64 = 20.0;
@@ -97,10 +121,7 @@ pub fn line_chart(c: &Chart, series: &[Series]) -> String {
             c.title
         );
     };
-    let (w, h) = (
-        c.width - PAD_LEFT - PAD_RIGHT,
-        c.height - PAD_TOP - PAD_BOTTOM,
-    );
+    let (w, h) = c.plot_area();
     let px = |x: f64| PAD_LEFT + (x - x0) / (x1 - x0) * w;
     let py = |y: f64| PAD_TOP + (1.0 - (ty(y) - y0) / (y1 - y0)) * h;
     let mut s = String::new();
@@ -109,12 +130,10 @@ pub fn line_chart(c: &Chart, series: &[Series]) -> String {
         let x = px(t);
         let _ = write!(
             s,
-            "<line class=\"grid\" x1=\"{x:.1}\" x2=\"{x:.1}\" y1=\"{PAD_TOP}\" y2=\"{:.1}\"/>\
-             <text class=\"tick\" x=\"{x:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{}</text>",
+            "<line class=\"grid\" x1=\"{x:.1}\" x2=\"{x:.1}\" y1=\"{PAD_TOP}\" y2=\"{:.1}\"/>",
             PAD_TOP + h,
-            PAD_TOP + h + 13.0,
-            label(t)
         );
+        x_tick(&mut s, x, h, t);
     }
     for t in ticks(y0, y1, 4) {
         let y = PAD_TOP + (1.0 - (t - y0) / (y1 - y0)) * h;
@@ -183,6 +202,16 @@ fn y_tick(s: &mut String, w: f64, y: f64, value: f64) {
     );
 }
 
+/// A tick label under a plot `h` px high, at `x` px, reading `value`.
+fn x_tick(s: &mut String, x: f64, h: f64, value: f64) {
+    let _ = write!(
+        s,
+        "<text class=\"tick\" x=\"{x:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{}</text>",
+        PAD_TOP + h + 13.0,
+        label(value)
+    );
+}
+
 /// The axis labels under and left of a `w` × `h` px plot, and the `<svg>` element's end.
 fn close_svg(s: &mut String, c: &Chart, w: f64, h: f64) {
     let _ = write!(
@@ -203,10 +232,7 @@ pub fn bar_chart(c: &Chart, values: &[f64]) -> String {
     let Some((_, hi)) = range(values.iter().copied().chain([0.0])) else {
         return format!("<p class=\"note\">{}: no value to plot.</p>", c.title);
     };
-    let (w, h) = (
-        c.width - PAD_LEFT - PAD_RIGHT,
-        c.height - PAD_TOP - PAD_BOTTOM,
-    );
+    let (w, h) = c.plot_area();
     let n = values.len().max(1) as f64;
     let bw = w / n;
     let mut s = String::new();
@@ -233,13 +259,7 @@ pub fn bar_chart(c: &Chart, values: &[f64]) -> String {
     }
     s.push_str("</g>");
     for t in ticks(0.0, n - 1.0, 6) {
-        let x = PAD_LEFT + (t + 0.5) * bw;
-        let _ = write!(
-            s,
-            "<text class=\"tick\" x=\"{x:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{}</text>",
-            PAD_TOP + h + 13.0,
-            label(t)
-        );
+        x_tick(&mut s, PAD_LEFT + (t + 0.5) * bw, h, t);
     }
     close_svg(&mut s, c, w, h);
     s
