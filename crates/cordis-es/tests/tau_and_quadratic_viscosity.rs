@@ -272,14 +272,27 @@ fn unknown_boxes_leave_tau_known_and_draw_the_same_boxes() {
     }
 }
 
-/// The output-error estimator has no sensitivities of `Z₂ s |s|` yet: it refuses the scene
-/// naming the parameter (so `auto` does not pick it on noisy data).
+/// The output-error estimator differentiates `Z₂ s |s|` exactly (`output_error::tangent::spring`):
+/// it is supported (so `auto` picks it on noisy data) and fits the chain's noiseless motion,
+/// Z₂ with the rest, to rounding.
 #[test]
-fn output_error_refuses_a_quadratic_viscosity_by_name() {
+fn output_error_identifies_a_quadratic_viscosity_to_rounding() {
+    use cordis_es::output_error::{estimate, Config, Take};
+    use cordis_es::space::ParameterSpace;
     let truth = quadratic_chain(true);
-    let traj = truth.simulate(50).unwrap();
-    let problem = Problem::new(&quadratic_chain(false), &traj, CostKind::Short).unwrap();
-    let e = cordis_es::strategies::output_error::supported(&problem).unwrap_err();
-    assert!(e.starts_with("types.visc.damping_quadratic:"), "{e}");
-    assert!(e.contains("no exact sensitivities"), "{e}");
+    let traj = truth.simulate(200).unwrap();
+    let guess = quadratic_chain(false);
+    let problem = Problem::new(&guess, &traj, CostKind::Short).unwrap();
+    cordis_es::strategies::output_error::supported(&problem).unwrap();
+    let space = ParameterSpace::from_scene(&guess);
+    let e = estimate(&guess, &space, &[Take::complete(&traj)], &Config::default()).unwrap();
+    let err = space.error_pct(&e.genome, &truth.param_values());
+    assert!(err < 1e-6, "{err} % ({})", e.end);
+    assert!(
+        space
+            .unknowns
+            .iter()
+            .any(|u| u.name.contains("damping_quadratic")),
+        "Z₂ is one of the unknowns"
+    );
 }

@@ -95,12 +95,8 @@ use cordis_core::Vec3;
 use nalgebra::{DMatrix, DVector, Matrix6};
 
 use super::fit::{Counts, Fitter, LmSettings, StageEnd};
+use super::tangent::spring::{self, LINK};
 use super::tangent::{angle, spring_link, NONE};
-
-/// Floats stored per spring or anchor per step: A (9, row-major), u (3), `l - l0`, `s = w·u`
-/// (∂f_i/∂(K, l0, Z) = (l - l0, -K, s) u). The passes are bound by reading this: 14 floats,
-/// not the 27 of A, B and ∂f/∂θ.
-const LINK: usize = 14;
 
 /// The dense path is used up to this many local columns (θ plus one take's initial state).
 /// Measured on the cloth without its Provot limit, 100 frames, σ = 1e-3 of its size, on the
@@ -361,13 +357,14 @@ impl<'a, 'b> Mf<'a, 'b> {
             // After the step: x_prev = x(t), sc.v = v(t), sc.f = F(t): the point the tangent
             // step from t to t+1 is linearised at (as in `Tangent::tangent_step`).
             let (xn, v) = (&*x_prev, &sc.v);
-            for r in &plan.springs.runs {
+            for (ri, r) in plan.springs.runs.iter().enumerate() {
                 let (kk, l0, z) = (p[r.param], p[r.param + 1], p[r.param + 2]);
+                let z2 = spring::quadratic(&plan.springs, ri).map_or(0.0, |q| p[q]);
                 for (l, &[i, j]) in plan.springs.pairs[r.start..r.end].iter().enumerate() {
                     let (i, j) = (i as usize, j as usize);
-                    let lk = spring_link(&xn[j], &xn[i], &v[j], &v[i], kk, l0, z, 0.0);
+                    let lk = spring_link(&xn[j], &xn[i], &v[j], &v[i], kk, l0, z, z2);
                     let d = &mut lin.springs[(t * nsp + r.start + l) * LINK..][..LINK];
-                    store_link(d, &lk);
+                    lk.store(d);
                 }
             }
             for r in &plan.anchors.runs {
@@ -379,7 +376,7 @@ impl<'a, 'b> Mf<'a, 'b> {
                     let i = i as usize;
                     let lk = spring_link(point, &xn[i], &Vec3::zeros(), &v[i], kk, l0, z, 0.0);
                     let d = &mut lin.anchors[(t * nan + r.start + l) * LINK..][..LINK];
-                    store_link(d, &lk);
+                    lk.store(d);
                 }
             }
             for (l, &[i, j]) in plan.dampers.pairs.iter().enumerate() {
@@ -467,10 +464,9 @@ impl<'a, 'b> Mf<'a, 'b> {
             };
             let mut bz = [0.0; 9];
             for r in &plan.springs.runs {
-                let z = p[r.param + 2];
                 for (l, &[i, j]) in plan.springs.pairs[r.start..r.end].iter().enumerate() {
                     let d = &lin.springs[(t * nsp + r.start + l) * LINK..][..LINK];
-                    rank_one(&mut bz, z, &d[9..12]);
+                    rank_one(&mut bz, d[spring::ZEFF], &d[9..12]);
                     for e in [i as usize, j as usize] {
                         sub(kii, e, &d[..9]);
                         sub(cii, e, &bz);
@@ -478,10 +474,9 @@ impl<'a, 'b> Mf<'a, 'b> {
                 }
             }
             for r in &plan.anchors.runs {
-                let z = p[r.param + 2];
                 for (l, &i) in plan.anchors.particles[r.start..r.end].iter().enumerate() {
                     let d = &lin.anchors[(t * nan + r.start + l) * LINK..][..LINK];
-                    rank_one(&mut bz, z, &d[9..12]);
+                    rank_one(&mut bz, d[spring::ZEFF], &d[9..12]);
                     sub(kii, i as usize, &d[..9]);
                     sub(cii, i as usize, &bz);
                 }
@@ -599,56 +594,22 @@ impl<'a, 'b> Mf<'a, 'b> {
             plan.anchors.particles.len(),
             plan.dampers.pairs.len(),
         );
-        // θ forcing of a link (∂f_i/∂θ · v_θ = (e v_K - K v_l0 + s v_Z) u) in column `col`.
-        let theta = |slots: &[usize; 3], k: f64, e: f64, sr: f64, col: usize| -> f64 {
-            let at = |s: usize| if s == NONE { 0.0 } else { dth[s * w + col] };
-            e * at(slots[0]) - k * at(slots[1]) + sr * at(slots[2])
-        };
-        for r in &plan.springs.runs {
-            let (k, z) = (p[r.param], p[r.param + 2]);
-            let slots = [r.param, r.param + 1, r.param + 2].map(|q| of_slot[q]);
+        for (ri, r) in plan.springs.runs.iter().enumerate() {
+            let k = p[r.param];
+            let slots = spring::slots(&plan.springs, ri, r.param, of_slot);
             for (l, &[i, j]) in plan.springs.pairs[r.start..r.end].iter().enumerate() {
-                let (i, j) = (i as usize, j as usize);
                 let d = &lin.springs[(t * nsp + r.start + l) * LINK..][..LINK];
-                let (a, u) = (&d[..9], &d[9..12]);
-                for col in 0..w {
-                    let at = |m: &[f64], e: usize, c: usize| m[(3 * e + c) * w + col];
-                    let dd = [0, 1, 2].map(|c| at(cur, j, c) - at(cur, i, c));
-                    let dv = [0, 1, 2].map(|c| at(vel, j, c) - at(vel, i, c));
-                    // B dv = Z u (u·dv), plus the θ forcing along u.
-                    let along = z * (u[0] * dv[0] + u[1] * dv[1] + u[2] * dv[2])
-                        + theta(&slots, k, d[12], d[13], col);
-                    for c in 0..3 {
-                        let g = a[3 * c] * dd[0]
-                            + a[3 * c + 1] * dd[1]
-                            + a[3 * c + 2] * dd[2]
-                            + u[c] * along;
-                        df[(3 * i + c) * w + col] += g;
-                        df[(3 * j + c) * w + col] -= g;
-                    }
-                }
+                let ends = (i as usize, Some(j as usize));
+                spring::forward(d, k, &slots, ends, w, (cur, vel), df, dth);
             }
         }
         for r in &plan.anchors.runs {
-            let (k, z) = (p[r.param], p[r.param + 2]);
+            let k = p[r.param];
             let slots = [r.param, r.param + 1, r.param + 2].map(|q| of_slot[q]);
+            let slots = [slots[0], slots[1], slots[2], NONE];
             for (l, &i) in plan.anchors.particles[r.start..r.end].iter().enumerate() {
-                let i = i as usize;
                 let d = &lin.anchors[(t * nan + r.start + l) * LINK..][..LINK];
-                let (a, u) = (&d[..9], &d[9..12]);
-                for col in 0..w {
-                    let dd = [0, 1, 2].map(|c| -cur[(3 * i + c) * w + col]);
-                    let dv = [0, 1, 2].map(|c| -vel[(3 * i + c) * w + col]);
-                    let along = z * (u[0] * dv[0] + u[1] * dv[1] + u[2] * dv[2])
-                        + theta(&slots, k, d[12], d[13], col);
-                    for c in 0..3 {
-                        let g = a[3 * c] * dd[0]
-                            + a[3 * c + 1] * dd[1]
-                            + a[3 * c + 2] * dd[2]
-                            + u[c] * along;
-                        df[(3 * i + c) * w + col] += g;
-                    }
-                }
+                spring::forward(d, k, &slots, (i as usize, None), w, (cur, vel), df, dth);
             }
         }
         for r in &plan.dampers.runs {
@@ -767,54 +728,23 @@ impl<'a, 'b> Mf<'a, 'b> {
                 }
             }
             psi.iter_mut().for_each(|x| *x = 0.0);
-            // θ adjoint of a link: -δ·∂f_i/∂θ = -(u·δ) (e, -K, s).
-            let mut theta = |slots: &[usize; 3], k: f64, e: f64, sr: f64, col: usize, ud: f64| {
-                for (s, f) in slots.iter().zip([e, -k, sr]) {
-                    if *s != NONE {
-                        grad[s * w + col] -= f * ud;
-                    }
-                }
-            };
-            for r in &plan.springs.runs {
-                let (k, z) = (p[r.param], p[r.param + 2]);
-                let slots = [r.param, r.param + 1, r.param + 2].map(|q| of_slot[q]);
+            for (ri, r) in plan.springs.runs.iter().enumerate() {
+                let k = p[r.param];
+                let slots = spring::slots(&plan.springs, ri, r.param, of_slot);
                 for (l, &[i, j]) in plan.springs.pairs[r.start..r.end].iter().enumerate() {
-                    let (i, j) = (i as usize, j as usize);
                     let d = &lin.springs[(t * nsp + r.start + l) * LINK..][..LINK];
-                    let (am, u) = (&d[..9], &d[9..12]);
-                    for col in 0..w {
-                        let del = [0, 1, 2]
-                            .map(|c| phi[(3 * j + c) * w + col] - phi[(3 * i + c) * w + col]);
-                        let ud = u[0] * del[0] + u[1] * del[1] + u[2] * del[2];
-                        for c in 0..3 {
-                            // (Aᵀ δ)_c: column c of A.
-                            let g = am[c] * del[0] + am[3 + c] * del[1] + am[6 + c] * del[2];
-                            na[(3 * i + c) * w + col] += g;
-                            na[(3 * j + c) * w + col] -= g;
-                            psi[(3 * i + c) * w + col] += z * u[c] * ud;
-                            psi[(3 * j + c) * w + col] -= z * u[c] * ud;
-                        }
-                        theta(&slots, k, d[12], d[13], col, ud);
-                    }
+                    let ends = (i as usize, Some(j as usize));
+                    spring::adjoint(d, k, &slots, ends, w, phi, (na, psi), grad);
                 }
             }
             for r in &plan.anchors.runs {
-                let (k, z) = (p[r.param], p[r.param + 2]);
+                let k = p[r.param];
                 let slots = [r.param, r.param + 1, r.param + 2].map(|q| of_slot[q]);
+                let slots = [slots[0], slots[1], slots[2], NONE];
                 for (l, &i) in plan.anchors.particles[r.start..r.end].iter().enumerate() {
-                    let i = i as usize;
                     let d = &lin.anchors[(t * nan + r.start + l) * LINK..][..LINK];
-                    let (am, u) = (&d[..9], &d[9..12]);
-                    for col in 0..w {
-                        let del = [0, 1, 2].map(|c| -phi[(3 * i + c) * w + col]);
-                        let ud = u[0] * del[0] + u[1] * del[1] + u[2] * del[2];
-                        for c in 0..3 {
-                            let g = am[c] * del[0] + am[3 + c] * del[1] + am[6 + c] * del[2];
-                            na[(3 * i + c) * w + col] += g;
-                            psi[(3 * i + c) * w + col] += z * u[c] * ud;
-                        }
-                        theta(&slots, k, d[12], d[13], col, ud);
-                    }
+                    let ends = (i as usize, None);
+                    spring::adjoint(d, k, &slots, ends, w, phi, (na, psi), grad);
                 }
             }
             for r in &plan.dampers.runs {
@@ -972,15 +902,6 @@ impl<'a, 'b> Mf<'a, 'b> {
         }
         cols
     }
-}
-
-fn store_link(d: &mut [f64], lk: &super::tangent::SpringLink) {
-    for r in 0..3 {
-        d[3 * r..3 * r + 3].copy_from_slice(&lk.a[r]);
-    }
-    d[9..12].copy_from_slice(lk.u.as_slice());
-    d[12] = lk.e;
-    d[13] = lk.s;
 }
 
 /// `z u uᵀ`, row-major.
@@ -1664,8 +1585,8 @@ mod tests {
     use crate::identify::{add_noise, with_unknown_boxes};
     use crate::space::ParameterSpace;
 
-    /// Damped springs (A not symmetric), a damper, an anchor, a drag, an unknown mass, a fixed
-    /// particle: every term of the recursion.
+    /// Damped springs (A not symmetric) with a quadratic viscosity, a damper, an anchor, a drag,
+    /// angles, an unknown mass, a fixed particle: every term of the recursion.
     fn truth() -> Scene {
         let mut s = super::super::tests::every_term_scene(7);
         s.particles[5].fixed = true;
@@ -1686,6 +1607,23 @@ mod tests {
         guess.particles[2].mass = Param::Unknown(Bounds {
             min: 0.1,
             max: 10.0,
+            init: None,
+        });
+        // The quadratic viscosity and the angles' rest cosine unknown too: every θ column.
+        let quadratic = Param::Unknown(Bounds {
+            min: 0.01,
+            max: 5.0,
+            init: None,
+        });
+        guess.types[0].set_optional(
+            cordis_core::OptionalParam::DampingQuadratic,
+            Some(quadratic),
+        );
+        let bend = guess.types.iter_mut().find(|t| t.name == "bend").unwrap();
+        let c0 = bend.params[1].value();
+        bend.params[1] = Param::Unknown(Bounds {
+            min: c0 - 0.5,
+            max: c0 + 0.5,
             init: None,
         });
         let tangent = Tangent::new(&guess).unwrap();

@@ -1,11 +1,12 @@
 //! The tangent recursion against finite differences and the core's simulation.
 
 use cordis_core::examples::random_network;
-use cordis_core::{Bounds, LinkKind, LinkType, Param, Scene, Vec3};
+use cordis_core::{Bounds, LinkKind, LinkType, OptionalParam, Param, Scene, Vec3};
 
 use super::tangent::{Sens, Tangent};
 
-/// A random network with every damping non-zero, a damper, an anchor, a drag and two angles
+/// A random network with every damping non-zero, a quadratic viscosity, a damper, an anchor, a
+/// drag and two angles
 /// (one at a free vertex, one with a fixed end): every term of the tangent recursion (also the
 /// matrix-free path's test scene).
 pub(super) fn every_term_scene(seed: u64) -> Scene {
@@ -13,6 +14,8 @@ pub(super) fn every_term_scene(seed: u64) -> Scene {
     for t in &mut s.types {
         t.params[2] = Param::Known(0.2);
     }
+    // A quadratic viscosity on the first spring type (Z₂ s |s|).
+    s.types[0].set_optional(OptionalParam::DampingQuadratic, Some(Param::Known(0.3)));
     s.add_type(LinkType::new("d", LinkKind::Damper).with("damping", 0.3));
     s.add_type(
         LinkType::new("a", LinkKind::Anchor)

@@ -17,9 +17,10 @@
 //! `∂F/∂x` is never formed: each link adds its 3×3 blocks times the sensitivity rows of its
 //! ends (sparsity: a particle's force depends on its neighbours only). One file per kind gives
 //! its force's derivatives: [`spring`] (springs and anchors, with the quadratic viscosity Z₂),
-//! [`angle`]; a damper `f_i = Z w` and a drag `f_i = -Z v_i` are written out here. Kinds
-//! without a tangent (conditional links, planes, muscles, couplings, nonlinear drags, Provot
-//! limits, several worlds) are refused by name before any work ([`Tangent::supports`]).
+//! [`angle`]; a damper `f_i = Z w` and a drag `f_i = -Z v_i` are written out here. Each kind's
+//! file also holds its matrix-free passes (forward, adjoint, local blocks). Kinds without a
+//! tangent (conditional links, planes, muscles, couplings, nonlinear drags, Provot limits,
+//! several worlds) are refused by name before any work ([`Tangent::supports`]).
 //!
 //! Cost per step: about 30 P multiply-adds per link and 6 P per particle for P sensitivity
 //! columns, no allocation (the matrices are caller-owned scratch, row-major `3N × P`, so each
@@ -27,15 +28,15 @@
 //! vectorises).
 
 use cordis_core::plan::{Plan, Scratch};
-use cordis_core::{LinkKind, OptionalParam, Runaway, Scene, Vec3};
+use cordis_core::{LinkKind, Runaway, Scene, Vec3};
 
 use super::observations::Take;
 use crate::error::CostError;
 
 pub(crate) mod angle;
-mod spring;
+pub(crate) mod spring;
 
-pub(crate) use spring::{spring_link, SpringLink};
+pub(crate) use spring::spring_link;
 
 /// No column: a known parameter.
 pub(crate) const NONE: usize = usize::MAX;
@@ -135,16 +136,6 @@ impl Tangent {
                 return Err(CostError::mismatch(
                     format!("types.{}.max_elongation", ty.name),
                     "a Provot limit has no exact sensitivities yet (output-error)",
-                ));
-            }
-            if used
-                && ty
-                    .optional_param(OptionalParam::DampingQuadratic)
-                    .is_some_and(|z| !z.is_known_zero())
-            {
-                return Err(CostError::mismatch(
-                    format!("types.{}.damping_quadratic", ty.name),
-                    "a quadratic viscosity has no exact sensitivities yet (output-error)",
                 ));
             }
         }
@@ -273,14 +264,8 @@ impl Tangent {
         let cx = Ctx { s, vel, w };
         for (ri, r) in plan.springs.runs.iter().enumerate() {
             let (k, l0, z) = (p[r.param], p[r.param + 1], p[r.param + 2]);
-            let quadratic = plan.springs.quadratic.get(ri).copied().flatten();
-            let z2 = quadratic.map_or(0.0, |q| p[q]);
-            let slots = [
-                c.of_slot[r.param],
-                c.of_slot[r.param + 1],
-                c.of_slot[r.param + 2],
-                quadratic.map_or(NONE, |q| c.of_slot[q]),
-            ];
+            let z2 = spring::quadratic(&plan.springs, ri).map_or(0.0, |q| p[q]);
+            let slots = spring::slots(&plan.springs, ri, r.param, &c.of_slot);
             for &[i, j] in &plan.springs.pairs[r.start..r.end] {
                 let (i, j) = (i as usize, j as usize);
                 let lk = spring_link(&xn[j], &xn[i], &v[j], &v[i], k, l0, z, z2);

@@ -14,9 +14,33 @@
 //! Z₂ adds no switch: the recursion is exact through a rate changing sign. With Z₂ = 0 every
 //! number is the one of the plain spring, bit for bit (`Z' = Z` and `m` computed as before).
 
+use cordis_core::forces::spring::SpringPass;
 use cordis_core::Vec3;
 
 use super::NONE;
+
+/// Floats stored per spring or anchor per step by the matrix-free linearisation: A (9,
+/// row-major), u (3), `l - l0`, `s = w·u` (∂f_i/∂(K, l0, Z, Z₂) = (l - l0, -K, s, s|s|) u) and
+/// `Z'` (∂f_i/∂w = Z' u uᵀ). The passes are bound by reading this: 15 floats, not the 30 of
+/// A, B and ∂f/∂θ.
+pub(crate) const LINK: usize = 15;
+/// Where `Z'` is in a stored record.
+pub(crate) const ZEFF: usize = 14;
+
+/// The slot of run `ri`'s quadratic viscosity Z₂, when its type has one.
+pub(crate) fn quadratic(pass: &SpringPass, ri: usize) -> Option<usize> {
+    pass.quadratic.get(ri).copied().flatten()
+}
+
+/// The columns of run `ri`'s (K, l0, Z, Z₂) (parameters from `param`).
+pub(crate) fn slots(pass: &SpringPass, ri: usize, param: usize, of_slot: &[usize]) -> [usize; 4] {
+    [
+        of_slot[param],
+        of_slot[param + 1],
+        of_slot[param + 2],
+        quadratic(pass, ri).map_or(NONE, |q| of_slot[q]),
+    ]
+}
 
 /// One spring's force on its end i and its derivatives (module docs).
 pub(crate) struct SpringLink {
@@ -31,6 +55,8 @@ pub(crate) struct SpringLink {
     pub u: Vec3,
     pub e: f64,
     pub s: f64,
+    /// The rate's coefficient `Z' = Z + 2 Z₂ |s|`.
+    zeff: f64,
     damped: bool,
 }
 
@@ -82,11 +108,23 @@ pub(crate) fn spring_link(
         u,
         e: l - l0,
         s,
+        zeff,
         damped: zeff != 0.0,
     }
 }
 
 impl SpringLink {
+    /// The matrix-free record ([`LINK`] floats).
+    pub(crate) fn store(&self, d: &mut [f64]) {
+        for r in 0..3 {
+            d[3 * r..3 * r + 3].copy_from_slice(&self.a[r]);
+        }
+        d[9..12].copy_from_slice(self.u.as_slice());
+        d[12] = self.e;
+        d[13] = self.s;
+        d[ZEFF] = self.zeff;
+    }
+
     /// Adds this link's tangent force into `df` rows of i (and minus it into j's); `diff`
     /// holds `S_j - S_i` then `V_j - V_i` (six row blocks of width w), `slots` the columns of
     /// (K, l0, Z, Z₂).
@@ -127,6 +165,96 @@ impl SpringLink {
                         df[rj + col] -= self.dp[t][r];
                     }
                 }
+            }
+        }
+    }
+}
+
+/// Matrix-free forward of one link from its record `d` ([`LINK`]): `df += ∂f/∂x s + ∂f/∂v ṡ +
+/// ∂f/∂θ dθ` over w directions, for ends `(i, j)` (`j = None`: a fixed point, an anchor's),
+/// `(cur, vel)` = (s(t), ṡ(t)), `slots` the columns of (K, l0, Z, Z₂) and `dth` the θ
+/// directions (physical units, × w).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn forward(
+    d: &[f64],
+    k: f64,
+    slots: &[usize; 4],
+    (i, j): (usize, Option<usize>),
+    w: usize,
+    (cur, vel): (&[f64], &[f64]),
+    df: &mut [f64],
+    dth: &[f64],
+) {
+    let (a, u, z) = (&d[..9], &d[9..12], d[ZEFF]);
+    let (e, sr) = (d[12], d[13]);
+    for col in 0..w {
+        let at = |m: &[f64], e: usize, c: usize| m[(3 * e + c) * w + col];
+        let (dd, dv) = match j {
+            Some(j) => (
+                [0, 1, 2].map(|c| at(cur, j, c) - at(cur, i, c)),
+                [0, 1, 2].map(|c| at(vel, j, c) - at(vel, i, c)),
+            ),
+            None => (
+                [0, 1, 2].map(|c| -at(cur, i, c)),
+                [0, 1, 2].map(|c| -at(vel, i, c)),
+            ),
+        };
+        // θ forcing along u: ∂f_i/∂θ · dθ = (e dK - K dl0 + s dZ + s|s| dZ₂) u.
+        let th = |s: usize| if s == NONE { 0.0 } else { dth[s * w + col] };
+        let mut theta = e * th(slots[0]) - k * th(slots[1]) + sr * th(slots[2]);
+        if slots[3] != NONE {
+            theta += sr * sr.abs() * th(slots[3]);
+        }
+        // B dv = Z' u (u·dv), plus the θ forcing along u.
+        let along = z * (u[0] * dv[0] + u[1] * dv[1] + u[2] * dv[2]) + theta;
+        for c in 0..3 {
+            let g = a[3 * c] * dd[0] + a[3 * c + 1] * dd[1] + a[3 * c + 2] * dd[2] + u[c] * along;
+            df[(3 * i + c) * w + col] += g;
+            if let Some(j) = j {
+                df[(3 * j + c) * w + col] -= g;
+            }
+        }
+    }
+}
+
+/// Matrix-free adjoint of one link from its record `d`: `na += (∂f/∂x)ᵀ φ`, `psi += (∂f/∂v)ᵀ φ`
+/// and `grad += (∂f/∂θ)ᵀ φ` over w cotangents (as [`forward`]'s arguments). Aᵀ is applied
+/// explicitly: A is not symmetric when the link is damped.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn adjoint(
+    d: &[f64],
+    k: f64,
+    slots: &[usize; 4],
+    (i, j): (usize, Option<usize>),
+    w: usize,
+    phi: &[f64],
+    (na, psi): (&mut [f64], &mut [f64]),
+    grad: &mut [f64],
+) {
+    let (am, u, z) = (&d[..9], &d[9..12], d[ZEFF]);
+    let (e, sr) = (d[12], d[13]);
+    for col in 0..w {
+        let del = match j {
+            Some(j) => [0, 1, 2].map(|c| phi[(3 * j + c) * w + col] - phi[(3 * i + c) * w + col]),
+            None => [0, 1, 2].map(|c| -phi[(3 * i + c) * w + col]),
+        };
+        let ud = u[0] * del[0] + u[1] * del[1] + u[2] * del[2];
+        for c in 0..3 {
+            // (Aᵀ δ)_c: column c of A.
+            let g = am[c] * del[0] + am[3 + c] * del[1] + am[6 + c] * del[2];
+            na[(3 * i + c) * w + col] += g;
+            psi[(3 * i + c) * w + col] += z * u[c] * ud;
+            if let Some(j) = j {
+                na[(3 * j + c) * w + col] -= g;
+                psi[(3 * j + c) * w + col] -= z * u[c] * ud;
+            }
+        }
+        // θ: -δ·∂f_i/∂θ = -(u·δ) (e, -K, s, s|s|).
+        for (s, f) in slots.iter().zip([e, -k, sr, sr * sr.abs()]) {
+            if *s != NONE {
+                grad[s * w + col] -= f * ud;
             }
         }
     }
