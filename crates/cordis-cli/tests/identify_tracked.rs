@@ -433,3 +433,54 @@ fn report_maps_markers_and_weights_as_identify_does() {
     assert!(stderr(&out).contains("--markers: names 2 particles for the 18 markers"));
     assert!(!d.join("bad.html").exists());
 }
+
+/// `cordis bench noise` on a small grid: one JSON line per cell, the angle networks' rest
+/// cosines among the unknowns (their own coverage column), noiseless fits exact, and a bad
+/// `--masses` range refused by name.
+#[test]
+fn bench_noise_reports_each_cell_with_coverage_per_parameter_kind() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let args = [
+        "bench",
+        "noise",
+        "--draws",
+        "2",
+        "--noise",
+        "0,1e-3",
+        "--patterns",
+        "complete",
+        "--masses",
+        "12-14",
+        "--frames",
+        "60",
+    ];
+    let out = cordis(d, &args);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    let cells: Vec<serde_json::Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("JSON line"))
+        .collect();
+    assert_eq!(cells.len(), 2);
+    assert_eq!(cells[0]["masses"], "12-14");
+    assert!(
+        cells[0]["error_pct"].as_f64().unwrap() < 1e-6,
+        "{}",
+        cells[0]
+    );
+    let noisy = &cells[1];
+    for kind in ["stiffness", "rest_length", "rest_cos", "damping"] {
+        let c = noisy["coverage95"][kind].as_f64();
+        assert!(
+            c.is_some_and(|c| (0.0..=1.0).contains(&c)),
+            "{kind}: {noisy}"
+        );
+    }
+    assert!(noisy["crb_pct"].as_f64().unwrap() > 0.0);
+    for bad in ["3", "20-12", "x"] {
+        let out = cordis(d, &["bench", "noise", "--masses", bad]);
+        assert_eq!(out.status.code(), Some(2), "{bad}");
+        assert!(stderr(&out).contains("--masses"), "{bad}: {}", stderr(&out));
+    }
+}

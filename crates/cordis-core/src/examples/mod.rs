@@ -37,7 +37,7 @@ pub use horse_ground::{
     HORSE_GROUND_FRAMES,
 };
 pub use muscle::{muscle, MUSCLE_FRAMES, MUSCLE_GAIN};
-pub use random::{random_network, tracked_network};
+pub use random::{random_network, tracked_network, tracked_network_with_angles};
 pub use rigid::{rigid, RIGID_FRAMES};
 pub use tadpole::{
     tadpole, tadpole_vmax_bracket, tadpole_with, TADPOLE_BODY_LENGTH, TADPOLE_FRAMES,

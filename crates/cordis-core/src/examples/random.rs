@@ -134,6 +134,70 @@ pub fn tracked_network(seed: u64, masses: usize, types: usize) -> Scene {
     truth
 }
 
+/// The networks of `cordis bench noise` (issue 16): [`tracked_network`]`(seed, masses, types)`
+/// plus angle links — two angle types (stiffness 5–30 N·m, rest cosine the mean of its
+/// triples' initial cosines shifted by ±0.1, so they are loaded from frame 0) on up to
+/// `masses / 3` triples `(i, j, k)` of linked particles (j linked to both) whose initial angle
+/// is neither near straight nor near square (`0.3 ≤ |cos θ| ≤ 0.9`: at a straight angle the
+/// force `∝ sin θ` vanishes, and a rest cosine near 0 makes its relative error meaningless).
+/// Triples are taken in a seed-drawn order, at most one per middle particle.
+pub fn tracked_network_with_angles(seed: u64, masses: usize, types: usize) -> Scene {
+    let mut scene = tracked_network(seed, masses, types);
+    let mut rng = SplitMix64::new(seed ^ 0x414e_474c_4553); // "ANGLES"
+    let n = scene.particles.len();
+    let mut adj = vec![Vec::new(); n];
+    for l in &scene.links {
+        if let [a, b] = l.particles[..] {
+            if scene.types[l.type_index].kind == LinkKind::Spring {
+                adj[a].push(b);
+                adj[b].push(a);
+            }
+        }
+    }
+    let pos: Vec<[f64; 3]> = scene.particles.iter().map(|p| p.pos).collect();
+    let cosine = |i: usize, j: usize, k: usize| {
+        let a: Vec<f64> = (0..3).map(|c| pos[i][c] - pos[j][c]).collect();
+        let b: Vec<f64> = (0..3).map(|c| pos[k][c] - pos[j][c]).collect();
+        let dot: f64 = (0..3).map(|c| a[c] * b[c]).sum();
+        dot / (dist(pos[i], pos[j]) * dist(pos[k], pos[j]))
+    };
+    let mut order: Vec<usize> = (0..n).collect();
+    for t in (1..n).rev() {
+        order.swap(t, (rng.next_u64() % (t as u64 + 1)) as usize);
+    }
+    let mut triples = Vec::new();
+    for &j in &order {
+        if triples.len() >= masses / 3 {
+            break;
+        }
+        let pick = adj[j].iter().enumerate().find_map(|(x, &i)| {
+            adj[j][x + 1..]
+                .iter()
+                .find(|&&k| (0.3..=0.9).contains(&cosine(i, j, k).abs()))
+                .map(|&k| [i, j, k])
+        });
+        triples.extend(pick);
+    }
+    for t in 0..2 {
+        let mine: Vec<&[usize; 3]> = triples.iter().skip(t).step_by(2).collect();
+        if mine.is_empty() {
+            continue;
+        }
+        let mean = mine.iter().map(|&&[i, j, k]| cosine(i, j, k)).sum::<f64>() / mine.len() as f64;
+        let shift = rng.uniform(-0.1, 0.1);
+        let name = format!("bend{t}");
+        scene.add_type(
+            LinkType::new(&name, LinkKind::Angle)
+                .with("stiffness", q(rng.uniform(5.0, 30.0)))
+                .with("rest_cos", q((mean + shift).clamp(-0.95, 0.95))),
+        );
+        for &&[i, j, k] in &mine {
+            scene.add_link(&name, &[i, j, k]);
+        }
+    }
+    scene
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -152,5 +216,28 @@ mod tests {
             assert!(traj.as_flat().iter().all(|x| x.abs() < 100.0));
         }
         assert_ne!(random_network(1, 10, 3), random_network(2, 10, 3));
+    }
+
+    #[test]
+    fn the_noise_benchs_networks_carry_loaded_angles_and_stay_bounded() {
+        for (seed, n) in [(0, 12), (1, 20), (2, 30), (3, 17)] {
+            let s = tracked_network_with_angles(seed, n, 7);
+            s.validate().unwrap();
+            let angles: Vec<_> = s
+                .links
+                .iter()
+                .filter(|l| s.types[l.type_index].kind == LinkKind::Angle)
+                .collect();
+            assert!(
+                !angles.is_empty() && angles.len() <= n / 3,
+                "seed {seed}: {}",
+                angles.len()
+            );
+            let traj = s.simulate(200).unwrap();
+            assert!(
+                traj.as_flat().iter().all(|x| x.abs() < 100.0),
+                "seed {seed}"
+            );
+        }
     }
 }

@@ -130,8 +130,14 @@ impl Fitter<'_> {
         let mut g = DVector::zeros(len);
         let mut cost = 0.0;
         let n = self.tangent.plan.n;
-        // Rows of one frame, column-major (observed rows × local columns), for H += GᵀG.
-        let mut rows = DMatrix::<f64>::zeros(3 * n, width);
+        // The weighted rows of several frames, row-major (row r at `[r · width ..]`), and
+        // their weighted residuals: `H += GᵀG` and `g += Gᵀ(w e)` once per block, by one
+        // matrix product (matrixmultiply through nalgebra's gemm) instead of one small
+        // product per frame — measured 70 % of a 26-mass fit's time in the per-frame form.
+        let block_frames = (BLOCK_BYTES / (8 * 3 * n * width).max(1)).clamp(1, 64);
+        let capacity = block_frames * 3 * n;
+        let mut rows = vec![0.0; capacity * width];
+        let mut we = vec![0.0; capacity];
         let mut local_h = DMatrix::<f64>::zeros(width, width);
         let mut local_g = DVector::<f64>::zeros(width);
         for (k, take) in self.takes.iter().enumerate() {
@@ -139,9 +145,9 @@ impl Fitter<'_> {
             local_g.fill(0.0);
             let state = &q[nt + k * ns..][..ns];
             let frames = window.min(take.frames());
+            let mut m = 0;
             let mut visit = |t: usize, x: &[cordis_core::Vec3], s: Option<&[f64]>| {
                 let s = s.expect("rollout with columns");
-                let mut m = 0;
                 for (i, xi) in x.iter().enumerate() {
                     for c in 0..3 {
                         let (obs, w) = take.at(t, i, c);
@@ -154,21 +160,21 @@ impl Fitter<'_> {
                         // they are: two loops, no branch per column.
                         let src = &s[(3 * i + c) * width..][..width];
                         let (theta, state) = src.split_at(nt);
-                        for (q, (d, dz)) in theta.iter().zip(&chain).enumerate() {
-                            rows[(m, q)] = w * (d * dz);
+                        let row = &mut rows[m * width..(m + 1) * width];
+                        let (rt, rs) = row.split_at_mut(nt);
+                        for ((r, d), dz) in rt.iter_mut().zip(theta).zip(&chain) {
+                            *r = w * (d * dz);
                         }
-                        for (q, d) in state.iter().enumerate() {
-                            rows[(m, nt + q)] = w * d;
+                        for (r, d) in rs.iter_mut().zip(state) {
+                            *r = w * d;
                         }
-                        for q in 0..width {
-                            local_g[q] += w * e * rows[(m, q)];
-                        }
+                        we[m] = w * e;
                         m += 1;
                     }
                 }
-                if m > 0 {
-                    let view = rows.rows(0, m);
-                    local_h.gemm_tr(1.0, &view, &view, 1.0);
+                if m + 3 * n > capacity || t + 1 == frames {
+                    accumulate(&rows, &we, m, width, &mut local_h, &mut local_g);
+                    m = 0;
                 }
             };
             self.tangent
@@ -265,6 +271,44 @@ impl Fitter<'_> {
         }
         held
     }
+}
+
+/// Bytes of one block of weighted sensitivity rows in [`Fitter::normal`] (a few MB: the
+/// product runs at matrix-multiply speed and the block stays in the last-level cache).
+const BLOCK_BYTES: usize = 4 << 20;
+
+/// `h += GᵀG`, `g += Gᵀ r` for the first `m` rows `G` of the row-major `rows` (`width`
+/// columns) and their entries `r` of `we`.
+fn accumulate(
+    rows: &[f64],
+    we: &[f64],
+    m: usize,
+    width: usize,
+    h: &mut DMatrix<f64>,
+    g: &mut DVector<f64>,
+) {
+    if m == 0 {
+        return;
+    }
+    use nalgebra::{DVectorView, Dyn, MatrixView};
+    let data = &rows[..m * width];
+    // G (m × width, rows contiguous) and Gᵀ (width × m) as strided views of one buffer.
+    let rows_view = MatrixView::<f64, Dyn, Dyn, Dyn, Dyn>::from_slice_with_strides_generic(
+        data,
+        Dyn(m),
+        Dyn(width),
+        Dyn(width),
+        Dyn(1),
+    );
+    let cols_view = MatrixView::<f64, Dyn, Dyn, Dyn, Dyn>::from_slice_with_strides_generic(
+        data,
+        Dyn(width),
+        Dyn(m),
+        Dyn(1),
+        Dyn(width),
+    );
+    h.gemm(1.0, &cols_view, &rows_view, 1.0);
+    g.gemv(1.0, &cols_view, &DVectorView::from_slice(&we[..m], m), 1.0);
 }
 
 /// Levenberg–Marquardt settings of one stage.

@@ -1,23 +1,25 @@
 //! `cordis bench noise`: the output-error estimator against the Cramér–Rao bound on generated
 //! networks, through noise, gaps and hidden particles, beside the short cost's exact estimate.
 //!
-//! Each draw is a network of its own (`tracked_network`: every spring type damped, a damper,
-//! air drag on two particles and an anchor to a point; boxes 25× wide around the truth at a
-//! place drawn from the seed), simulated for `--frames` frames, observed through Gaussian noise
+//! Each draw is a network of its own (`tracked_network_with_angles`: 12–30 masses drawn from
+//! the seed, gravity, every spring type damped, two angle types, a damper, air drag on two
+//! particles and an anchor to a point; boxes 25× wide around the truth at a place drawn from
+//! the seed), simulated for `--frames` frames, observed through Gaussian noise
 //! of σ = `rel` × the trajectory's size, with every coordinate, 20 % of them missing at random,
 //! or a quarter of the free particles hidden. Per cell (noise × pattern) over `--draws` draws:
 //! the mean parameter error of `output-error` (the defaults), the Cramér–Rao bound of the same
 //! observation pattern (`100 · mean_k √(2/π) sd_k/|θ_k|`, `sd` from the estimator's own
 //! sensitivities at the truth, initial state unknown), their ratio (of the means), the
-//! fraction of 95 % intervals holding the truth per parameter kind, the median seconds, how
+//! fraction of 95 % intervals holding the truth per parameter kind (stiffness, rest length,
+//! rest cosine, damping), the median seconds, how
 //! many fits met their criterion, and the short cost's least-squares error on the same data
 //! (gap-filled; none with hidden particles).
 
 use std::time::Instant;
 
 use anyhow::Result;
-use cordis_core::examples::tracked_network;
-use cordis_core::{Scene, Vec3};
+use cordis_core::examples::tracked_network_with_angles;
+use cordis_core::{Bounds, LinkKind, Param, Scene, Vec3};
 use cordis_es::cost::CostKind;
 use cordis_es::identify::{add_noise, with_unknown_boxes};
 use cordis_es::output_error::{cramer_rao, estimate, expected_error_pct, Config, Take};
@@ -33,9 +35,9 @@ pub struct Args {
     /// Frames per take.
     #[arg(long, default_value_t = 200, value_parser = clap::value_parser!(u64).range(20..=100_000))]
     frames: u64,
-    /// Particles per network (the first is fixed).
-    #[arg(long, default_value_t = 12, value_parser = clap::value_parser!(u64).range(4..=200))]
-    masses: u64,
+    /// Particles per network (the first is fixed): `N`, or `LO-HI` for a count drawn per draw.
+    #[arg(long, default_value = "12-30", value_parser = parse_masses)]
+    masses: (usize, usize),
     /// Spring types per network.
     #[arg(long, default_value_t = 7, value_parser = clap::value_parser!(u64).range(1..=50))]
     types: u64,
@@ -59,10 +61,46 @@ pub struct Args {
     from_truth: bool,
 }
 
+/// `N` or `LO-HI`, 4 ≤ LO ≤ HI ≤ 200.
+fn parse_masses(s: &str) -> std::result::Result<(usize, usize), String> {
+    let (lo, hi) = s.split_once('-').unwrap_or((s, s));
+    let num = |v: &str| {
+        v.trim()
+            .parse::<usize>()
+            .ok()
+            .filter(|n| (4..=200).contains(n))
+            .ok_or_else(|| format!("`{v}` is not a particle count in 4..=200"))
+    };
+    let (lo, hi) = (num(lo)?, num(hi)?);
+    if lo > hi {
+        return Err(format!("`{s}`: the low end is above the high end"));
+    }
+    Ok((lo, hi))
+}
+
+/// The particle count of draw `seed`: uniform in the range, from the seed.
+fn masses_of(range: (usize, usize), seed: u64) -> usize {
+    let span = (range.1 - range.0 + 1) as u64;
+    range.0 + (mix(0, 0, 0, seed ^ 0x4d41_5353) % span) as usize
+}
+
 /// One generated network and the guess a user would write for it.
 fn network(seed: u64, masses: usize, types: usize) -> (Scene, Scene) {
-    let truth = tracked_network(seed, masses, types);
-    let guess = with_unknown_boxes(&truth, 25.0, seed);
+    let truth = tracked_network_with_angles(seed, masses, types);
+    let mut guess = with_unknown_boxes(&truth, 25.0, seed);
+    // `with_unknown_boxes` keeps a rest cosine known (it may have either sign): an additive
+    // box a cosine wide, clipped to [-1, 1], with the truth off its centre.
+    for (k, t) in guess.types.iter_mut().enumerate() {
+        if t.kind == LinkKind::Angle {
+            let c = truth.types[k].params[1].value();
+            let u = 0.1 + 0.8 * (mix(k, 1, 2, seed) % 1000) as f64 / 1000.0;
+            t.params[1] = Param::Unknown(Bounds {
+                min: (c - u).max(-1.0),
+                max: (c + 1.0 - u).min(1.0),
+                init: None,
+            });
+        }
+    }
     (truth, guess)
 }
 
@@ -84,20 +122,21 @@ struct Cell {
     seconds: Vec<f64>,
     converged: usize,
     failed: usize,
-    /// Per kind: (inside, total).
-    coverage: [(usize, usize); 3],
+    /// Per kind (stiffness, rest length, rest cosine, damping): (inside, total).
+    coverage: [(usize, usize); 4],
 }
 
 fn kind_index(r: Role) -> usize {
     match r {
         Role::Stiffness => 0,
         Role::RestLength => 1,
-        _ => 2,
+        Role::RestCos => 2,
+        _ => 3,
     }
 }
 
 fn one_draw(a: &Args, seed: u64, rel: f64, pattern: &str, cell: &mut Cell) {
-    let (masses, types) = (a.masses as usize, a.types as usize);
+    let (masses, types) = (masses_of(a.masses, seed), a.types as usize);
     let (truth, guess) = network(seed, masses, types);
     let Ok(traj) = truth.simulate(a.frames as usize) else {
         cell.failed += 1;
@@ -138,8 +177,8 @@ fn one_draw(a: &Args, seed: u64, rel: f64, pattern: &str, cell: &mut Cell) {
     cell.error.push(space.error_pct(&e.genome, &tv));
     if a.verbose {
         eprintln!(
-            "  draw {seed}: error {:.3e} %, {} after {} iterations, σ̂ {:.3e} m (σ {sigma:.3e}), \
-             windows {:?}, start: {}",
+            "  draw {seed} ({masses} masses, {secs:.2} s): error {:.3e} %, {} after {} \
+             iterations, σ̂ {:.3e} m (σ {sigma:.3e}), windows {:?}, start: {}",
             space.error_pct(&e.genome, &tv),
             e.end,
             e.iterations,
@@ -207,7 +246,7 @@ pub fn run(a: Args) -> Result<()> {
         "CRB %",
         "ratio",
         "short %",
-        "coverage K/l0/Z",
+        "coverage K/l0/c0/Z",
         "med s",
         "conv"
     );
@@ -237,14 +276,16 @@ fn report(a: &Args, rel: f64, pattern: &str, cell: &Cell) {
         "noise_rel": rel,
         "pattern": pattern,
         "draws": a.draws,
-        "masses": a.masses,
+        "masses": format!("{}-{}", a.masses.0, a.masses.1),
         "types": a.types,
         "frames": a.frames,
         "error_pct": err,
         "crb_pct": bound,
         "ratio": ratio,
         "short_cost_error_pct": mean(&cell.short),
-        "coverage95": {"stiffness": cov[0], "rest_length": cov[1], "damping": cov[2]},
+        "coverage95": {
+            "stiffness": cov[0], "rest_length": cov[1], "rest_cos": cov[2], "damping": cov[3]
+        },
         "median_seconds": median(&cell.seconds),
         "converged": cell.converged,
         "failed": cell.failed,
@@ -265,7 +306,7 @@ fn report(a: &Args, rel: f64, pattern: &str, cell: &Cell) {
         f(bound),
         ratio.map_or("-".into(), |r| format!("{r:.2}")),
         f(mean(&cell.short)),
-        format!("{}/{}/{}", c(cov[0]), c(cov[1]), c(cov[2])),
+        format!("{}/{}/{}/{}", c(cov[0]), c(cov[1]), c(cov[2]), c(cov[3])),
         median(&cell.seconds).map_or("-".into(), |s| format!("{s:.3}")),
         format!("{}/{}", cell.converged, a.draws),
     );
