@@ -17,25 +17,9 @@ use cordis_es::cost::CostKind;
 use cordis_es::identify::{add_noise, with_unknown_boxes};
 use cordis_es::output_error::{estimate, Config, Take};
 use cordis_es::problem::Problem;
+use cordis_es::run::cpu_time::process_cpu_seconds as cpu_seconds;
 use cordis_es::space::ParameterSpace;
 use cordis_es::strategies::least_squares;
-
-/// CPU seconds of this process (user + system, from /proc; NaN elsewhere): on a shared
-/// machine the wall clock measures the neighbours too.
-fn cpu_seconds() -> f64 {
-    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
-        return f64::NAN;
-    };
-    // Fields after the command name (which may hold spaces): utime and stime are 14 and 15.
-    let rest = stat.rsplit(')').next().unwrap_or("");
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let ticks = |k: usize| {
-        f.get(k)
-            .and_then(|v| v.parse::<f64>().ok())
-            .unwrap_or(f64::NAN)
-    };
-    (ticks(11) + ticks(12)) / 100.0
-}
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
