@@ -320,9 +320,9 @@ fn solvers_without_a_plane_refuse_it_by_name_and_auto_takes_levenberg_marquardt(
         eprintln!("{ran}: {e}");
         assert!(e.contains("types.ground") && e.contains("plane"), "{e}");
     }
-    let e = check_strategy("output-error", &problem).expect_err("refused");
-    eprintln!("output-error: {e}");
-    assert!(e.contains("types.ground") && e.contains("`plane`"), "{e}");
+    // The output-error estimator differentiates the contact (output_error::tangent::plane);
+    // on noiseless data `auto` does not need it.
+    check_strategy("output-error", &problem).expect("a plane has exact sensitivities");
     let (_, ran) = make_strategy(StrategyName::Auto, &problem, &StrategyOptions::default());
     assert_eq!(ran, "levenberg-marquardt");
 }

@@ -212,3 +212,76 @@ fn quadratic_viscosity_under_noise_reaches_the_cramer_rao_bound() {
         .collect();
     assert_at_bound("quadratic viscosity, σ = 1e-3", &fits, 1.2);
 }
+
+/// The bouncing ball (`cordis example bouncing-ball`: four bounces on a ground with friction,
+/// sliding until it sticks): its contact's stiffness, damping and friction in boxes 25× wide.
+fn ball() -> (Scene, Scene) {
+    let truth = cordis_core::examples::bouncing_ball();
+    let guess = with_unknown_boxes(&truth, 25.0, 0);
+    (truth, guess)
+}
+
+/// A generated network (12 masses, 4 spring types, every spring damped) swinging about its
+/// fixed particle onto a slightly tilted ground with friction, 5 cm below its lowest particle:
+/// the lower particles land, bounce and slide. Every parameter unknown, boxes 25× wide.
+fn network_on_ground(seed: u64) -> (Scene, Scene) {
+    let mut truth = random_network(4000 + seed, 12, 4);
+    for (k, t) in truth.types.iter_mut().enumerate() {
+        t.params[2] = Param::Known(0.05 + 0.05 * k as f64);
+    }
+    let low = (1..truth.num_particles())
+        .map(|i| truth.particles[i].pos[1])
+        .fold(f64::INFINITY, f64::min);
+    truth.add_type(
+        LinkType::new("ground", LinkKind::Plane)
+            .with("stiffness", 3000.0)
+            .with("damping", 8.0)
+            .with("friction", 0.4)
+            .with_surface([0.0, low - 0.05, 0.0], [0.03, 1.0, 0.02]),
+    );
+    for i in 1..truth.num_particles() {
+        truth.add_link("ground", &[i]);
+    }
+    let guess = with_unknown_boxes(&truth, 25.0, seed);
+    (truth, guess)
+}
+
+#[test]
+fn ground_contact_noiseless_is_identified_to_rounding() {
+    let (truth, guess) = ball();
+    assert_noiseless("ball", &fit(&truth, &guess, 2000, 0.0, 0));
+    for seed in 0..3 {
+        let (truth, guess) = network_on_ground(seed);
+        assert_noiseless(
+            &format!("seed {seed}"),
+            &fit(&truth, &guess, 200, 0.0, seed),
+        );
+    }
+}
+
+/// Under noise the contact's onset is a step in the cost: the buffer's force jumps from 0 to
+/// `Z |v_n|` as a particle crosses the surface, so a parameter change that moves a landing
+/// across a frame moves the rest of the motion by `Z |v_n| dt²/m` per step of it (about 2 cm
+/// over the take here, against σ = 1.3 mm). The Gauss–Newton model holds between such events
+/// only. Measured over 12 draws (seeds 30–41): 11 converge, at 1.02× their bound; one ends
+/// `above_noise` (1.09 σ̂/σ, said so, not converged), and started at the truth it stays there
+/// (0.01 % off: a local minimum between jumps). The test asserts that rate on 8 of those draws:
+/// at least 7 converge, and the converged ones are at the bound.
+#[test]
+fn ground_contact_under_noise_reaches_the_cramer_rao_bound_between_contact_jumps() {
+    let fits: Vec<Fit> = (0..8)
+        .map(|seed| {
+            let (truth, guess) = network_on_ground(seed);
+            fit(&truth, &guess, 200, 1e-3, 30 + seed)
+        })
+        .collect();
+    let (converged, other): (Vec<Fit>, Vec<Fit>) = fits.into_iter().partition(|f| f.converged);
+    for f in &other {
+        eprintln!(
+            "not converged: {:.4} % (bound {:.4} %), {}",
+            f.error, f.bound, f.end
+        );
+    }
+    assert!(converged.len() >= 7, "{} of 8 converged", converged.len());
+    assert_at_bound("ground, σ = 1e-3", &converged, 1.2);
+}

@@ -96,7 +96,7 @@ use nalgebra::{DMatrix, DVector, Matrix6};
 
 use super::fit::{Counts, Fitter, LmSettings, StageEnd};
 use super::tangent::spring::{self, LINK};
-use super::tangent::{angle, spring_link, NONE};
+use super::tangent::{angle, plane, spring_link, NONE};
 
 /// The dense path is used up to this many local columns (θ plus one take's initial state).
 /// Measured on the cloth without its Provot limit, 100 frames, σ = 1e-3 of its size, on the
@@ -119,6 +119,7 @@ pub(crate) fn check_memory(
     let links = (plan.springs.pairs.len() + plan.anchors.particles.len()) as f64;
     let per_frame = LINK as f64 * links
         + angle::ANGLE as f64 * plan.angles.triples.len() as f64
+        + plane::PLANE as f64 * plan.planes.len() as f64
         + 3.0 * plan.dampers.pairs.len() as f64
         + 4.0 * 3.0 * plan.n as f64;
     let frames: f64 = takes.iter().map(|t| t.frames() as f64).sum();
@@ -201,6 +202,8 @@ pub(crate) struct Lin {
     dampers: Vec<f64>,
     /// `[(n · angles + l) · ANGLE ..]` ([`angle::store`]).
     angles: Vec<f64>,
+    /// `[(n · planes + l) · PLANE ..]` ([`plane::store`]).
+    planes: Vec<f64>,
     /// `[n · 3N + r]`: v(n) (drags' ∂f/∂Z) and F(n) (the mass column).
     vel: Vec<f64>,
     force: Vec<f64>,
@@ -307,6 +310,8 @@ impl<'a, 'b> Mf<'a, 'b> {
         lin.dampers.resize(steps * nd * 3, 0.0);
         let nag = plan.angles.triples.len();
         lin.angles.resize(steps * nag * angle::ANGLE, 0.0);
+        let npl = plan.planes.len();
+        lin.planes.resize(steps * npl * plane::PLANE, 0.0);
         lin.vel.resize(steps * rows, 0.0);
         lin.force.resize(steps * rows, 0.0);
         lin.wsq.resize(frames * rows, 0.0);
@@ -386,6 +391,10 @@ impl<'a, 'b> Mf<'a, 'b> {
             if nag > 0 {
                 let out = &mut lin.angles[t * nag * angle::ANGLE..][..nag * angle::ANGLE];
                 angle::store(&plan.angles, p, xn, out);
+            }
+            if npl > 0 {
+                let out = &mut lin.planes[t * npl * plane::PLANE..][..npl * plane::PLANE];
+                plane::store(&plan.planes, p, (xn, v), out);
             }
             for i in 0..n {
                 for c in 0..3 {
@@ -500,6 +509,11 @@ impl<'a, 'b> Mf<'a, 'b> {
             if nag > 0 {
                 let recs = &lin.angles[t * nag * angle::ANGLE..][..nag * angle::ANGLE];
                 angle::local(&plan.angles, recs, kii);
+            }
+            let npl = plan.planes.len();
+            if npl > 0 {
+                let recs = &lin.planes[t * npl * plane::PLANE..][..npl * plane::PLANE];
+                plane::local(&plan.planes, recs, kii, cii);
             }
             for (f, &i) in free.iter().enumerate() {
                 let h = dt * dt / p[mo + i];
@@ -648,6 +662,11 @@ impl<'a, 'b> Mf<'a, 'b> {
             let recs = &lin.angles[t * nag * angle::ANGLE..][..nag * angle::ANGLE];
             angle::forward(&plan.angles, recs, p, of_slot, w, cur, df, dth);
         }
+        let npl = plan.planes.len();
+        if npl > 0 {
+            let recs = &lin.planes[t * npl * plane::PLANE..][..npl * plane::PLANE];
+            plane::forward(&plan.planes, recs, of_slot, w, (cur, vel), df, dth);
+        }
         let mo = plan.layout.mass_offset;
         let dt2 = dt * dt;
         for i in 0..n {
@@ -786,6 +805,11 @@ impl<'a, 'b> Mf<'a, 'b> {
             if nag > 0 {
                 let recs = &lin.angles[t * nag * angle::ANGLE..][..nag * angle::ANGLE];
                 angle::adjoint(&plan.angles, recs, p, of_slot, w, phi, na, grad);
+            }
+            let npl = plan.planes.len();
+            if npl > 0 {
+                let recs = &lin.planes[t * npl * plane::PLANE..][..npl * plane::PLANE];
+                plane::adjoint(&plan.planes, recs, of_slot, w, phi, (na, psi), grad);
             }
             for i in 0..n {
                 let ms = of_slot[mo + i];

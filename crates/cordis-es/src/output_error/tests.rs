@@ -6,7 +6,7 @@ use cordis_core::{Bounds, LinkKind, LinkType, OptionalParam, Param, Scene, Vec3}
 use super::tangent::{Sens, Tangent};
 
 /// A random network with every damping non-zero, a quadratic viscosity, a damper, an anchor, a
-/// drag and two angles
+/// drag, two angles and a ground with friction
 /// (one at a free vertex, one with a fixed end): every term of the tangent recursion (also the
 /// matrix-free path's test scene).
 pub(super) fn every_term_scene(seed: u64) -> Scene {
@@ -43,6 +43,21 @@ pub(super) fn every_term_scene(seed: u64) -> Scene {
     );
     s.add_link("bend", &[1, 2, 3]);
     s.add_link("bend", &[0, 4, 5]);
+    // A tilted ground 1 cm above the lowest free particle: it starts in contact, sliding, and
+    // others land as the network swings.
+    let low = (1..s.particles.len())
+        .map(|i| s.particles[i].pos[1])
+        .fold(f64::INFINITY, f64::min);
+    s.add_type(
+        LinkType::new("ground", LinkKind::Plane)
+            .with("stiffness", 500.0)
+            .with("damping", 2.0)
+            .with("friction", 0.5)
+            .with_surface([0.0, low + 0.01, 0.0], [0.05, 1.0, -0.1]),
+    );
+    for i in 1..s.particles.len() {
+        s.add_link("ground", &[i]);
+    }
     s
 }
 

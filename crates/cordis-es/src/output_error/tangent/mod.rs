@@ -17,10 +17,10 @@
 //! `∂F/∂x` is never formed: each link adds its 3×3 blocks times the sensitivity rows of its
 //! ends (sparsity: a particle's force depends on its neighbours only). One file per kind gives
 //! its force's derivatives: [`spring`] (springs and anchors, with the quadratic viscosity Z₂),
-//! [`angle`]; a damper `f_i = Z w` and a drag `f_i = -Z v_i` are written out here. Each kind's
-//! file also holds its matrix-free passes (forward, adjoint, local blocks). Kinds without a
-//! tangent (conditional links, planes, muscles, couplings, nonlinear drags, Provot limits,
-//! several worlds) are refused by name before any work ([`Tangent::supports`]).
+//! [`angle`], [`plane`] (ground contact); a damper `f_i = Z w` and a drag `f_i = -Z v_i` are
+//! written out here. Each kind's file also holds its matrix-free passes (forward, adjoint,
+//! local blocks). Kinds without a tangent (conditional links, muscles, couplings, nonlinear
+//! drags, Provot limits, several worlds) are refused by name before any work ([`Tangent::supports`]).
 //!
 //! Cost per step: about 30 P multiply-adds per link and 6 P per particle for P sensitivity
 //! columns, no allocation (the matrices are caller-owned scratch, row-major `3N × P`, so each
@@ -34,6 +34,7 @@ use super::observations::Take;
 use crate::error::CostError;
 
 pub(crate) mod angle;
+pub(crate) mod plane;
 pub(crate) mod spring;
 
 pub(crate) use spring::spring_link;
@@ -121,13 +122,14 @@ impl Tangent {
                     | LinkKind::Anchor
                     | LinkKind::Drag
                     | LinkKind::Angle
+                    | LinkKind::Plane
             );
             if used && !supported {
                 return Err(CostError::mismatch(
                     format!("types.{}", ty.name),
                     format!(
                         "kind `{}` has no exact sensitivities yet: the output-error estimator \
-                         takes springs, dampers, anchors, drags and angles",
+                         takes springs, dampers, anchors, drags, angles and planes",
                         ty.kind.name()
                     ),
                 ));
@@ -329,6 +331,9 @@ impl Tangent {
         }
         if !plan.angles.runs.is_empty() {
             angle::dense(&plan.angles, p, &c.of_slot, xn, s, w, df, diff);
+        }
+        if !plan.planes.is_empty() {
+            plane::dense(&plan.planes, p, &c.of_slot, (xn, v), (s, vel), w, df);
         }
         let mo = plan.layout.mass_offset;
         let dt2 = dt * dt;
