@@ -96,7 +96,7 @@ use nalgebra::{DMatrix, DVector, Matrix6};
 
 use super::fit::{Counts, Fitter, LmSettings, StageEnd};
 use super::tangent::spring::{self, LINK};
-use super::tangent::{angle, plane, spring_link, NONE};
+use super::tangent::{angle, conditional, plane, spring_link, NONE};
 
 /// The dense path is used up to this many local columns (θ plus one take's initial state).
 /// Measured on the cloth without its Provot limit, 100 frames, σ = 1e-3 of its size, on the
@@ -204,6 +204,8 @@ pub(crate) struct Lin {
     angles: Vec<f64>,
     /// `[(n · planes + l) · PLANE ..]` ([`plane::store`]).
     planes: Vec<f64>,
+    /// The conditional passes' active pairs at every step, with their records.
+    cond: conditional::Pairs,
     /// `[n · 3N + r]`: v(n) (drags' ∂f/∂Z) and F(n) (the mass column).
     vel: Vec<f64>,
     force: Vec<f64>,
@@ -237,6 +239,8 @@ pub(crate) struct Work {
     /// Local model: K_ii and C_ii per particle (9 each).
     kii: Vec<f64>,
     cii: Vec<f64>,
+    /// One grid per conditional pass.
+    grids: Vec<cordis_core::forces::grid::Grid>,
 }
 
 /// The matrix-free operator at one iterate: the fitter, its parameters and every take's
@@ -316,11 +320,17 @@ impl<'a, 'b> Mf<'a, 'b> {
         lin.force.resize(steps * rows, 0.0);
         lin.wsq.resize(frames * rows, 0.0);
         lin.res.resize(frames * rows, 0.0);
+        lin.cond.reset(plan.conditionals.len());
         lin.cost = 0.0;
         lin.observed = 0;
         let Work {
-            x, x_prev, scratch, ..
+            x,
+            x_prev,
+            scratch,
+            grids,
+            ..
         } = work;
+        grids.resize_with(plan.conditionals.len(), Default::default);
         x.clear();
         x.extend_from_slice(&plan.x0);
         x_prev.clear();
@@ -395,6 +405,9 @@ impl<'a, 'b> Mf<'a, 'b> {
             if npl > 0 {
                 let out = &mut lin.planes[t * npl * plane::PLANE..][..npl * plane::PLANE];
                 plane::store(&plan.planes, p, (xn, v), out);
+            }
+            if !plan.conditionals.is_empty() {
+                lin.cond.push_step(&plan.conditionals, p, (xn, v), grids);
             }
             for i in 0..n {
                 for c in 0..3 {
@@ -514,6 +527,9 @@ impl<'a, 'b> Mf<'a, 'b> {
             if npl > 0 {
                 let recs = &lin.planes[t * npl * plane::PLANE..][..npl * plane::PLANE];
                 plane::local(&plan.planes, recs, kii, cii);
+            }
+            if !plan.conditionals.is_empty() {
+                conditional::local(&lin.cond, t, kii, cii);
             }
             for (f, &i) in free.iter().enumerate() {
                 let h = dt * dt / p[mo + i];
@@ -667,6 +683,10 @@ impl<'a, 'b> Mf<'a, 'b> {
             let recs = &lin.planes[t * npl * plane::PLANE..][..npl * plane::PLANE];
             plane::forward(&plan.planes, recs, of_slot, w, (cur, vel), df, dth);
         }
+        if !plan.conditionals.is_empty() {
+            let cs = (cur, &*vel);
+            conditional::forward(&plan.conditionals, &lin.cond, t, p, of_slot, w, cs, df, dth);
+        }
         let mo = plan.layout.mass_offset;
         let dt2 = dt * dt;
         for i in 0..n {
@@ -810,6 +830,10 @@ impl<'a, 'b> Mf<'a, 'b> {
             if npl > 0 {
                 let recs = &lin.planes[t * npl * plane::PLANE..][..npl * plane::PLANE];
                 plane::adjoint(&plan.planes, recs, of_slot, w, phi, (na, psi), grad);
+            }
+            if !plan.conditionals.is_empty() {
+                let cond = &plan.conditionals;
+                conditional::adjoint(cond, &lin.cond, t, p, of_slot, w, phi, (na, psi), grad);
             }
             for i in 0..n {
                 let ms = of_slot[mo + i];
@@ -1643,6 +1667,9 @@ mod tests {
             cordis_core::OptionalParam::DampingQuadratic,
             Some(quadratic),
         );
+        // A conditional range is refused unknown (a step in the cost).
+        let touch = guess.types.iter_mut().find(|t| t.name == "touch").unwrap();
+        touch.params[3] = Param::Known(touch.params[3].value());
         let bend = guess.types.iter_mut().find(|t| t.name == "bend").unwrap();
         let c0 = bend.params[1].value();
         bend.params[1] = Param::Unknown(Bounds {

@@ -6,7 +6,7 @@ use cordis_core::{Bounds, LinkKind, LinkType, OptionalParam, Param, Scene, Vec3}
 use super::tangent::{Sens, Tangent};
 
 /// A random network with every damping non-zero, a quadratic viscosity, a damper, an anchor, a
-/// drag, two angles and a ground with friction
+/// drag, two angles, a ground with friction and conditional links
 /// (one at a free vertex, one with a fixed end): every term of the tangent recursion (also the
 /// matrix-free path's test scene).
 pub(super) fn every_term_scene(seed: u64) -> Scene {
@@ -58,6 +58,19 @@ pub(super) fn every_term_scene(seed: u64) -> Scene {
     for i in 1..s.particles.len() {
         s.add_link("ground", &[i]);
     }
+    // Conditional links among the free particles, with a quadratic viscosity: the lattice
+    // neighbours (0.5 m apart, jittered) are within range, and pairs come and go as it swings.
+    for p in &mut s.particles[1..] {
+        p.group = Some("g".into());
+    }
+    let mut touch = LinkType::new("touch", LinkKind::Conditional)
+        .with("stiffness", 20.0)
+        .with("rest_length", 0.6)
+        .with("damping", 0.1)
+        .with("range", 0.65)
+        .with_optional(OptionalParam::DampingQuadratic, 0.2);
+    touch.groups = vec!["g".into()];
+    s.add_type(touch);
     s
 }
 

@@ -17,10 +17,11 @@
 //! `∂F/∂x` is never formed: each link adds its 3×3 blocks times the sensitivity rows of its
 //! ends (sparsity: a particle's force depends on its neighbours only). One file per kind gives
 //! its force's derivatives: [`spring`] (springs and anchors, with the quadratic viscosity Z₂),
-//! [`angle`], [`plane`] (ground contact); a damper `f_i = Z w` and a drag `f_i = -Z v_i` are
-//! written out here. Each kind's file also holds its matrix-free passes (forward, adjoint,
-//! local blocks). Kinds without a tangent (conditional links, muscles, couplings, nonlinear
-//! drags, Provot limits, several worlds) are refused by name before any work ([`Tangent::supports`]).
+//! [`angle`], [`plane`] (ground contact), [`conditional`] (the active pairs as springs, an
+//! unknown range refused); a damper `f_i = Z w` and a drag `f_i = -Z v_i` are written out
+//! here. Each kind's file also holds its matrix-free passes (forward, adjoint, local blocks).
+//! Kinds without a tangent (muscles, couplings, nonlinear drags, Provot limits, several
+//! worlds) are refused by name before any work ([`Tangent::supports`]).
 //!
 //! Cost per step: about 30 P multiply-adds per link and 6 P per particle for P sensitivity
 //! columns, no allocation (the matrices are caller-owned scratch, row-major `3N × P`, so each
@@ -34,6 +35,7 @@ use super::observations::Take;
 use crate::error::CostError;
 
 pub(crate) mod angle;
+pub(crate) mod conditional;
 pub(crate) mod plane;
 pub(crate) mod spring;
 
@@ -80,6 +82,8 @@ pub(crate) struct Sens {
     vel: Vec<f64>,
     df: Vec<f64>,
     diff: Vec<f64>,
+    /// One grid per conditional pass (its active pairs at each step).
+    grids: Vec<cordis_core::forces::grid::Grid>,
 }
 
 impl Tangent {
@@ -123,15 +127,25 @@ impl Tangent {
                     | LinkKind::Drag
                     | LinkKind::Angle
                     | LinkKind::Plane
+                    | LinkKind::Conditional
             );
             if used && !supported {
                 return Err(CostError::mismatch(
                     format!("types.{}", ty.name),
                     format!(
                         "kind `{}` has no exact sensitivities yet: the output-error estimator \
-                         takes springs, dampers, anchors, drags, angles and planes",
+                         takes springs, dampers, anchors, drags, angles, planes and conditional links",
                         ty.kind.name()
                     ),
+                ));
+            }
+            if ty.kind == LinkKind::Conditional && ty.param("range").is_some_and(|r| r.is_unknown())
+            {
+                return Err(CostError::mismatch(
+                    format!("types.{}.range", ty.name),
+                    "an unknown range moves the output-error cost only in steps (pairs appear \
+                     and vanish as it crosses their lengths; its sensitivity is 0): give it, \
+                     or bracket it with `hybrid` on the short cost",
                 ));
             }
             if ty.max_elongation().is_some() && used {
@@ -256,6 +270,7 @@ impl Tangent {
             vel,
             df,
             diff,
+            grids,
             ..
         } = buf;
         for ((v, a), b) in vel.iter_mut().zip(s.iter()).zip(s_prev.iter()) {
@@ -334,6 +349,14 @@ impl Tangent {
         }
         if !plan.planes.is_empty() {
             plane::dense(&plan.planes, p, &c.of_slot, (xn, v), (s, vel), w, df);
+        }
+        grids.resize_with(plan.conditionals.len(), Default::default);
+        for (pass, grid) in plan.conditionals.iter().zip(grids.iter_mut()) {
+            let slots = conditional::slots(pass, &c.of_slot);
+            conditional::each_pair(pass, p, (xn, v), grid, |i, j, lk| {
+                cx.diff_rows(Some(j), i, diff);
+                lk.add(df, diff, w, i, Some(j), slots);
+            });
         }
         let mo = plan.layout.mass_offset;
         let dt2 = dt * dt;
