@@ -8,7 +8,7 @@ import cordis
 def test_examples_are_the_shipped_names():
     assert cordis.EXAMPLES == (
         "rigid", "cloth", "fluid", "horse", "muscle", "horse-gait", "tadpole", "frog",
-        "follower", "bouncing-ball", "horse-ground",
+        "follower", "central-muscle", "bouncing-ball", "horse-ground",
     )
 
 

@@ -71,7 +71,8 @@ pub struct LinkType {
     /// Muscles only: the link indices every instance of the type observes, in weight order
     /// (overridden by a link's own `observes`). Default: every other muscle link, file order.
     pub observes: Option<Vec<usize>>,
-    /// TGR types only: the name of the scene signal that drives their tendons.
+    /// TGR types only: the name of the scene signal that drives their tendons (optional when
+    /// every coupling of the type has a `controller`).
     pub signal: Option<String>,
 }
 
@@ -257,4 +258,8 @@ pub struct Coupling {
     pub particles: Vec<usize>,
     /// `force_transmitter` only: index in `links` of the spring whose tension it transmits.
     pub source: Option<usize>,
+    /// `tgr` only: the controller dipole `[c, d]`, two particles of another world, whose length
+    /// anchors the tendon (the central-control muscle, thesis §5.4: see
+    /// [`crate::forces::controlled_tgr`]).
+    pub controller: Option<[usize; 2]>,
 }

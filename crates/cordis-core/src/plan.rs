@@ -6,10 +6,11 @@
 use crate::error::Result;
 use crate::forces::conditional::Part;
 use crate::forces::{
-    anchor::AnchorPass, angle::AnglePass, conditional::ConditionalPass, damper::DamperPass,
-    drag::DragPass, force_transmitter::ForceTransmitterPass, grid::Grid, muscle::MuscleBuf,
-    muscle::MusclePass, nonlinear_drag::NonlinearDragPass, plane::PlanePass, plane::Surface,
-    provot::ProvotLink, provot::ProvotPass, quadripole::QuadripolePass, runs_by_type,
+    anchor::AnchorPass, angle::AnglePass, conditional::ConditionalPass,
+    controlled_tgr::ControlledTgrPass, damper::DamperPass, drag::DragPass,
+    force_transmitter::ForceTransmitterPass, grid::Grid, muscle::MuscleBuf, muscle::MusclePass,
+    nonlinear_drag::NonlinearDragPass, plane::PlanePass, plane::Surface, provot::ProvotLink,
+    provot::ProvotPass, quadripole::QuadripolePass, runs_by_type, runs_by_type_and_world,
     spring::SpringPass, stateful::Stateful, tgr::TgrPass,
 };
 use crate::runaway::Runaway;
@@ -115,6 +116,7 @@ impl Plan {
         let dt_of = |i: usize| worlds.as_ref().map_or(scene.dt, |w| w.dt[i]);
         let mut muscle_items = Vec::new();
         let mut tgr_items = Vec::new();
+        let mut controlled_items = Vec::new();
         let mut quad_items = Vec::new();
         let mut pos_items = Vec::new();
         let mut force_items = Vec::new();
@@ -193,7 +195,13 @@ impl Plan {
             let ps: Vec<u32> = c.particles.iter().map(|&i| i as u32).collect();
             match scene.types[t].kind {
                 LinkKind::Tgr => {
-                    tgr_items.push((t, [ps[0], ps[1]]));
+                    let key = (t, scene.world_of(c.particles[0]));
+                    match c.controller {
+                        None => tgr_items.push((key, [ps[0], ps[1]])),
+                        Some(cd) => {
+                            controlled_items.push((key, ([ps[0], ps[1]], cd.map(|i| i as u32))))
+                        }
+                    }
                     needs_velocity |= damping_matters(t);
                 }
                 LinkKind::Quadripole => quad_items.push((t, [ps[0], ps[1], ps[2], ps[3]])),
@@ -234,26 +242,37 @@ impl Plan {
         let angles = AnglePass { runs, triples };
         let planes = plane_pass(scene, &plane_items, off, layout.mass_offset);
         let muscles = muscle_pass(scene, &muscle_items, off);
-        let (runs, pairs) = runs_by_type(&tgr_items, off);
+        let (runs, tgr_worlds, pairs) = runs_by_type_and_world(&tgr_items, off);
         let signal_of = |r: &crate::forces::Run| {
             let t = off
                 .iter()
                 .position(|&o| o == r.param)
                 .expect("a run's type");
-            let name = scene.types[t]
-                .signal
-                .as_deref()
-                .expect("validated: tgr has a signal");
-            scene
-                .signal_index(name)
-                .expect("validated: the signal exists")
+            let name = scene.types[t].signal.as_deref()?;
+            Some(
+                scene
+                    .signal_index(name)
+                    .expect("validated: the signal exists"),
+            )
         };
+        let (c_runs, c_worlds, c_items) = runs_by_type_and_world(&controlled_items, off);
         let stateful = Stateful {
             signals: scene.signals.clone(),
             tgrs: TgrPass {
-                signals: runs.iter().map(signal_of).collect(),
+                signals: runs
+                    .iter()
+                    .map(|r| signal_of(r).expect("validated: an undriven tgr has a signal"))
+                    .collect(),
+                dts: tgr_worlds.iter().map(|&w| scene.world_dt(w)).collect(),
                 runs,
                 pairs,
+            },
+            controlled_tgrs: ControlledTgrPass {
+                signals: c_runs.iter().map(signal_of).collect(),
+                dts: c_worlds.iter().map(|&w| scene.world_dt(w)).collect(),
+                pairs: c_items.iter().map(|i| i.0).collect(),
+                controllers: c_items.iter().map(|i| i.1).collect(),
+                runs: c_runs,
             },
             quadripoles: {
                 let (runs, quads) = runs_by_type(&quad_items, off);
@@ -528,9 +547,8 @@ impl Plan {
             Some(split) => self.forces_split(split, p, x, s),
         }
         if !self.stateful.is_empty() {
-            let (n, dt) = (s.frame, self.dt);
             self.stateful
-                .accumulate(p, n, dt, x, &s.v, &mut s.f, &mut s.state);
+                .accumulate(p, s.frame, x, &s.v, &mut s.f, &mut s.state);
         }
         s.frame += 1;
         let bad = self.integrate(p, x, x_prev, &s.f, (&s.runaway, s.frame));

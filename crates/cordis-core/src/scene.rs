@@ -94,8 +94,24 @@ impl Scene {
             type_index,
             particles: particles.to_vec(),
             source: None,
+            controller: None,
         });
         self.couplings.len() - 1
+    }
+
+    /// Adds a `tgr` coupling of the named type between `particles` (M1, M2) whose tendon is
+    /// anchored on the controller dipole `controller` (two particles of another world): the
+    /// central-control muscle ([`crate::forces::controlled_tgr`]). Panics on an unknown type
+    /// name (code-built scenes only).
+    pub fn add_controlled_tgr(
+        &mut self,
+        type_name: &str,
+        particles: [usize; 2],
+        controller: [usize; 2],
+    ) -> usize {
+        let c = self.add_coupling(type_name, &particles);
+        self.couplings[c].controller = Some(controller);
+        c
     }
 
     /// Adds a `force_transmitter` coupling of the named type on dipole `particles`, fed by the
@@ -255,10 +271,21 @@ impl Scene {
                 }
             }
             (None, true) => {
-                return Err(CordisError::scene(
-                    at,
-                    "a `tgr` type needs `signal` (the name of its command signal)",
-                ))
+                // A controller may drive the tendon instead: every coupling of the type needs one.
+                let undriven = self
+                    .couplings
+                    .iter()
+                    .position(|c| c.type_index == ti && c.controller.is_none());
+                if let Some(k) = undriven {
+                    return Err(CordisError::scene(
+                        at,
+                        format!(
+                            "a `tgr` type needs `signal` (the name of its command signal) \
+                             unless every coupling of it has a `controller` (couplings[{k}] \
+                             has none)"
+                        ),
+                    ));
+                }
             }
             (Some(_), false) => {
                 return Err(CordisError::scene(
@@ -401,6 +428,8 @@ impl Scene {
             }
             self.check_particles(&at, t.kind, &c.particles)?;
             self.check_source(&at, t.kind, c.source)?;
+            self.check_controller(&at, t.kind, c)?;
+            self.check_coupling_worlds(&at, t.kind, c)?;
         }
         Ok(())
     }
@@ -449,6 +478,37 @@ impl Scene {
             },
             (false, None) => Ok(()),
         }
+    }
+
+    /// A TGR coupling's `controller`: two existing, distinct particles (their worlds are
+    /// checked by [`Scene::check_coupling_worlds`]); other couplings have none.
+    fn check_controller(&self, at: &str, kind: LinkKind, c: &Coupling) -> Result<()> {
+        let Some(dipole) = c.controller else {
+            return Ok(());
+        };
+        let place = format!("{at}.controller");
+        if kind != LinkKind::Tgr {
+            return Err(CordisError::scene(place, "only tgr couplings have it"));
+        }
+        for (k, &q) in dipole.iter().enumerate() {
+            if q >= self.particles.len() {
+                return Err(CordisError::scene(
+                    format!("{place}[{k}]"),
+                    format!("particle {q} does not exist"),
+                ));
+            }
+        }
+        if dipole[0] == dipole[1] {
+            return Err(CordisError::scene(
+                format!("{place}[1]"),
+                format!(
+                    "particle {} twice: a controller is a dipole [c, d] whose length anchors \
+                     the tendon",
+                    dipole[1]
+                ),
+            ));
+        }
+        Ok(())
     }
 
     /// A link's or coupling's particles: as many as the kind joins, existing, distinct.

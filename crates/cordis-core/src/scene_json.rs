@@ -193,6 +193,9 @@ impl Scene {
                     if let Some(src) = c.source {
                         o.insert("source".into(), src.into());
                     }
+                    if let Some(ctrl) = c.controller {
+                        o.insert("controller".into(), ctrl.to_vec().into());
+                    }
                     Value::Object(o)
                 })
                 .collect();
@@ -579,17 +582,22 @@ fn read_scene(v: &Value) -> Result<Scene> {
         };
         for (i, cv) in couplings.iter().enumerate() {
             let at = format!("couplings[{i}]");
-            let o = as_object(cv, &at, &["type", "particles", "source"])?;
+            let o = as_object(cv, &at, &["type", "particles", "source", "controller"])?;
             let type_index = type_ref(&scene, o, &at)?;
             let particles = particle_list(o, &at)?;
             let source = o
                 .get("source")
                 .map(|v| link_index(v, &join(&at, "source")))
                 .transpose()?;
+            let controller = o
+                .get("controller")
+                .map(|v| dipole(v, &join(&at, "controller")))
+                .transpose()?;
             scene.couplings.push(Coupling {
                 type_index,
                 particles,
                 source,
+                controller,
             });
         }
     }
@@ -615,6 +623,27 @@ fn link_index(v: &Value, place: &str) -> Result<usize> {
         None => Err(err(
             place,
             format!("expected a link index (a non-negative integer), got {v}"),
+        )),
+    }
+}
+
+/// Two particle indices `[c, d]` (a TGR's controller dipole).
+fn dipole(v: &Value, place: &str) -> Result<[usize; 2]> {
+    match v {
+        Value::Array(a) if a.len() == 2 => Ok([
+            index(&a[0], &format!("{place}[0]"))?,
+            index(&a[1], &format!("{place}[1]"))?,
+        ]),
+        Value::Array(a) => Err(err(
+            place,
+            format!("expected two particle indices [c, d], got {}", a.len()),
+        )),
+        other => Err(err(
+            place,
+            format!(
+                "expected two particle indices [c, d], got {}",
+                kind_of(other)
+            ),
         )),
     }
 }

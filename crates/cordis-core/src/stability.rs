@@ -208,6 +208,20 @@ fn row_sums(plan: &Plan, p: &[f64], ws: &mut StabilityScratch) {
             acc.pair(i as usize, j as usize, g(k, z, i));
         }
     }
+    // A central-control muscle's link likewise; its controller dipole feels the tendon's spring
+    // K_t on its length (the other end is the tendon, not a particle), with Z_t written on the
+    // change per muscle step: a rate coefficient Z_t dt_c / dt_muscle in the controller's time.
+    let controlled = &plan.stateful.controlled_tgrs;
+    for (r, &dt) in controlled.runs.iter().zip(&controlled.dts) {
+        let (k, z, kt, zt) = (p[r.param], p[r.param + 2], p[r.param + 4], p[r.param + 5]);
+        for m in r.start..r.end {
+            let [i, j] = controlled.pairs[m];
+            acc.pair(i as usize, j as usize, g(k, z, i));
+            let [c, d] = controlled.controllers[m];
+            let zc = zt * (plan.dt_of(c as usize) / dt);
+            acc.pair(c as usize, d as usize, g(kt, zc, c));
+        }
+    }
     // A muscle is a spring (K, l0, Z first in its parameters) plus a neuron whose force is
     // bounded by its gain: the neuron adds no stiffness at large amplitude, so only K and Z
     // count, as for the angle's curvature part below.

@@ -14,7 +14,7 @@
 //! and steps exactly as before worlds existed (same code, same bits).
 
 use crate::error::{CordisError, Result};
-use crate::{LinkKind, Scene, Vec3};
+use crate::{Coupling, LinkKind, Scene, Vec3};
 
 /// Name of the scene's own world, whose `dt` is the scene `dt`.
 pub const MAIN_WORLD: &str = "main";
@@ -146,6 +146,75 @@ impl Scene {
                     ),
                 ));
             }
+        }
+        Ok(())
+    }
+
+    /// A coupling against the worlds (part of [`Scene::validate`], particle indices already
+    /// checked): each dipole it reads or pushes lies in one world (a TGR's link, a quadripole's
+    /// or transmitter's dipoles: a length between two time scales has no single `dt`), and a
+    /// TGR's controller lies in one world other than the muscle's (thesis §5.4.2: controller and
+    /// controlled are separate worlds, each with its own time).
+    pub(crate) fn check_coupling_worlds(
+        &self,
+        at: &str,
+        kind: LinkKind,
+        c: &Coupling,
+    ) -> Result<()> {
+        let why = match kind {
+            LinkKind::Tgr => {
+                "a TGR's link stays inside one world (its tendon steps with that \
+                              world's dt; a controller in another world drives it through \
+                              `controller`)"
+            }
+            _ => {
+                "a coupling's dipole stays inside one world (it is a length, and a length \
+                  between two time scales has no single dt)"
+            }
+        };
+        for (k, dipole) in c.particles.chunks(2).enumerate() {
+            if let [a, b] = *dipole {
+                let (wa, wb) = (self.world_of(a), self.world_of(b));
+                if wa != wb {
+                    return Err(CordisError::scene(
+                        format!("{at}.particles[{}]", 2 * k + 1),
+                        format!(
+                            "particle {b} is in world `{}` but particle {a} in `{}`: {why}",
+                            self.world_name(wb),
+                            self.world_name(wa)
+                        ),
+                    ));
+                }
+            }
+        }
+        let Some([cc, cd]) = c.controller else {
+            return Ok(());
+        };
+        let muscle = self.world_of(c.particles[0]);
+        for (k, q) in [cc, cd].into_iter().enumerate() {
+            if self.world_of(q) == muscle {
+                return Err(CordisError::scene(
+                    format!("{at}.controller[{k}]"),
+                    format!(
+                        "particle {q} is in the muscle's own world `{}`: a controller lives in \
+                         another world (thesis §5.4.2: controller and controlled keep separate \
+                         times)",
+                        self.world_name(muscle)
+                    ),
+                ));
+            }
+        }
+        let (wc, wd) = (self.world_of(cc), self.world_of(cd));
+        if wc != wd {
+            return Err(CordisError::scene(
+                format!("{at}.controller[1]"),
+                format!(
+                    "particle {cd} is in world `{}` but particle {cc} in `{}`: a controller \
+                     dipole stays inside one world",
+                    self.world_name(wd),
+                    self.world_name(wc)
+                ),
+            ));
         }
         Ok(())
     }

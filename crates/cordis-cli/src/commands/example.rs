@@ -8,7 +8,7 @@ use super::Output;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Example name: rigid | cloth | fluid | horse | muscle | horse-gait | tadpole | frog
-    /// | follower | bouncing-ball | horse-ground.
+    /// | follower | central-muscle | bouncing-ball | horse-ground.
     name: String,
     /// Replace every muscle by a spring with its stiffness, rest length and damping (the
     /// passive model of thesis §6.2; applied before `--unknowns`).

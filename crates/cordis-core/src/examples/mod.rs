@@ -7,6 +7,7 @@
 //! and read back is bit-for-bit the same scene.
 
 mod bouncing_ball;
+mod central_muscle;
 mod cloth;
 mod fluid;
 mod follower;
@@ -23,6 +24,7 @@ mod varied;
 pub use bouncing_ball::{
     bouncing_ball, BALL_DAMPING, BALL_FRAMES, BALL_FRICTION, BALL_MASS, BALL_STIFFNESS,
 };
+pub use central_muscle::{central_idx, central_muscle, CENTRAL_MUSCLE_FRAMES};
 pub use cloth::{cloth, CLOTH_FRAMES};
 pub use fluid::{fluid, FLUID_FRAMES};
 pub use follower::{
@@ -57,6 +59,7 @@ pub const NAMES: &[&str] = &[
     "tadpole",
     "frog",
     "follower",
+    "central-muscle",
     "bouncing-ball",
     "horse-ground",
 ];
@@ -73,6 +76,7 @@ pub fn by_name(name: &str) -> Option<Scene> {
         "tadpole" => Some(tadpole()),
         "frog" => Some(frog()),
         "follower" => Some(follower()),
+        "central-muscle" => Some(central_muscle()),
         "bouncing-ball" => Some(bouncing_ball()),
         "horse-ground" => Some(horse_ground()),
         _ => None,
@@ -91,6 +95,7 @@ pub fn default_frames(name: &str) -> usize {
         "tadpole" => TADPOLE_FRAMES,
         "frog" => FROG_FRAMES,
         "follower" => FOLLOWER_FRAMES,
+        "central-muscle" => CENTRAL_MUSCLE_FRAMES,
         "bouncing-ball" => BALL_FRAMES,
         "horse-ground" => HORSE_GROUND_FRAMES,
         _ => 0,

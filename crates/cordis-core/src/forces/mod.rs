@@ -5,6 +5,7 @@
 pub mod anchor;
 pub mod angle;
 pub mod conditional;
+pub mod controlled_tgr;
 pub mod damper;
 pub mod drag;
 pub mod force_transmitter;
@@ -56,6 +57,39 @@ pub(crate) fn runs_by_type<T: Copy>(
         out.push(item);
     }
     (runs, out)
+}
+
+/// [`runs_by_type`] for kinds whose kernels read their world's time step (a TGR's tendon, its
+/// signal's clock): instances keyed by `(type, world)` and grouped by both, so that each run
+/// has one `dt`. Returns the runs, each run's world, and the items. With every instance in one
+/// world the runs and the order are [`runs_by_type`]'s.
+pub(crate) fn runs_by_type_and_world<T: Copy>(
+    items: &[((usize, usize), T)],
+    type_offsets: &[usize],
+) -> (Vec<Run>, Vec<usize>, Vec<T>) {
+    let mut order: Vec<usize> = (0..items.len()).collect();
+    order.sort_by_key(|&k| items[k].0); // stable: file order within a (type, world)
+    let mut runs: Vec<Run> = Vec::new();
+    let mut worlds: Vec<usize> = Vec::new();
+    let mut out = Vec::with_capacity(items.len());
+    let mut last = None;
+    for k in order {
+        let ((t, w), item) = items[k];
+        match runs.last_mut() {
+            Some(r) if last == Some((t, w)) => r.end += 1,
+            _ => {
+                runs.push(Run {
+                    param: type_offsets[t],
+                    start: out.len(),
+                    end: out.len() + 1,
+                });
+                worlds.push(w);
+            }
+        }
+        last = Some((t, w));
+        out.push(item);
+    }
+    (runs, worlds, out)
 }
 
 /// Unit vector and length of `d`, with `u = 0` for a degenerate link.

@@ -1,6 +1,6 @@
 //! The stateful passes (SPEC §2.5): force passes whose output depends on state carried from
-//! step to step besides the positions — TGR tendons driven by signals, and later quadripole
-//! memories and the like.
+//! step to step besides the positions — TGR tendons driven by signals or by a controller world,
+//! quadripole memories.
 //!
 //! # Where the state lives
 //!
@@ -16,12 +16,14 @@
 //!
 //! [`Stateful::reset`] sets the state of frame 0; [`Stateful::accumulate`] is called once per
 //! step n, after the stateless passes, with the positions and velocities of frame n: it adds
-//! its forces and advances the state to frame n+1. Signals read the main world's time
-//! `t_n = n dt`.
+//! its forces and advances the state to frame n+1. A pass steps with its own world's time
+//! step, and signals read that world's time `t_n = n dt_w` (every world takes one step per
+//! frame).
 //!
 //! To add a stateful kind: a pass in its own file with `state_len`, `reset` and an
 //! `accumulate` that advances its slice; a field here; one line in each method below.
 
+use super::controlled_tgr::ControlledTgrPass;
 use super::force_transmitter::ForceTransmitterPass;
 use super::quadripole::QuadripolePass;
 use super::tgr::TgrPass;
@@ -39,6 +41,8 @@ pub struct Stateful {
     pub position_transmitters: QuadripolePass,
     /// Force transmitters (stateless, kept with the couplings they belong to).
     pub force_transmitters: ForceTransmitterPass,
+    /// TGRs whose tendon a controller world drives: `y(n)`, `y(n-1)`, `a(n-1)` each.
+    pub controlled_tgrs: ControlledTgrPass,
 }
 
 impl Stateful {
@@ -48,6 +52,7 @@ impl Stateful {
             && self.quadripoles.is_empty()
             && self.position_transmitters.is_empty()
             && self.force_transmitters.is_empty()
+            && self.controlled_tgrs.is_empty()
     }
 
     /// Number of instances (for link counts).
@@ -56,6 +61,7 @@ impl Stateful {
             + self.quadripoles.len()
             + self.position_transmitters.len()
             + self.force_transmitters.len()
+            + self.controlled_tgrs.len()
     }
 
     /// Number of f64 of state.
@@ -63,37 +69,48 @@ impl Stateful {
         self.tgrs.state_len()
             + self.quadripoles.state_len()
             + self.position_transmitters.state_len()
+            + self.controlled_tgrs.state_len()
+    }
+
+    /// `state` split into each pass's slice: TGRs, quadripoles, position transmitters,
+    /// controlled TGRs.
+    fn slices<'s>(&self, state: &'s mut [f64]) -> [&'s mut [f64]; 4] {
+        let (tgr, rest) = state.split_at_mut(self.tgrs.state_len());
+        let (quad, rest) = rest.split_at_mut(self.quadripoles.state_len());
+        let (pos, controlled) = rest.split_at_mut(self.position_transmitters.state_len());
+        [tgr, quad, pos, controlled]
     }
 
     /// Sets `state` (length [`Stateful::state_len`]) to frame 0's from the parameters `p` and
     /// the initial positions `x0` (m).
     pub fn reset(&self, p: &[f64], x0: &[Vec3], state: &mut [f64]) {
-        let (tgr, rest) = state.split_at_mut(self.tgrs.state_len());
-        let (quad, pos) = rest.split_at_mut(self.quadripoles.state_len());
+        let [tgr, quad, pos, controlled] = self.slices(state);
         self.tgrs.reset(tgr);
         self.quadripoles.reset(p, x0, quad);
         self.position_transmitters.reset(p, x0, pos);
+        self.controlled_tgrs.reset(x0, controlled);
     }
 
     /// Adds the stateful passes' forces at frame `n` (positions `x`, velocities `v`) to `f`
-    /// and advances `state` from frame n to n+1; `dt` in s.
-    #[allow(clippy::too_many_arguments)]
+    /// and advances `state` from frame n to n+1.
     pub fn accumulate(
         &self,
         p: &[f64],
         n: usize,
-        dt: f64,
         x: &[Vec3],
         v: &[Vec3],
         f: &mut [Vec3],
         state: &mut [f64],
     ) {
-        let t = n as f64 * dt;
-        let (tgr, rest) = state.split_at_mut(self.tgrs.state_len());
-        let (quad, pos) = rest.split_at_mut(self.quadripoles.state_len());
-        self.tgrs.accumulate(p, &self.signals, t, dt, x, v, f, tgr);
+        let [tgr, quad, pos, controlled] = self.slices(state);
+        self.tgrs.accumulate(p, &self.signals, n, x, v, f, tgr);
         self.quadripoles.accumulate::<true>(p, x, f, quad);
         self.position_transmitters.accumulate::<false>(p, x, f, pos);
         self.force_transmitters.accumulate(p, x, v, f);
+        if !self.controlled_tgrs.is_empty() {
+            let signals = &self.signals;
+            self.controlled_tgrs
+                .accumulate(p, signals, n, x, v, f, controlled);
+        }
     }
 }

@@ -8,7 +8,9 @@
 //! y(n+1) = 2y(n) - y(n-1) + dt²/m_t (S(t_n) + f(n) - K_t y(n) - Z_t (y(n) - y(n-1))/dt)
 //! ```
 //!
-//! with `t_n = n dt` and `y(0) = y(-1) = 0`. The tendon feels the tension f: a stretched link
+//! with `t_n = n dt` and `y(0) = y(-1) = 0`, `dt` the time step of the TGR's world (M1 and M2
+//! lie in one world: validated), so a TGR in a controller world steps its tendon and reads its
+//! signal on that world's own clock. The tendon feels the tension f: a stretched link
 //! pulls its rest length longer, so the command "feels" the environment (proprioception).
 //! With `K_t > 0` the tendon settles where `S + f = K_t y`, so a slow signal sets the rest
 //! length `l0 + S/K_t` of a link at rest (a position command); with `K_t = 0` it is a force
@@ -29,6 +31,8 @@ pub struct TgrPass {
     pub runs: Vec<Run>,
     /// Index into the plan's signals of each run's type's signal.
     pub signals: Vec<usize>,
+    /// Time step of each run's world, s (runs are grouped by type and world).
+    pub dts: Vec<f64>,
     pub pairs: Vec<[u32; 2]>,
 }
 
@@ -54,42 +58,57 @@ impl TgrPass {
     }
 
     /// Adds every TGR's link force at positions `x`, velocities `v` to `f`, and advances each
-    /// tendon from step n to n+1 (`t` = n dt, s; `dt`, s). `state` = `[y, y_prev]` per
-    /// instance, in pass order.
+    /// tendon from step n to n+1 (each run's signal read at `t = n dt` of its world).
+    /// `state` = `[y, y_prev]` per instance, in pass order.
     #[allow(clippy::too_many_arguments)]
     pub fn accumulate(
         &self,
         p: &[f64],
         signals: &[Signal],
-        t: f64,
-        dt: f64,
+        n: usize,
         x: &[Vec3],
         v: &[Vec3],
         f: &mut [Vec3],
         state: &mut [f64],
     ) {
-        let dt2 = dt * dt;
-        for (r, &sg) in self.runs.iter().zip(&self.signals) {
+        for ((r, &sg), &dt) in self.runs.iter().zip(&self.signals).zip(&self.dts) {
+            let dt2 = dt * dt;
             let q = &p[r.param..r.param + 6];
-            let (k, l0, z, mt, kt, zt) = (q[0], q[1], q[2], q[3], q[4], q[5]);
-            // One signal per type: evaluated once per run.
-            let command = signals[sg].value(t);
+            let (mt, kt, zt) = (q[3], q[4], q[5]);
+            // One signal per type and world: evaluated once per run.
+            let command = signals[sg].value(n as f64 * dt);
             for m in r.start..r.end {
-                let [i, j] = self.pairs[m];
-                let (i, j) = (i as usize, j as usize);
-                let (u, l) = unit_and_length(&(x[j] - x[i]));
                 let (y, y_prev) = (state[2 * m], state[2 * m + 1]);
-                let mut tension = k * (l - (l0 + y));
-                if z != 0.0 {
-                    tension += z * (v[j] - v[i]).dot(&u);
-                }
-                let fi = u * tension;
-                f[i] += fi;
-                f[j] -= fi;
+                let tension = link_force(q, self.pairs[m], y, x, v, f);
                 let force = command + tension - kt * y - zt * (y - y_prev) / dt;
                 state[2 * m + 1] = y;
                 state[2 * m] = (2.0 * y - y_prev) + dt2 / mt * force;
             }
         }
     }
+}
+
+/// Adds the force of a TGR's link between `[i, j]` whose rest length is `l0 + y` (m) to `f`
+/// and returns its tension `f = K (L - (l0 + y)) + Z s` (N); `q` = the type's parameters
+/// `[K, l0, Z, …]`.
+#[inline(always)]
+pub(crate) fn link_force(
+    q: &[f64],
+    [i, j]: [u32; 2],
+    y: f64,
+    x: &[Vec3],
+    v: &[Vec3],
+    f: &mut [Vec3],
+) -> f64 {
+    let (k, l0, z) = (q[0], q[1], q[2]);
+    let (i, j) = (i as usize, j as usize);
+    let (u, l) = unit_and_length(&(x[j] - x[i]));
+    let mut tension = k * (l - (l0 + y));
+    if z != 0.0 {
+        tension += z * (v[j] - v[i]).dot(&u);
+    }
+    let fi = u * tension;
+    f[i] += fi;
+    f[j] -= fi;
+    tension
 }

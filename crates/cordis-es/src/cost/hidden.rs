@@ -52,9 +52,8 @@ pub trait HiddenState: fmt::Debug + Send + Sync {
 /// short cost of exactly 0.
 #[derive(Clone, Debug)]
 pub struct PlanStateful {
+    /// The passes, each stepping with its own world's time step.
     pub passes: Stateful,
-    /// Time step, s.
-    pub dt: f64,
 }
 
 impl HiddenState for PlanStateful {
@@ -75,6 +74,6 @@ impl HiddenState for PlanStateful {
         f: &mut [Vec3],
         state: &mut [f64],
     ) {
-        self.passes.accumulate(p, n, self.dt, x, v, f, state);
+        self.passes.accumulate(p, n, x, v, f, state);
     }
 }

@@ -118,7 +118,6 @@ impl Objective {
         if !plan.stateful.is_empty() {
             hidden.push(Box::new(PlanStateful {
                 passes: plan.stateful.clone(),
-                dt: plan.dt,
             }));
         }
         let linear = if kind.window(obs.frames, 0) == Some(1) {

@@ -488,11 +488,15 @@ fn mean_length(scene: &Scene, traj: &Trajectory, t: usize) -> Option<f64> {
             n += 1;
         }
     }
-    // Binary couplings (a TGR's link) too.
+    // Binary couplings (a TGR's link) too; a controlled TGR's rest length is `l0 + y` with its
+    // tendon y near the controller dipole's length, so its l0 starts at the mean difference.
     for c in scene.couplings.iter().filter(|c| c.type_index == t) {
         if let [i, j] = c.particles[..] {
             for f in 0..traj.frames() {
-                sum += (traj.pos(f, j) - traj.pos(f, i)).norm();
+                let anchor = c
+                    .controller
+                    .map_or(0.0, |[a, b]| (traj.pos(f, b) - traj.pos(f, a)).norm());
+                sum += (traj.pos(f, j) - traj.pos(f, i)).norm() - anchor;
                 n += 1;
             }
         }
