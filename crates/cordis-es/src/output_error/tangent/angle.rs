@@ -33,7 +33,7 @@ use cordis_core::forces::MIN_LENGTH;
 use cordis_core::Vec3;
 use nalgebra::Matrix3;
 
-use super::NONE;
+use super::no_column::NONE;
 
 /// Floats stored per angle and step by the matrix-free linearisation: the 6×6 Jacobian
 /// ∂(f_i, f_k)/∂(a, b) row-major, `φ (g_a, g_b)` and `c - c0` (zeros: a degenerate angle).

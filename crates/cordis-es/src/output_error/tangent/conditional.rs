@@ -24,8 +24,8 @@ use cordis_core::forces::conditional::ConditionalPass;
 use cordis_core::forces::grid::Grid;
 use cordis_core::Vec3;
 
+use super::no_column::NONE;
 use super::spring::{self, spring_link, LINK};
-use super::NONE;
 
 /// Calls `visit(i, j, link)` for every pair of `c` active at `x` (force on i, minus on j).
 pub(super) fn each_pair(

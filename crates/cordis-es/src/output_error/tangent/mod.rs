@@ -36,13 +36,12 @@ use crate::error::CostError;
 
 pub(crate) mod angle;
 pub(crate) mod conditional;
+mod no_column;
 pub(crate) mod plane;
 pub(crate) mod spring;
 
+pub(crate) use no_column::NONE;
 pub(crate) use spring::spring_link;
-
-/// No column: a known parameter.
-pub(crate) const NONE: usize = usize::MAX;
 
 /// A scene compiled for rollouts with sensitivities.
 #[derive(Clone, Debug)]

@@ -31,7 +31,7 @@
 use cordis_core::forces::plane::PlanePass;
 use cordis_core::Vec3;
 
-use super::NONE;
+use super::no_column::NONE;
 
 /// Floats stored per plane instance and step by the matrix-free linearisation: ∂F/∂x and
 /// ∂F/∂v (row-major 3×3 each), ∂F/∂(K, Z, μ, m) (3 each); zeros out of contact.

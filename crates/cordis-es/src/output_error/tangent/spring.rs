@@ -17,7 +17,7 @@
 use cordis_core::forces::spring::SpringPass;
 use cordis_core::Vec3;
 
-use super::NONE;
+use super::no_column::NONE;
 
 /// Floats stored per spring or anchor per step by the matrix-free linearisation: A (9,
 /// row-major), u (3), `l - l0`, `s = w·u` (∂f_i/∂(K, l0, Z, Z₂) = (l - l0, -K, s, s|s|) u) and
