@@ -541,6 +541,22 @@ impl Plan {
         x_prev: &mut Vec<Vec3>,
         s: &mut Scratch,
     ) -> Option<usize> {
+        let bad = self.step_unprojected(p, x, x_prev, s);
+        self.provot.apply(p, x, &self.free);
+        bad
+    }
+
+    /// [`Plan::step`] without its last phase, Provot's projection ([`ProvotPass`]): the
+    /// output-error tangent runs that phase itself, recording its corrections
+    /// ([`ProvotPass::apply_recorded`]); `step` is this followed by `self.provot.apply`.
+    #[inline(always)]
+    pub fn step_unprojected(
+        &self,
+        p: &[f64],
+        x: &mut Vec<Vec3>,
+        x_prev: &mut Vec<Vec3>,
+        s: &mut Scratch,
+    ) -> Option<usize> {
         self.velocities(x, x_prev, &mut s.v);
         match &self.split {
             None => self.forces(p, x, &s.v, &mut s.f, &mut s.grids, &mut s.muscles),
@@ -553,7 +569,6 @@ impl Plan {
         s.frame += 1;
         let bad = self.integrate(p, x, x_prev, &s.f, (&s.runaway, s.frame));
         std::mem::swap(x, x_prev);
-        self.provot.apply(p, x, &self.free);
         bad
     }
 

@@ -43,7 +43,47 @@ impl ProvotPass {
         factor: f64,
         mut moved: impl FnMut(usize),
     ) {
-        for l in &self.links {
+        self.pass(p, x, free, factor, |c| {
+            let (i, j) = self.ends(c.link);
+            if free[i] {
+                moved(i);
+            }
+            if free[j] {
+                moved(j);
+            }
+        });
+    }
+
+    /// The pass (limits × 1, the same bits as [`ProvotPass::apply`]), calling `record` with
+    /// every correction it applies, in order, at the positions it saw (a correction moving at
+    /// least one free end): what the output-error tangent differentiates.
+    #[inline(always)]
+    pub fn apply_recorded(
+        &self,
+        p: &[f64],
+        x: &mut [Vec3],
+        free: &[bool],
+        record: impl FnMut(Correction),
+    ) {
+        self.pass(p, x, free, 1.0, record);
+    }
+
+    /// Link `l`'s ends.
+    #[inline(always)]
+    pub fn ends(&self, l: usize) -> (usize, usize) {
+        (self.links[l].i as usize, self.links[l].j as usize)
+    }
+
+    #[inline(always)]
+    fn pass(
+        &self,
+        p: &[f64],
+        x: &mut [Vec3],
+        free: &[bool],
+        factor: f64,
+        mut on: impl FnMut(Correction),
+    ) {
+        for (k, l) in self.links.iter().enumerate() {
             let (i, j) = (l.i as usize, l.j as usize);
             let limit = (1.0 + p[l.tau]) * p[l.param + 1] * factor;
             let d = x[j] - x[i];
@@ -62,19 +102,33 @@ impl ProvotPass {
                     let half = u * (0.5 * excess);
                     x[i] += half;
                     x[j] -= half;
-                    moved(i);
-                    moved(j);
                 }
                 (true, false) => {
                     x[i] += u * excess;
-                    moved(i);
                 }
                 (false, true) => {
                     x[j] -= u * excess;
-                    moved(j);
                 }
-                (false, false) => {}
+                (false, false) => continue,
             }
+            on(Correction {
+                link: k,
+                u,
+                len,
+                limit,
+            });
         }
     }
+}
+
+/// One correction of the pass: link `link` (index in [`ProvotPass::links`]) was `len` long
+/// along the unit vector `u` (from i to j) when the pass reached it, beyond its `limit`
+/// `(1 + τc) l0` (m); its free ends moved by the excess `len - limit` toward each other (half
+/// each when both are free).
+#[derive(Clone, Copy, Debug)]
+pub struct Correction {
+    pub link: usize,
+    pub u: Vec3,
+    pub len: f64,
+    pub limit: f64,
 }

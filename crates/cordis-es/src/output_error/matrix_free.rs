@@ -96,7 +96,7 @@ use nalgebra::{DMatrix, DVector, Matrix6};
 
 use super::fit::{Counts, Fitter, LmSettings, StageEnd};
 use super::tangent::spring::{self, LINK};
-use super::tangent::{angle, conditional, plane, spring_link, NONE};
+use super::tangent::{angle, conditional, plane, provot, spring_link, NONE};
 
 /// The dense path is used up to this many local columns (θ plus one take's initial state).
 /// Measured on the cloth without its Provot limit, 100 frames, σ = 1e-3 of its size, on the
@@ -121,6 +121,7 @@ pub(crate) fn check_memory(
         + angle::ANGLE as f64 * plan.angles.triples.len() as f64
         + plane::PLANE as f64 * plan.planes.len() as f64
         + 3.0 * plan.dampers.pairs.len() as f64
+        + (provot::REC + 1) as f64 * plan.provot.links.len() as f64
         + 4.0 * 3.0 * plan.n as f64;
     let frames: f64 = takes.iter().map(|t| t.frames() as f64).sum();
     let longest = takes.iter().map(|t| t.frames()).max().unwrap_or(0) as f64;
@@ -206,6 +207,8 @@ pub(crate) struct Lin {
     planes: Vec<f64>,
     /// The conditional passes' active pairs at every step, with their records.
     cond: conditional::Pairs,
+    /// Provot's corrections at every step ([`provot::Corrections`]).
+    proj: provot::Corrections,
     /// `[n · 3N + r]`: v(n) (drags' ∂f/∂Z) and F(n) (the mass column).
     vel: Vec<f64>,
     force: Vec<f64>,
@@ -321,6 +324,8 @@ impl<'a, 'b> Mf<'a, 'b> {
         lin.wsq.resize(frames * rows, 0.0);
         lin.res.resize(frames * rows, 0.0);
         lin.cond.reset(plan.conditionals.len());
+        lin.proj.reset();
+        let projected = !plan.provot.links.is_empty();
         lin.cost = 0.0;
         lin.observed = 0;
         let Work {
@@ -365,7 +370,18 @@ impl<'a, 'b> Mf<'a, 'b> {
             if t + 1 == frames {
                 break;
             }
-            if plan.step(p, x, x_prev, &mut sc).is_some() {
+            let bad = if projected {
+                // The step's projection run here, its corrections recorded.
+                let bad = plan.step_unprojected(p, x, x_prev, &mut sc);
+                let proj = &mut lin.proj;
+                plan.provot
+                    .apply_recorded(p, x, &plan.free, |c| proj.push(c));
+                proj.end_step();
+                bad
+            } else {
+                plan.step(p, x, x_prev, &mut sc)
+            };
+            if bad.is_some() {
                 ok = false;
                 break;
             }
@@ -434,6 +450,13 @@ impl<'a, 'b> Mf<'a, 'b> {
         let mo = plan.layout.mass_offset;
         lin.local.clear();
         lin.local.resize(36 * free.len(), 0.0);
+        // Particle → its free index (the Provot corrections address particles).
+        let mut block_of = vec![None; if plan.provot.links.is_empty() { 0 } else { n }];
+        if !block_of.is_empty() {
+            for (f, &i) in free.iter().enumerate() {
+                block_of[i] = Some(f);
+            }
+        }
         // Per free particle: S (3×6) and S(n-1), row-major, packed.
         let Work {
             cur,
@@ -548,6 +571,10 @@ impl<'a, 'b> Mf<'a, 'b> {
                 prev[18 * f..18 * f + 18].copy_from_slice(&cur[18 * f..18 * f + 18]);
                 cur[18 * f..18 * f + 18].copy_from_slice(df);
             }
+            if !plan.provot.links.is_empty() {
+                let block = |i: usize| block_of[i].map(|f| 18 * f);
+                provot::local(&plan.provot, &plan.free, &lin.proj, t, block, cur);
+            }
         }
     }
 
@@ -594,6 +621,13 @@ impl<'a, 'b> Mf<'a, 'b> {
             }
             self.forward_step(lin, t, w, cur, prev, vel, df, dth);
             std::mem::swap(cur, prev);
+            let pass = &plan.provot;
+            if !pass.links.is_empty() {
+                let of_slot = &self.fit.cols.of_slot;
+                provot::forward(
+                    pass, &plan.free, &lin.proj, t, &self.p, of_slot, w, cur, dth,
+                );
+            }
         }
     }
 
@@ -747,6 +781,20 @@ impl<'a, 'b> Mf<'a, 'b> {
         let mo = plan.layout.mass_offset;
         let inv_dt = 1.0 / dt;
         for t in (0..frames.saturating_sub(1)).rev() {
+            if !plan.provot.links.is_empty() {
+                // a(t+1) is the cotangent of the projected x(t+1): through the corrections.
+                provot::adjoint(
+                    &plan.provot,
+                    &plan.free,
+                    &lin.proj,
+                    t,
+                    p,
+                    of_slot,
+                    w,
+                    a,
+                    grad,
+                );
+            }
             // φ = h ⊙ P a(t+1); a(t) starts as u(t) + 2 P a(t+1) + b(t+1), b(t) as -P a(t+1).
             let u = &cot[t * rows * w..(t + 1) * rows * w];
             for i in 0..n {
@@ -1677,9 +1725,34 @@ mod tests {
             max: c0 + 0.5,
             init: None,
         });
-        let tangent = Tangent::new(&guess).unwrap();
-        let space = ParameterSpace::from_scene(&guess);
-        let traj = truth.simulate(60).unwrap();
+        setup_of(&truth, &guess, 60, noise)
+    }
+
+    /// The Provot patch ([`super::super::tests::provot_scene`]): K, l0, Z of every type, τc of
+    /// one structural type and one mass unknown.
+    fn provot_setup(noise: f64) -> Setup {
+        let truth = super::super::tests::provot_scene();
+        let mut guess = with_unknown_boxes(&truth, 25.0, 3);
+        guess.particles[6].mass = Param::Unknown(Bounds {
+            min: 1e-4,
+            max: 1e-2,
+            init: None,
+        });
+        let tau = Param::Unknown(Bounds {
+            min: 0.02,
+            max: 0.5,
+            init: None,
+        });
+        guess.types[0].set_optional(cordis_core::OptionalParam::MaxElongation, Some(tau));
+        setup_of(&truth, &guess, 60, noise)
+    }
+
+    /// Two takes of `truth`'s `frames` frames (the second with gaps) for the unknowns of
+    /// `guess`, at an iterate slightly off the truth.
+    fn setup_of(truth: &Scene, guess: &Scene, frames: usize, noise: f64) -> Setup {
+        let tangent = Tangent::new(guess).unwrap();
+        let space = ParameterSpace::from_scene(guess);
+        let traj = truth.simulate(frames).unwrap();
         let noisy = add_noise(&traj, noise * traj.scale(), 1);
         // Two takes, the second with gaps: the θ block sums over takes.
         let t0 = Take::complete(&noisy);
@@ -1747,8 +1820,16 @@ mod tests {
 
     #[test]
     fn directional_rollout_is_the_dense_sensitivities_times_v() {
-        let s = setup(0.0);
-        let fit = fitter(&s);
+        forward_matches_dense(&setup(0.0));
+    }
+
+    #[test]
+    fn directional_rollout_through_provot_is_the_dense_sensitivities_times_v() {
+        forward_matches_dense(&provot_setup(0.0));
+    }
+
+    fn forward_matches_dense(s: &Setup) {
+        let fit = fitter(s);
         let mut mf = Mf::new(&fit);
         let mut work = Work::default();
         let frames = 60;
@@ -1777,8 +1858,16 @@ mod tests {
 
     #[test]
     fn adjoint_is_the_transpose_of_the_directional_rollout() {
-        let s = setup(1e-3);
-        let fit = fitter(&s);
+        adjoint_matches_forward(&setup(1e-3));
+    }
+
+    #[test]
+    fn adjoint_through_provot_is_the_transpose_of_the_directional_rollout() {
+        adjoint_matches_forward(&provot_setup(1e-3));
+    }
+
+    fn adjoint_matches_forward(s: &Setup) {
+        let fit = fitter(s);
         let mut mf = Mf::new(&fit);
         let mut work = Work::default();
         let frames = 60;
@@ -1818,8 +1907,16 @@ mod tests {
 
     #[test]
     fn gauss_newton_products_match_the_dense_normal_equations() {
-        let s = setup(1e-3);
-        let fit = fitter(&s);
+        products_match_dense(&setup(1e-3));
+    }
+
+    #[test]
+    fn gauss_newton_products_through_provot_match_the_dense_normal_equations() {
+        products_match_dense(&provot_setup(1e-3));
+    }
+
+    fn products_match_dense(s: &Setup) {
+        let fit = fitter(s);
         let frames = 40;
         let ne = fit.normal(&s.q, frames, &mut Sens::default()).unwrap();
         let mut mf = Mf::new(&fit);

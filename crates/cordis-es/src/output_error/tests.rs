@@ -113,15 +113,88 @@ fn sensitivities_match_central_differences() {
         max: 10.0,
         init: None,
     });
+    against_central_differences(&s, 2, 40, 1e-6);
+}
+
+/// A 4 × 4 patch of Provot's cloth (its pinned edge, structural springs limited at τc = 0.1)
+/// thrown sideways and up, so its links reach the limit in some frames and not in others, on
+/// both kinds of links (both ends free, one end pinned). τc unknown on one structural type.
+pub(super) fn provot_scene() -> Scene {
+    let mut s = cordis_core::examples::cloth(4, 4);
+    for (i, p) in s.particles.iter_mut().enumerate() {
+        if !p.fixed {
+            let k = i as f64;
+            p.vel = [0.4 * (k * 0.7).sin(), 0.6 + 0.3 * (k * 1.3).cos(), 0.5];
+        }
+    }
+    s
+}
+
+/// How many of `s`'s first `frames - 1` steps apply a Provot correction, and how many
+/// corrections in all (the scene's own simulation, recorded).
+pub(super) fn provot_activity(s: &Scene, frames: usize) -> (usize, usize) {
+    let plan = cordis_core::plan::Plan::compile(s).unwrap();
+    let p = s.param_values();
+    let mut sc = plan.scratch();
+    let (mut x, mut xp) = (plan.x0.clone(), plan.x_minus1.clone());
+    let (mut steps, mut all) = (0, 0);
+    for _ in 1..frames {
+        plan.step_unprojected(&p, &mut x, &mut xp, &mut sc);
+        let mut k = 0;
+        plan.provot
+            .apply_recorded(&p, &mut x, &plan.free, |_| k += 1);
+        steps += usize::from(k > 0);
+        all += k;
+    }
+    (steps, all)
+}
+
+#[test]
+fn provot_scene_has_active_and_inactive_frames() {
+    let (steps, all) = provot_activity(&provot_scene(), 60);
+    assert!(steps > 10 && steps < 59, "{steps} of 59 steps corrected");
+    assert!(all > 2 * steps, "{all} corrections in {steps} steps");
+}
+
+#[test]
+fn rollout_with_provot_is_the_cores_simulation_bit_for_bit() {
+    // With columns the rollout runs the projection itself (recording it): the same bits.
+    let s = provot_scene();
     let t = Tangent::new(&s).unwrap();
+    let cols = t.columns(&[0, 1]);
+    let mut x = Vec::new();
+    let mut visit = |_: usize, xs: &[Vec3], _: Option<&[f64]>| {
+        x.extend(xs.iter().flat_map(|v| [v[0], v[1], v[2]]));
+    };
+    let (p, q) = (s.param_values(), state_of(&s, &t));
+    t.rollout(&p, &q, 60, Some(&cols), &mut Sens::default(), &mut visit)
+        .unwrap();
+    assert_eq!(x, s.simulate(60).unwrap().as_flat());
+}
+
+#[test]
+fn sensitivities_through_provot_match_central_differences() {
+    let mut s = provot_scene();
+    s.particles[6].mass = Param::Unknown(Bounds {
+        min: 1e-4,
+        max: 1e-2,
+        init: None,
+    });
+    // Every parameter (τc of both structural types included), one mass, every state.
+    against_central_differences(&s, 6, 60, 1e-7);
+}
+
+/// The rollout's sensitivity columns (every type parameter, particle `mass`'s mass, every
+/// free particle's initial state) against central differences of the rollout, relative step
+/// `h`, over `frames` frames.
+fn against_central_differences(s: &Scene, mass: usize, frames: usize, h: f64) {
+    let t = Tangent::new(s).unwrap();
     let layout = s.param_layout();
-    // Every parameter of every type, and one mass.
     let mut slots: Vec<usize> = (0..layout.mass_offset).collect();
-    slots.push(layout.mass_offset + 2);
+    slots.push(layout.mass_offset + mass);
     let cols = t.columns(&slots);
     let p = s.param_values();
-    let q = state_of(&s, &t);
-    let frames = 40;
+    let q = state_of(s, &t);
     let mut sens = Vec::new();
     let mut visit = |_: usize, _: &[Vec3], m: Option<&[f64]>| sens.extend_from_slice(m.unwrap());
     t.rollout(
@@ -136,7 +209,6 @@ fn sensitivities_match_central_differences() {
     let rows = 3 * t.plan.n;
     #[allow(clippy::needless_range_loop)] // col indexes the tangent's columns, not only slots
     for col in 0..cols.len {
-        let h = 1e-6;
         let (mut pp, mut pm, mut qp, mut qm) = (p.clone(), p.clone(), q.clone(), q.clone());
         if col < cols.theta {
             let k = slots[col];

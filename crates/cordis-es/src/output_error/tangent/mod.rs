@@ -20,8 +20,16 @@
 //! [`angle`], [`plane`] (ground contact), [`conditional`] (the active pairs as springs, an
 //! unknown range refused); a damper `f_i = Z w` and a drag `f_i = -Z v_i` are written out
 //! here. Each kind's file also holds its matrix-free passes (forward, adjoint, local blocks).
-//! Kinds without a tangent (muscles, couplings, nonlinear drags, Provot limits, several
-//! worlds) are refused by name before any work ([`Tangent::supports`]).
+//!
+//! Provot's elongation limit is not a force but the projection that ends the step: S(n+1)
+//! above is that of the prediction x̃(n+1), then pushed through the pass's active corrections
+//! in order ([`provot`]: `δc = M δd - u δλ`, `M = (1 - λ/L) I + (λ/L) u uᵀ`). The rollout
+//! runs the projection itself when it carries columns
+//! ([`cordis_core::plan::Plan::step_unprojected`], then the core's own pass, recorded), so the
+//! positions are the core's bit for bit; a scene without the limit steps as before.
+//!
+//! Kinds without a tangent (muscles, couplings, nonlinear drags, several worlds) are refused
+//! by name before any work ([`Tangent::supports`]).
 //!
 //! Cost per step: about 30 P multiply-adds per link and 6 P per particle for P sensitivity
 //! columns, no allocation (the matrices are caller-owned scratch, row-major `3N × P`, so each
@@ -38,6 +46,7 @@ pub(crate) mod angle;
 pub(crate) mod conditional;
 mod no_column;
 pub(crate) mod plane;
+pub(crate) mod provot;
 pub(crate) mod spring;
 
 pub(crate) use no_column::NONE;
@@ -83,6 +92,8 @@ pub(crate) struct Sens {
     diff: Vec<f64>,
     /// One grid per conditional pass (its active pairs at each step).
     grids: Vec<cordis_core::forces::grid::Grid>,
+    /// The Provot corrections of the current step.
+    proj: provot::Corrections,
 }
 
 impl Tangent {
@@ -145,12 +156,6 @@ impl Tangent {
                     "an unknown range moves the output-error cost only in steps (pairs appear \
                      and vanish as it crosses their lengths; its sensitivity is 0): give it, \
                      or bracket it with `hybrid` on the short cost",
-                ));
-            }
-            if ty.max_elongation().is_some() && used {
-                return Err(CostError::mismatch(
-                    format!("types.{}.max_elongation", ty.name),
-                    "a Provot limit has no exact sensitivities yet (output-error)",
                 ));
             }
         }
@@ -216,14 +221,38 @@ impl Tangent {
             if t + 1 == frames {
                 break;
             }
-            if let Some(bad) = plan.step(p, &mut buf.x, &mut buf.x_prev, &mut scratch) {
-                let _ = bad;
+            let projected = cols.is_some() && !plan.provot.links.is_empty();
+            let bad = if projected {
+                // The step's projection run here, its corrections recorded for the tangent.
+                let bad = plan.step_unprojected(p, &mut buf.x, &mut buf.x_prev, &mut scratch);
+                buf.proj.reset();
+                let (x, proj) = (&mut buf.x, &mut buf.proj);
+                plan.provot
+                    .apply_recorded(p, x, &plan.free, |c| proj.push(c));
+                buf.proj.end_step();
+                bad
+            } else {
+                plan.step(p, &mut buf.x, &mut buf.x_prev, &mut scratch)
+            };
+            if bad.is_some() {
                 out = Err(t + 1);
                 break;
             }
             if let Some(c) = cols {
                 // After the step: x_prev = x(n), scratch.v = v(n), scratch.f = F(n).
                 self.tangent_step(p, c, width, n, &scratch, buf);
+                if projected {
+                    let step = buf.proj.step(0);
+                    provot::dense(
+                        &plan.provot,
+                        &plan.free,
+                        step,
+                        p,
+                        &c.of_slot,
+                        width,
+                        &mut buf.s,
+                    );
+                }
             }
         }
         buf.scratch = Some(scratch);
