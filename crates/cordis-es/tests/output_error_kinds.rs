@@ -468,3 +468,21 @@ fn provot_limit_under_noise_is_identified_within_its_standard_errors() {
     eprintln!("mean z² {mean:.3} over {} estimates", z2.len());
     assert!(mean > 0.3 && mean < 2.0, "mean z² {mean}");
 }
+
+/// `auto` now picks output-error on a noisy Provot scene (it has exact sensitivities there) and
+/// keeps the exact `least-squares` (the limit's rows left out) on noiseless motion.
+#[test]
+fn auto_takes_output_error_on_a_noisy_provot_cloth_and_least_squares_on_a_noiseless_one() {
+    use cordis_es::cost::CostKind;
+    use cordis_es::identify::output_error_reason;
+    use cordis_es::problem::Problem;
+    let truth = cordis_core::examples::cloth(8, 8);
+    let guess = with_unknown_boxes(&truth, 25.0, 0);
+    let traj = truth.simulate(100).unwrap();
+    let clean = Problem::new(&guess, &traj, CostKind::Short).unwrap();
+    assert_eq!(output_error_reason(&clean), None);
+    let noisy = add_noise(&traj, 1e-3 * traj.scale(), 1);
+    let noisy = Problem::new(&guess, &noisy, CostKind::Short).unwrap();
+    let why = output_error_reason(&noisy).expect("output-error on noisy data");
+    assert!(why.contains("noisy"), "{why}");
+}
