@@ -486,3 +486,40 @@ fn auto_takes_output_error_on_a_noisy_provot_cloth_and_least_squares_on_a_noisel
     let why = output_error_reason(&noisy).expect("output-error on noisy data");
     assert!(why.contains("noisy"), "{why}");
 }
+
+/// The kinds still without a tangent are refused before any work, each by one line naming its
+/// type (muscles, TGR couplings, nonlinear drags) or `worlds`, now that Provot's limit is not
+/// among them.
+#[test]
+fn kinds_without_a_tangent_are_refused_by_one_line_naming_the_place() {
+    use cordis_core::examples::by_name;
+    for name in [
+        "muscle",
+        "tadpole",
+        "frog",
+        "follower",
+        "central-muscle",
+        "horse-gait",
+    ] {
+        let scene = by_name(name).unwrap();
+        let traj = scene.simulate(5).unwrap();
+        let space = ParameterSpace::from_scene(&scene);
+        let e = estimate(&scene, &space, &[Take::complete(&traj)], &Config::default())
+            .unwrap_err()
+            .to_string();
+        eprintln!("{name}: {e}");
+        assert!(!e.contains('\n'), "{name}: {e}");
+        assert!(
+            e.starts_with("types.") && e.contains("no exact sensitivities")
+                || e.starts_with("worlds:"),
+            "{name}: {e}"
+        );
+    }
+    // The cloth with its limit is accepted.
+    let cloth = cordis_core::examples::cloth(4, 4);
+    let guess = with_unknown_boxes(&cloth, 25.0, 0);
+    let traj = cloth.simulate(5).unwrap();
+    let problem =
+        cordis_es::problem::Problem::new(&guess, &traj, cordis_es::cost::CostKind::Short).unwrap();
+    cordis_es::strategies::output_error::supported(&problem).unwrap();
+}

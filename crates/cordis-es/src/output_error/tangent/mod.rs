@@ -144,7 +144,8 @@ impl Tangent {
                     format!("types.{}", ty.name),
                     format!(
                         "kind `{}` has no exact sensitivities yet: the output-error estimator \
-                         takes springs, dampers, anchors, drags, angles, planes and conditional links",
+                         takes springs (with Z₂ and Provot's limit), dampers, anchors, drags, \
+                         angles, planes and conditional links",
                         ty.kind.name()
                     ),
                 ));
