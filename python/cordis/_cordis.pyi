@@ -762,7 +762,8 @@ class DiscoverResult:
         """The proposed scene (every value known; initial state from the first frames)."""
     @property
     def links(self) -> List[Dict[str, Any]]:
-        """Per link of ``scene``: ``particles``, ``type``, own ``stiffness``/``rest_length``/
+        """Per link of ``scene``: ``particles``, ``kind`` (``spring``, ``anchor``, ``damper``),
+        ``type``, own ``stiffness``/``rest_length``/
         ``damping`` and their ``…_se``, ``score`` (Wald statistic) and ``threshold``."""
     @property
     def near_misses(self) -> List[Dict[str, Any]]:
@@ -834,9 +835,13 @@ def discover(
     threshold_scale: float = 1.0,
     type_tolerance: float = 1e-3,
     gravity: Optional[Tuple[float, float, float]] = None,
+    kinds: Optional[Sequence[str]] = None,
 ) -> DiscoverResult:
-    """Proposes a spring network (links, masses, gravity, types) from positions alone
-    (GIL released). Give ``total_mass`` (kg, moving particles) or every particle's ``masses``.
+    """Proposes a network of springs, anchors and dampers (links with their ``kind``, masses,
+    gravity, types) from positions alone (GIL released). Give ``total_mass`` (kg, moving
+    particles) or every particle's ``masses``. ``kinds``: the link kinds looked for, of
+    ``"spring"``, ``"anchor"`` (to a fixed particle), ``"damper"`` (isotropic); default all three
+    on noiseless data, spring and anchor on noisy data; an unknown name raises ``ValueError``.
 
     >>> res = cordis.discover(traj, truth.dt, total_mass=12.3)  # doctest: +SKIP
     """

@@ -2,7 +2,7 @@
 //! proposes a spring network — links, masses, gravity, a catalogue of types — from positions
 //! alone, with a score per link.
 
-use cordis_es::discover::{discover as core_discover, DiscoverOptions, Discovery};
+use cordis_es::discover::{discover as core_discover, DiscoverOptions, Discovery, Kinds};
 use pyo3::prelude::*;
 
 use crate::errors::cost_to_py;
@@ -15,7 +15,8 @@ pub struct DiscoverResult {
     /// The proposed scene (every value known; initial state from the first frames).
     #[pyo3(get)]
     scene: Py<Scene>,
-    /// Per link of `scene` (same order): `particles`, `type`, this link's own `stiffness`,
+    /// Per link of `scene` (same order): `particles`, `kind` (`spring`, `anchor`, `damper`),
+    /// `type`, this link's own `stiffness`,
     /// `rest_length`, `damping` and their standard errors (`…_se`), and its `score` (Wald
     /// statistic: cost increase when removed over the noise floor) and `threshold`.
     #[pyo3(get)]
@@ -95,14 +96,16 @@ fn to_py(py: Python<'_>, d: Discovery) -> PyResult<DiscoverResult> {
 /// noiseless);
 /// `threshold_scale` multiplies the selection threshold; `type_tolerance` is the relative
 /// tolerance under which two links are of one type; `gravity` (m/s², `[x, y, z]`) when known,
-/// else it is estimated. `res.undetermined` names what the data cannot decide (also raised as
+/// else it is estimated; `kinds` (e.g. `["spring", "damper"]`) the link kinds looked for
+/// (`spring`, `anchor`: to a fixed particle, `damper`: isotropic; default all three on noiseless
+/// data, spring and anchor on noisy data; an unknown name is a `ValueError`). Each link's `kind` is in `res.links`. `res.undetermined` names what the data cannot decide (also raised as
 /// warnings). See docs/discover.md.
 ///
 /// >>> truth = cordis.random_network(1, 12, 3)
 /// >>> traj = truth.simulate(300)
 /// >>> res = cordis.discover(traj, truth.dt, total_mass=12.3)   # doctest: +SKIP
 #[pyfunction]
-#[pyo3(signature = (traj, dt, total_mass = None, masses = None, max_range = None, noise_level = None, threshold_scale = 1.0, type_tolerance = 1e-3, gravity = None))]
+#[pyo3(signature = (traj, dt, total_mass = None, masses = None, max_range = None, noise_level = None, threshold_scale = 1.0, type_tolerance = 1e-3, gravity = None, kinds = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn discover(
     py: Python<'_>,
@@ -115,9 +118,14 @@ pub fn discover(
     threshold_scale: f64,
     type_tolerance: f64,
     gravity: Option<[f64; 3]>,
+    kinds: Option<Vec<String>>,
 ) -> PyResult<DiscoverResult> {
     let dt = check_dt(dt, "dt")?;
     let traj = traj_from_py(traj, "traj")?;
+    let kinds = match &kinds {
+        Some(k) => Some(Kinds::parse(k).map_err(cost_to_py)?),
+        None => None,
+    };
     let opt = DiscoverOptions {
         total_mass,
         masses,
@@ -126,6 +134,7 @@ pub fn discover(
         threshold_scale,
         type_tolerance,
         gravity,
+        kinds,
     };
     let d = py
         .detach(|| core_discover(&traj, dt, &opt))

@@ -139,3 +139,81 @@ fn discover_takes_gravity_as_given_and_reports_the_estimated_noise() {
     ]);
     assert_eq!(code, 2);
 }
+
+/// `--kinds`: a network with a damper and a link to a fixed particle is found with each link's
+/// kind in the scores and a damper type in the scene; `--kinds spring,anchor` leaves the damper
+/// out (its force then falls on other links); an unknown kind is refused (exit 2).
+#[test]
+fn discover_reports_each_links_kind_and_takes_the_kinds_to_look_for() {
+    use cordis_core::examples::{varied_network, VariedKinds};
+    let dir = tempfile::tempdir().unwrap();
+    // Seed 2 of the varied generator: two dampers, two fixed particles.
+    let (truth, case) = varied_network(2, VariedKinds::ALL);
+    assert!(case.dampers > 0 && case.fixed > 0, "{case:?}");
+    let traj = truth.simulate(300).unwrap();
+    let csv = dir.path().join("net.csv");
+    cordis_core::io::write_trajectory(&csv, &traj).unwrap();
+    let total: f64 = truth
+        .particles
+        .iter()
+        .filter(|p| !p.fixed)
+        .map(|p| p.mass.value())
+        .sum();
+    let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    let run = |extra: &[&str], out: &std::path::Path, scores: &std::path::Path| {
+        let mut args: Vec<String> = [
+            "cordis",
+            "discover",
+            "-t",
+            &s(&csv),
+            "--dt",
+            &truth.dt.to_string(),
+            "--total-mass",
+            &total.to_string(),
+            "--out",
+            &s(out),
+            "--scores",
+            &s(scores),
+            "-q",
+        ]
+        .iter()
+        .map(|a| a.to_string())
+        .collect();
+        args.extend(extra.iter().map(|a| a.to_string()));
+        cordis_cli::run(args)
+    };
+    let (out, scores) = (dir.path().join("f.json"), dir.path().join("s.json"));
+    assert_eq!(run(&[], &out, &scores), 0);
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&scores).unwrap()).unwrap();
+    let kinds: Vec<&str> = v["links"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|l| l["kind"].as_str().unwrap())
+        .collect();
+    let count = |k: &str| kinds.iter().filter(|x| **x == k).count();
+    let dampers = truth
+        .links
+        .iter()
+        .filter(|l| truth.types[l.type_index].kind == cordis_core::LinkKind::Damper)
+        .count();
+    assert_eq!(count("damper"), dampers, "{kinds:?}");
+    assert!(count("anchor") > 0 && count("spring") > 0, "{kinds:?}");
+    let found = Scene::from_json_path(&out).unwrap();
+    assert!(found
+        .types
+        .iter()
+        .any(|t| t.kind == cordis_core::LinkKind::Damper));
+
+    assert_eq!(run(&["--kinds", "spring,anchor"], &out, &scores), 0);
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&scores).unwrap()).unwrap();
+    assert!(v["links"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|l| l["kind"] != "damper"));
+
+    assert_eq!(run(&["--kinds", "spring,dumper"], &out, &scores), 2);
+}

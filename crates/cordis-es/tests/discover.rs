@@ -307,11 +307,22 @@ fn more_candidate_pairs_than_the_frames_determine_are_refused_before_any_is_stor
     };
     let t0 = std::time::Instant::now();
     let e = discover(&traj, 0.01, &opt).unwrap_err().to_string();
+    // Noiseless: springs, anchors and dampers looked for, 3 + 4 unknowns per pair.
     assert!(
-        e.starts_with("max_range: particle 0 has 299 candidate pairs within 100 m: 900 unknowns"),
+        e.starts_with("max_range: particle 0 has 299 candidate pairs within 100 m: 1199 unknowns"),
         "{e}"
     );
     assert!(e.contains("from 24 equations (10 frames)"), "{e}");
+    assert!(e.contains("at least 402 frames"), "{e}");
+    let springs = DiscoverOptions {
+        kinds: Some(cordis_es::discover::Kinds::parse(&["spring", "anchor"]).unwrap()),
+        ..opt.clone()
+    };
+    let e = discover(&traj, 0.01, &springs).unwrap_err().to_string();
+    assert!(
+        e.contains("299 candidate pairs within 100 m: 900 unknowns"),
+        "{e}"
+    );
     assert!(e.contains("at least 303 frames"), "{e}");
     assert!(t0.elapsed().as_secs_f64() < 5.0);
     // Without a radius the default one holds few enough pairs for 300 frames.

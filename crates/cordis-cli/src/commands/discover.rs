@@ -2,7 +2,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{anyhow, bail, Result};
-use cordis_es::discover::{discover, DiscoverOptions};
+use cordis_es::discover::{discover, DiscoverOptions, Kinds};
 
 use super::Output;
 
@@ -46,6 +46,11 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     gravity: Option<Vec<f64>>,
+    /// Link kinds to look for, comma-separated: spring (between moving particles), anchor (to a
+    /// fixed particle), damper (isotropic, F = Z (v_j - v_i)). Default: all three on noiseless
+    /// data, spring and anchor on noisy data.
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    kinds: Option<Vec<String>>,
     /// Where to write the proposed scene (JSON; stdout when absent).
     #[arg(long, short = 'o')]
     out: Option<PathBuf>,
@@ -96,6 +101,10 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         Some(&[x, y, z]) if [x, y, z].iter().all(|v| v.is_finite()) => Some([x, y, z]),
         Some(g) => bail!("--gravity: three finite numbers X,Y,Z in m/s², got {g:?}"),
     };
+    let kinds = match &a.kinds {
+        Some(k) => Some(Kinds::parse(k)?),
+        None => None,
+    };
     let opt = DiscoverOptions {
         total_mass: a.total_mass,
         masses,
@@ -104,6 +113,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         threshold_scale: a.threshold_scale,
         type_tolerance: a.type_tolerance,
         gravity,
+        kinds,
     };
     let start = Instant::now();
     let d = discover(&traj, dt, &opt)?;

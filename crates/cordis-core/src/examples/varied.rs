@@ -26,7 +26,8 @@ pub struct VariedCase {
 pub struct VariedKinds {
     /// Damper links (kind `damper`) between particles not linked by a spring.
     pub dampers: bool,
-    /// Anchors (kind `anchor`): a spring from a particle to a point that is not a particle.
+    /// Anchors (kind `anchor`): a spring from a particle to a point on a wall, which carries a
+    /// marker (a fixed particle at the point, linked to nothing else).
     pub anchors: bool,
 }
 
@@ -53,7 +54,8 @@ impl VariedKinds {
 ///   damping 0.02–0.3 N·s/m on about half the types, 0 on the others;
 /// - masses 0.3–3 kg log-uniform; gravity −9.81 m/s² along y in two draws of three;
 /// - 0–2 fixed particles; with `kinds.dampers`, 0–2 dampers (0.05–0.4 N·s/m); with
-///   `kinds.anchors`, an anchor (40–150 N/m to a point 0.2–0.4 m away) in one draw of four;
+///   `kinds.anchors`, an anchor (40–150 N/m to a point 0.2–0.4 m away, marked by a fixed
+///   particle appended last) in one draw of four;
 /// - thrown and spinning: a common velocity (±1 m/s), an angular velocity (±3 rad/s) about the
 ///   centroid, and ±0.5 m/s per particle per axis, so every link changes length.
 ///
@@ -211,7 +213,10 @@ pub fn varied_network(seed: u64, kinds: VariedKinds) -> (Scene, VariedCase) {
             let a = scene.add_link("tether", &[i]);
             let p = pos[i];
             let dz = if planar { 0.0 } else { 0.5 * reach };
-            scene.links[a].point = Some(q3([p[0] + 0.8 * reach, p[1] + 0.5 * reach, p[2] + dz]));
+            let point = q3([p[0] + 0.8 * reach, p[1] + 0.5 * reach, p[2] + dz]);
+            scene.links[a].point = Some(point);
+            // The wall's marker: what a camera sees of the anchor's point.
+            scene.add_particle(Particle::new(1.0, point).fixed());
             case.anchors = 1;
         }
     }

@@ -37,6 +37,73 @@ pub const MAX_REFIT_TYPES: usize = 32;
 /// noiseless motions: below 0.01).
 pub const NOISY_ORDER_RATIO: f64 = 0.5;
 
+/// The link kinds discovery looks for (`--kinds`, `kinds=`): `spring` between two moving
+/// particles, `anchor` (a spring-like link to a fixed particle: the particle marks the
+/// anchor's point), `damper` (isotropic, `F_i = Z (v_j − v_i)`, between any two particles not
+/// both fixed).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Kinds {
+    pub spring: bool,
+    pub damper: bool,
+    pub anchor: bool,
+}
+
+impl Kinds {
+    pub const ALL: Kinds = Kinds {
+        spring: true,
+        damper: true,
+        anchor: true,
+    };
+    /// The names [`Kinds::parse`] reads.
+    pub const NAMES: [&'static str; 3] = ["spring", "damper", "anchor"];
+
+    /// Reads a list of kind names (each once or more; at least one): `kinds: unknown link kind
+    /// `x` …` on anything else.
+    pub fn parse<S: AsRef<str>>(names: &[S]) -> Result<Kinds, CostError> {
+        let mut k = Kinds {
+            spring: false,
+            damper: false,
+            anchor: false,
+        };
+        for name in names {
+            match name.as_ref().trim() {
+                "spring" => k.spring = true,
+                "damper" => k.damper = true,
+                "anchor" => k.anchor = true,
+                other => {
+                    return Err(CostError::invalid(
+                        "kinds",
+                        format!(
+                            "unknown link kind `{other}` (discover looks for {})",
+                            Kinds::NAMES.join(", ")
+                        ),
+                    ))
+                }
+            }
+        }
+        if !(k.spring || k.damper || k.anchor) {
+            return Err(CostError::invalid(
+                "kinds",
+                format!("give at least one of {}", Kinds::NAMES.join(", ")),
+            ));
+        }
+        Ok(k)
+    }
+
+    /// The candidate groups of a pair: a spring-like group (spring, or anchor when an end is
+    /// fixed) and a damper group, as the kinds allow (`damper`: false for a pair whose damper
+    /// another pair stands for, see [`discover`]).
+    fn groups(&self, anchored: bool, damper: bool) -> impl Iterator<Item = select::GroupKind> {
+        let spring = if anchored { self.anchor } else { self.spring };
+        [
+            spring.then_some(select::GroupKind::Spring),
+            (self.damper && damper).then_some(select::GroupKind::Damper),
+        ]
+        .into_iter()
+        .flatten()
+    }
+}
+
 /// What [`discover`] is told besides the trajectory.
 #[derive(Clone, Debug)]
 pub struct DiscoverOptions {
@@ -57,6 +124,9 @@ pub struct DiscoverOptions {
     pub type_tolerance: f64,
     /// Gravity, m/s², when known; estimated otherwise.
     pub gravity: Option<[f64; 3]>,
+    /// The link kinds looked for. `None`: all of [`Kinds::NAMES`] on noiseless data, springs
+    /// and anchors on noisy data (dampers under noise: `docs/discover.md`), with a note.
+    pub kinds: Option<Kinds>,
 }
 
 impl Default for DiscoverOptions {
@@ -69,6 +139,7 @@ impl Default for DiscoverOptions {
             threshold_scale: 1.0,
             type_tolerance: 1e-3,
             gravity: None,
+            kinds: None,
         }
     }
 }
@@ -77,10 +148,13 @@ impl Default for DiscoverOptions {
 #[derive(Clone, Debug, Serialize)]
 pub struct LinkScore {
     pub particles: [usize; 2],
+    /// `spring`, `anchor` (a spring-like link to a fixed particle) or `damper`.
+    pub kind: &'static str,
     /// Its type in the proposed catalogue.
     #[serde(rename = "type")]
     pub type_name: String,
-    /// This link's own estimates before the catalogue refit: K (N/m), l0 (m), Z (N·s/m).
+    /// This link's own estimates before the catalogue refit: K (N/m), l0 (m), Z (N·s/m); a
+    /// damper's K and l0 are 0.
     pub stiffness: f64,
     pub rest_length: f64,
     pub damping: f64,
@@ -98,6 +172,7 @@ pub struct LinkScore {
 #[derive(Clone, Debug, Serialize)]
 pub struct NearMiss {
     pub particles: [usize; 2],
+    pub kind: &'static str,
     pub score: f64,
     pub threshold: f64,
 }
@@ -325,16 +400,85 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
         .map_or(traj.frames() - 2, |a: &smooth::Accelerations| {
             a.last - a.first
         });
+    let kinds = match opt.kinds {
+        Some(k) => k,
+        None if noise > 0.0 => {
+            notes.push(
+                "noisy positions: dampers not looked for (their test is not yet reliable under \
+                 noise: give --kinds spring,damper,anchor to look for them)"
+                    .into(),
+            );
+            Kinds {
+                damper: false,
+                ..Kinds::ALL
+            }
+        }
+        None => Kinds::ALL,
+    };
+    // Before storing any pair: each counted at the most columns a pair can take.
+    let widest = kinds
+        .groups(false, true)
+        .map(|g| g.width())
+        .sum::<usize>()
+        .max(kinds.groups(true, true).map(|g| g.width()).sum::<usize>());
     let within = candidates::degrees_within(&x0, &fixed, radius);
-    check_candidates(row_frames, accel.is_some(), &within, &free, radius, place)?;
+    let within_cols: Vec<usize> = within.iter().map(|d| d * widest).collect();
+    check_candidates(
+        row_frames,
+        accel.is_some(),
+        (&within, &within_cols),
+        &free,
+        radius,
+        place,
+    )?;
     let cands = candidates::candidate_pairs(&x0, &fixed, radius, opt.max_range.is_none());
-    let mut degree = vec![0; n];
-    for ([i, j], _) in &cands {
+    // A damper to a fixed particle pulls `−Z v_i` whichever fixed particle it ends on: one
+    // candidate per moving particle stands for them all (the nearest fixed one; several would
+    // make the fit rank-deficient), and when the particle had a choice its end is named as
+    // not determined.
+    let mut to_fixed: Vec<Option<(f64, usize)>> = vec![None; n];
+    let mut fixed_choices = vec![0usize; n];
+    for (k, ([i, j], d)) in cands.iter().enumerate() {
+        for (a, b) in [(*i, *j), (*j, *i)] {
+            if free[a] && fixed[b] {
+                fixed_choices[a] += 1;
+                if to_fixed[a].is_none_or(|(bd, _)| *d < bd) {
+                    to_fixed[a] = Some((*d, k));
+                }
+            }
+        }
+    }
+    // The candidate groups: per pair, one per kind looked for (a pair may carry a spring and a
+    // damper).
+    let mut pairs: Vec<[usize; 2]> = Vec::new();
+    let mut group_kinds: Vec<select::GroupKind> = Vec::new();
+    let (mut degree, mut cols) = (vec![0; n], vec![0; n]);
+    for (k, ([i, j], _)) in cands.iter().enumerate() {
         degree[*i] += 1;
         degree[*j] += 1;
+        let anchored = fixed[*i] || fixed[*j];
+        let moving = if fixed[*i] { *j } else { *i };
+        let damper = !anchored || to_fixed[moving].is_some_and(|(_, b)| b == k);
+        for g in kinds.groups(anchored, damper) {
+            pairs.push([*i, *j]);
+            group_kinds.push(g);
+            cols[*i] += g.width();
+            cols[*j] += g.width();
+        }
     }
-    check_candidates(row_frames, accel.is_some(), &degree, &free, radius, place)?;
-    let pairs: Vec<[usize; 2]> = cands.iter().map(|(p, _)| *p).collect();
+    check_candidates(
+        row_frames,
+        accel.is_some(),
+        (&degree, &cols),
+        &free,
+        radius,
+        place,
+    )?;
+    let kind_name = |p: usize| match group_kinds[p] {
+        select::GroupKind::Damper => "damper",
+        select::GroupKind::Spring if pairs[p].iter().any(|&i| fixed[i]) => "anchor",
+        select::GroupKind::Spring => "spring",
+    };
     if pairs.is_empty() {
         return Err(bad(
             "max_range",
@@ -343,7 +487,7 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
     }
 
     // Stages 2–3: local systems and selection.
-    let locals = select::build(traj, dt, &free, &pairs, accel.as_ref());
+    let locals = select::build(traj, dt, &free, &pairs, &group_kinds, accel.as_ref());
     // The least residual variance per row: rounding, or the position noise carried into the
     // accelerations (σ² Σg²/dt⁴): a pair is then tested against the noise the data are
     // known to carry, not against a residual it may have fitted.
@@ -408,6 +552,25 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
 
     // Stage 4: masses.
     let mut undetermined = Vec::new();
+    for &p in &kept {
+        let [i, j] = pairs[p];
+        let moving = if fixed[i] { j } else { i };
+        if group_kinds[p] == select::GroupKind::Damper
+            && (fixed[i] || fixed[j])
+            && fixed_choices[moving] > 1
+        {
+            undetermined.push(Undetermined {
+                what: "links".into(),
+                particles: vec![moving],
+                links: vec![pairs[p]],
+                why: format!(
+                    "a damper from a moving particle to a fixed one pulls -Z v whichever fixed \
+                     particle it ends on: the end is one of the {} fixed candidates",
+                    fixed_choices[moving]
+                ),
+            });
+        }
+    }
     let mut mass_groups: Vec<Vec<usize>> = Vec::new();
     let masses = match &opt.masses {
         Some(ms) => ms.clone(),
@@ -437,12 +600,13 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
     // Per-link θ (inverse-variance mean of its ends' estimates) and gravity.
     let mut estimates = Vec::with_capacity(kept.len());
     for &p in &kept {
+        let width = group_kinds[p].width();
         let (mut sw, mut swx) = (Vector3::zeros(), Vector3::zeros());
         for &(l, q) in &at[p] {
             let m = masses[locals[l].particle];
             let f = &sel.fits[l];
             let b = f.beta[q] * m;
-            for c in 0..3 {
+            for c in 0..width {
                 let var = (f.cov[q][(c, c)] * m * m)
                     .max((1e-13 * b[c]).powi(2))
                     .max(1e-300);
@@ -452,6 +616,13 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
         }
         let th = swx.component_div(&sw);
         let var = sw.map(|w| 1.0 / w);
+        if group_kinds[p] == select::GroupKind::Damper {
+            estimates.push(Estimate {
+                value: [0.0, 0.0, th[0]],
+                se: [0.0, 0.0, var[0].sqrt()],
+            });
+            continue;
+        }
         let k = th[0];
         let l0 = th[1] / k;
         estimates.push(Estimate {
@@ -491,9 +662,25 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
     drop(at);
     sel.fits = Vec::new();
 
-    // Stage 5: types.
-    let cl = cluster::cluster(&estimates, opt.type_tolerance);
-    let z_floor = estimates.iter().map(|e| e.value[2].abs()).sum::<f64>() / estimates.len() as f64;
+    // Stage 5: types, springs (and anchors) and dampers apart.
+    let is_damper = |e: usize| group_kinds[kept[e]] == select::GroupKind::Damper;
+    let springs: Vec<usize> = (0..kept.len()).filter(|&e| !is_damper(e)).collect();
+    let dampers: Vec<usize> = (0..kept.len()).filter(|&e| is_damper(e)).collect();
+    let pick = |of: &[usize]| of.iter().map(|&e| estimates[e]).collect::<Vec<_>>();
+    let cl = cluster::cluster(&pick(&springs), opt.type_tolerance);
+    let cl_damper = cluster::cluster(&pick(&dampers), opt.type_tolerance);
+    let mut type_of = vec![String::new(); kept.len()];
+    for (s, &e) in springs.iter().enumerate() {
+        type_of[e] = format!("t{}", cl.of[s]);
+    }
+    for (s, &e) in dampers.iter().enumerate() {
+        type_of[e] = format!("d{}", cl_damper.of[s]);
+    }
+    let z_floor = springs
+        .iter()
+        .map(|&e| estimates[e].value[2].abs())
+        .sum::<f64>()
+        / springs.len().max(1) as f64;
 
     // Stage 6: the scene, refitted at catalogue level by the exact solver.
     let mut scene = Scene::new(dt);
@@ -567,8 +754,14 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
                 ),
         );
     }
+    for (t, c) in cl_damper.centres.iter().enumerate() {
+        scene.add_type(
+            LinkType::new(format!("d{t}"), LinkKind::Damper)
+                .with("damping", width(c.value[2], z_typ)),
+        );
+    }
     for (e, &p) in kept.iter().enumerate() {
-        scene.add_link(&format!("t{}", cl.of[e]), &pairs[p]);
+        scene.add_link(&type_of[e], &pairs[p]);
     }
     scene.validate()?;
     let traj_dt = traj.clone().with_dt(dt);
@@ -576,13 +769,13 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
     if opt.masses.is_none() {
         problem = problem.with_total_mass(opt.total_mass.unwrap_or(1.0))?;
     }
-    let refit = if cl.centres.len() <= MAX_REFIT_TYPES {
+    let refit = if cl.centres.len() + cl_damper.centres.len() <= MAX_REFIT_TYPES {
         least_squares::solve(&problem)
     } else {
         Err(format!(
             "{} types: above {MAX_REFIT_TYPES}, the links are unlikely to be springs of a few \
              types (other link kinds?)",
-            cl.centres.len()
+            cl.centres.len() + cl_damper.centres.len()
         ))
     };
     let (final_scene, cost, solver) = match refit {
@@ -624,7 +817,8 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
             let est = &estimates[e];
             LinkScore {
                 particles: pairs[p],
-                type_name: format!("t{}", cl.of[e]),
+                kind: kind_name(p),
+                type_name: type_of[e].clone(),
                 stiffness: est.value[0],
                 rest_length: est.value[1],
                 damping: est.value[2],
@@ -640,6 +834,7 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
         .filter(|&p| !sel.active[p])
         .map(|p| NearMiss {
             particles: pairs[p],
+            kind: kind_name(p),
             score: sel.score[p],
             threshold: sel.threshold[p],
         })
@@ -647,18 +842,20 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
     near.sort_by(|a, b| (b.score / b.threshold).total_cmp(&(a.score / a.threshold)));
     near.truncate(20);
     notes.push(format!(
-        "{} candidate pairs within {radius:.6} m, {} links kept after {} rounds, {} types",
+        "{} candidate pairs within {radius:.6} m ({} candidate links), {} links kept after {} \
+         rounds, {} types",
+        cands.len(),
         pairs.len(),
         kept.len(),
         sel.rounds,
-        cl.centres.len()
+        cl.centres.len() + cl_damper.centres.len()
     ));
     Ok(Discovery {
         scene: final_scene,
         links,
         near_misses: near,
         radius,
-        candidates: pairs.len(),
+        candidates: cands.len(),
         rounds: sel.rounds,
         cost,
         rmse,
@@ -773,7 +970,7 @@ pub fn estimate_noise_level(traj: &Trajectory) -> (f64, String) {
 fn check_candidates(
     row_frames: usize,
     noisy: bool,
-    degree: &[usize],
+    (degree, cols): (&[usize], &[usize]),
     free: &[bool],
     radius: f64,
     place: &str,
@@ -781,9 +978,9 @@ fn check_candidates(
     let rows = 3 * row_frames;
     let worst = (0..degree.len())
         .filter(|&i| free[i])
-        .max_by_key(|&i| (degree[i], std::cmp::Reverse(i)));
+        .max_by_key(|&i| (cols[i], std::cmp::Reverse(i)));
     if let Some(i) = worst {
-        let unknowns = select::columns(degree[i]) - 1;
+        let unknowns = select::columns(cols[i]) - 1;
         if unknowns >= rows {
             return Err(bad(
                 place,
@@ -793,13 +990,13 @@ fn check_candidates(
                      frames or a smaller max range",
                     degree[i],
                     row_frames + 2,
-                    degree[i] + 4,
+                    unknowns / 3 + 3,
                 ),
             ));
         }
     }
     let bytes = select::memory_bytes(
-        degree,
+        cols,
         free,
         rayon::current_num_threads(),
         3 * row_frames,

@@ -13,7 +13,12 @@
 //! triangular factor per particle (size 3 + 3·pairs + 1), so memory and time are linear in the
 //! number of candidate pairs and every subset of pairs is solved from the factor alone.
 //!
-//! **Selection**: the three unknowns of a pair enter or leave together. For each active pair,
+//! A candidate is a *group*: a pair with a kind. A damper group (`F_i = Z (v_j − v_i)`) has
+//! one unknown `Z/m_i` and the vector feature `v_j − v_i`; a pair may carry both groups, so
+//! the factor's size is 3 + Σ widths + 1.
+//!
+//! **Selection**: the unknowns of a group enter or leave together (three for a spring, one for
+//! a damper; the BIC threshold is `ln n` per unknown). For each active pair,
 //! its group Wald statistic `W = βᵀ C⁻¹ β / σ²` in each free end's fit (the cost increase when
 //! the pair is removed, relative to the noise floor σ² estimated from that fit's residual)
 //! is summed over its free ends. Pairs below the threshold (BIC: `3 ln n` per equation, n the
@@ -28,11 +33,34 @@ use rayon::prelude::*;
 use super::smooth::Accelerations;
 use crate::linalg::givens::Factor;
 
-/// One free particle's factor: columns `[1x, 1y, 1z, pair 0 (K, K·l0, Z), pair 1, …, a]`.
+/// What a candidate group stands for: a spring-like link (`(K, K·l0, Z)`, three columns:
+/// kind `spring`, or an anchor when one end is fixed) or an isotropic damper (kind `damper`,
+/// `F_i = Z (v_j − v_i)`: one column, the relative velocity vector).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GroupKind {
+    Spring,
+    Damper,
+}
+
+impl GroupKind {
+    /// Unknowns of the group in one end's equation.
+    pub const fn width(self) -> usize {
+        match self {
+            GroupKind::Spring => 3,
+            GroupKind::Damper => 1,
+        }
+    }
+}
+
+/// One free particle's factor: columns `[1x, 1y, 1z, group 0, group 1, …, a]`, a spring
+/// group's three columns `(K, K·l0, Z)`, a damper's one.
 pub struct Local {
     pub particle: usize,
-    /// Indices into the candidate list, in column order.
+    /// Indices into the candidate list (groups), in column order.
     pub pairs: Vec<usize>,
+    /// Per local group: its first column and its kind.
+    pub offsets: Vec<usize>,
+    pub kinds: Vec<GroupKind>,
     pub factor: DMatrix<f64>,
     /// Rows of the equation (3 per interior frame).
     pub rows: usize,
@@ -74,9 +102,10 @@ impl Noise {
 /// A particle's fit on its active pairs.
 #[derive(Clone, Debug, Default)]
 pub struct Fit {
-    /// Per local pair: `θ_p / m_i` (zeros for inactive pairs).
+    /// Per local group: `θ_p / m_i` (zeros for inactive groups; a damper's `Z/m` in the first
+    /// component, the others 0).
     pub beta: Vec<Vector3<f64>>,
-    /// Per local pair: covariance of `beta` (σ² included).
+    /// Per local group: covariance of `beta` (σ² included; a damper's in the first entry).
     pub cov: Vec<Matrix3<f64>>,
     /// Per local pair: Wald statistic (0 for inactive pairs).
     pub wald: Vec<f64>,
@@ -98,14 +127,20 @@ fn features(traj: &Trajectory, dt: f64, t: usize, i: usize, j: usize) -> [Vec3; 
     [u * l, -u, u * v.dot(&u)]
 }
 
-/// Columns of the factor of a particle with `degree` candidate pairs: three intercepts, three
-/// per pair, the right-hand side.
-pub fn columns(degree: usize) -> usize {
-    3 + 3 * degree + 1
+/// The damper's feature of pair `[i, j]` seen from `i` at frame t: the relative velocity
+/// `v_j − v_i` (the scheme's backward difference), m/s.
+fn damper_feature(traj: &Trajectory, dt: f64, t: usize, i: usize, j: usize) -> Vec3 {
+    (traj.pos(t, j) - traj.pos(t - 1, j) - traj.pos(t, i) + traj.pos(t - 1, i)) / dt
+}
+
+/// Columns of the factor of a particle whose candidate groups have `group_columns` columns in
+/// all: three intercepts, the groups', the right-hand side.
+pub fn columns(group_columns: usize) -> usize {
+    3 + group_columns + 1
 }
 
 /// Bytes the selection holds, estimated before building: each free particle's factor (8 k²,
-/// k its [`columns`]) and fit (~110 bytes per pair), and per thread the transient of one build
+/// k its [`columns`] from `group_columns`, its groups' columns) and fit (~110 bytes per pair), and per thread the transient of one build
 /// or fit (~7 k² of the largest: the Givens factor and its copy, the equilibrated matrix, the
 /// SVD's U and Vᵀ, the covariance factor).
 ///
@@ -113,7 +148,7 @@ pub fn columns(degree: usize) -> usize {
 /// noise's covariance terms) and each thread holds the rows of one particle three times
 /// (`3 · rows · k`).
 pub fn memory_bytes(
-    degree: &[usize],
+    group_columns: &[usize],
     free: &[bool],
     threads: usize,
     rows: usize,
@@ -121,9 +156,9 @@ pub fn memory_bytes(
 ) -> f64 {
     let (mut held, mut largest) = (0.0, 0.0f64);
     let copies = if noisy { 3.0 } else { 1.0 };
-    for (&d, _) in degree.iter().zip(free).filter(|(_, &f)| f) {
+    for (&d, _) in group_columns.iter().zip(free).filter(|(_, &f)| f) {
         let k = columns(d) as f64;
-        held += copies * 8.0 * k * k + 110.0 * d as f64;
+        held += copies * 8.0 * k * k + 40.0 * d as f64;
         largest = largest.max(k);
     }
     let rows_bytes = if noisy {
@@ -168,6 +203,7 @@ pub fn build(
     dt: f64,
     free: &[bool],
     pairs: &[[usize; 2]],
+    kinds: &[GroupKind],
     accel: Option<&Accelerations>,
 ) -> Vec<Local> {
     let n = traj.particles();
@@ -184,7 +220,14 @@ pub fn build(
         .filter(|&i| free[i])
         .map(|i| {
             let local = incident[i].clone();
-            let k = columns(local.len());
+            let local_kinds: Vec<GroupKind> = local.iter().map(|&p| kinds[p]).collect();
+            let mut offsets = Vec::with_capacity(local.len());
+            let mut at = 3;
+            for kind in &local_kinds {
+                offsets.push(at);
+                at += kind.width();
+            }
+            let k = columns(at - 3);
             let mut f = Factor::new(k);
             let mut rows = vec![[0.0; 3]; k];
             let mut row = vec![0.0; k];
@@ -204,10 +247,33 @@ pub fn build(
                 for (q, &p) in local.iter().enumerate() {
                     let [pa, pb] = pairs[p];
                     let other = if pa == i { pb } else { pa };
-                    let fe = features(traj, dt, t, i, other);
-                    for c in 0..3 {
-                        for ax in 0..3 {
-                            rows[3 + 3 * q + c][ax] = fe[c][ax];
+                    let o = offsets[q];
+                    match local_kinds[q] {
+                        GroupKind::Spring => {
+                            let fe = features(traj, dt, t, i, other);
+                            for c in 0..3 {
+                                for ax in 0..3 {
+                                    rows[o + c][ax] = fe[c][ax];
+                                }
+                            }
+                        }
+                        GroupKind::Damper => {
+                            // Noisy positions: velocities uncorrelated with the error (see
+                            // [`super::smooth::velocity_kernel_uncorrelated`]); a fixed end's 0.
+                            let w = match accel {
+                                Some(acc) => {
+                                    let vj = if free[other] {
+                                        acc.velocity(t, other)
+                                    } else {
+                                        Vec3::zeros()
+                                    };
+                                    vj - acc.velocity(t, i)
+                                }
+                                None => damper_feature(traj, dt, t, i, other),
+                            };
+                            for ax in 0..3 {
+                                rows[o][ax] = w[ax];
+                            }
                         }
                     }
                 }
@@ -237,6 +303,8 @@ pub fn build(
             Local {
                 particle: i,
                 pairs: local,
+                offsets,
+                kinds: local_kinds,
                 factor: f.matrix(),
                 rows: n_rows,
                 meat,
@@ -338,7 +406,7 @@ pub fn fit(
 ) -> Fit {
     let m = local.pairs.len();
     let k = local.factor.ncols() - 1;
-    let pair_cols = |q: usize| [3 + 3 * q, 4 + 3 * q, 5 + 3 * q];
+    let pair_cols = |q: usize| local.offsets[q]..local.offsets[q] + local.kinds[q].width();
     let base: Vec<usize> = if gravity.is_some() {
         Vec::new()
     } else {
@@ -373,11 +441,14 @@ pub fn fit(
             let g_inv = w * w.transpose();
             // The features' noise: each stiffness (per mass) times the smoothed noise of the
             // link's vector, the particle's own shared by all its pairs.
-            let ks: Vec<f64> = (0..m)
-                .filter(|&q| active[q])
-                .enumerate()
-                .map(|(e, _)| x[c0 + 3 * e])
-                .collect();
+            let mut ks: Vec<f64> = Vec::new();
+            let mut c = c0;
+            for q in (0..m).filter(|&q| active[q]) {
+                if local.kinds[q] == GroupKind::Spring {
+                    ks.push(x[c]);
+                }
+                c += local.kinds[q].width();
+            }
             let q_feat = ks.iter().map(|v| v.abs()).sum::<f64>().powi(2)
                 + ks.iter().map(|v| v * v).sum::<f64>();
             let dt4 = nz.dt.powi(4);
@@ -421,8 +492,15 @@ pub fn fit(
     };
     let mut c = c0;
     for q in (0..m).filter(|&q| active[q]) {
-        let b = Vector3::new(x[c], x[c + 1], x[c + 2]);
-        let cov: Matrix3<f64> = cov_all.fixed_view::<3, 3>(c, c).into_owned();
+        let width = local.kinds[q].width();
+        let mut b = Vector3::zeros();
+        let mut cov = Matrix3::zeros();
+        for a in 0..width {
+            b[a] = x[c + a];
+            for e in 0..width {
+                cov[(a, e)] = cov_all[(c + a, c + e)];
+            }
+        }
         let wald = if sol.deficient {
             let without: Vec<usize> = cols
                 .iter()
@@ -431,16 +509,28 @@ pub fn fit(
                 .collect();
             (solve(r, &without, &rhs).rss - sol.rss) / sigma2
         } else {
-            cov.try_inverse()
-                .map(|ci| (b.transpose() * ci * b)[0])
-                .unwrap_or(0.0)
+            group_wald(&b, &cov, width)
         };
         out.beta[q] = b;
         out.cov[q] = cov;
         out.wald[q] = if wald.is_finite() { wald.max(0.0) } else { 0.0 };
-        c += 3;
+        c += width;
     }
     out
+}
+
+/// `βᵀ C⁻¹ β` over a group's first `width` unknowns (0 when `C` is singular).
+fn group_wald(b: &Vector3<f64>, cov: &Matrix3<f64>, width: usize) -> f64 {
+    if width == 1 {
+        return if cov[(0, 0)] > 0.0 {
+            b[0] * b[0] / cov[(0, 0)]
+        } else {
+            0.0
+        };
+    }
+    cov.try_inverse()
+        .map(|ci| (b.transpose() * ci * b)[0])
+        .unwrap_or(0.0)
 }
 
 /// Gravity shared by every particle (m/s²) from the fits with intercepts of the first
@@ -460,7 +550,7 @@ pub fn shared_gravity(locals: &[Local], fits: &[Fit], active: &[bool]) -> Option
             let mut cols = Vec::new();
             for (q, &p) in loc.pairs.iter().enumerate() {
                 if active[p] {
-                    cols.extend([3 + 3 * q, 4 + 3 * q, 5 + 3 * q]);
+                    cols.extend(loc.offsets[q]..loc.offsets[q] + loc.kinds[q].width());
                 }
             }
             let residual = |target: usize| -> DVector<f64> {
@@ -583,10 +673,11 @@ pub fn select(
     // Where each pair sits: (local index, position in it).
     let mut seen: Vec<Vec<(usize, usize)>> = vec![Vec::new(); num_pairs];
     for (l, loc) in locals.iter().enumerate() {
-        let per = 3.0 * (loc.rows.max(2) as f64).ln() * threshold_scale;
+        // BIC: ln n per unknown of the group.
+        let per = (loc.rows.max(2) as f64).ln() * threshold_scale;
         for (q, &p) in loc.pairs.iter().enumerate() {
             seen[p].push((l, q));
-            threshold[p] += per;
+            threshold[p] += per * loc.kinds[q].width() as f64;
         }
     }
     let mut fits: Vec<Fit> = vec![Fit::default(); locals.len()];

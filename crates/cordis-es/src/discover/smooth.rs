@@ -95,6 +95,58 @@ pub fn acceleration_kernel_uncorrelated(h: usize) -> Option<Vec<f64>> {
     ok.then(|| g.iter().copied().collect())
 }
 
+/// The velocity kernel `k` (over `g`'s support, `g` the acceleration kernel of
+/// [`acceleration_kernel_uncorrelated`]) that a damper's feature reads from the raw positions:
+/// it has the moments 0–4 of the smoothed backward difference `S x(t) − S x(t−1)` (the
+/// scheme's velocity, with the smoothing's bias), and `Σ k_s c_s = Σ k_s c_{s+1} = Σ k_s g_s =
+/// 0`: no covariance with the smoothed positions at the frame and the one before (the spring
+/// features' noise, which stands in the equation's error) nor with the particle's own
+/// acceleration. Read from the smoothed positions instead, a damper's velocity shared the
+/// particle's own smoothed noise with the error, and spurious dampers were kept (issue 20:
+/// 9 % extra links at noise 1e-4). Of those kernels, the one of least noise `Σ k²`.
+pub fn velocity_kernel_uncorrelated(h: usize, g: &[f64]) -> Option<Vec<f64>> {
+    let n = g.len();
+    let reach = n / 2;
+    let c = weights(h);
+    // The smoothing at the frame (f) and the one before (f₋) on the support, and the smoothed
+    // backward difference f − f₋.
+    let (mut f, mut f_prev) = (DVector::zeros(n), DVector::zeros(n));
+    for (k, w) in c.iter().enumerate() {
+        f[reach - h + k] = *w;
+        f_prev[reach - h - 1 + k] = *w;
+    }
+    let diff = &f - &f_prev;
+    let moment =
+        |p: i32| -> DVector<f64> { DVector::from_fn(n, |j, _| (j as f64 - reach as f64).powi(p)) };
+    let mut rows: Vec<DVector<f64>> = (0..5).map(moment).collect();
+    let mut b: Vec<f64> = rows.iter().map(|r| r.dot(&diff)).collect();
+    rows.extend([f.clone(), f_prev.clone(), DVector::from_column_slice(g)]);
+    b.extend([0.0, 0.0, 0.0]);
+    let m = rows.len();
+    // KKT: [2 I  Cᵀ; C  0] [k; λ] = [0; b].
+    let mut kkt = DMatrix::zeros(n + m, n + m);
+    for j in 0..n {
+        kkt[(j, j)] = 2.0;
+    }
+    let mut rhs = DVector::zeros(n + m);
+    for (r, (row, v)) in rows.iter().zip(&b).enumerate() {
+        for j in 0..n {
+            kkt[(n + r, j)] = row[j];
+            kkt[(j, n + r)] = row[j];
+        }
+        rhs[n + r] = *v;
+    }
+    let sol = kkt.lu().solve(&rhs)?;
+    let k: Vec<f64> = sol.rows(0, n).iter().copied().collect();
+    let norm = k.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let dot = |a: &DVector<f64>| a.iter().zip(&k).map(|(x, y)| x * y).sum::<f64>();
+    let ok = k.iter().all(|v| v.is_finite())
+        && dot(&f).abs() < 1e-9 * norm
+        && dot(&f_prev).abs() < 1e-9 * norm
+        && g.iter().zip(&k).map(|(x, y)| x * y).sum::<f64>().abs() < 1e-9 * norm;
+    ok.then_some(k)
+}
+
 /// Accelerations read from the raw positions by [`acceleration_kernel_uncorrelated`], at the
 /// frames of a trajectory smoothed with half-width `h` (its frame t is raw frame t + h).
 pub struct Accelerations {
@@ -103,6 +155,8 @@ pub struct Accelerations {
     pub last: usize,
     /// Per such frame and particle (`(t - first) · particles + i`), m/s².
     values: Vec<Vec3>,
+    /// The same frames' velocities by [`velocity_kernel_uncorrelated`], m/s (dampers' features).
+    velocities: Vec<Vec3>,
     particles: usize,
     /// `Σ g²`: a coordinate's acceleration noise has variance `σ² gain / dt⁴` for white
     /// position noise σ.
@@ -126,10 +180,16 @@ impl Accelerations {
         self.values[(t - self.first) * self.particles + i]
     }
 
+    /// Particle `i`'s velocity at smoothed frame `t` (in `first..last`), m/s.
+    pub fn velocity(&self, t: usize, i: usize) -> Vec3 {
+        self.velocities[(t - self.first) * self.particles + i]
+    }
+
     /// From the raw trajectory for a smoothing of half-width `h` (`None` when the trajectory
     /// leaves fewer than 4 frames or the kernel is singular).
     pub fn new(raw: &Trajectory, h: usize, dt: f64) -> Option<Accelerations> {
         let g = acceleration_kernel_uncorrelated(h)?;
+        let kv = velocity_kernel_uncorrelated(h, &g)?;
         let reach = g.len() / 2;
         let (frames, n) = (raw.frames(), raw.particles());
         // Smoothed frame t is raw t + h; the kernel reaches raw t + h ± reach.
@@ -141,20 +201,25 @@ impl Accelerations {
             return None;
         }
         let mut values = Vec::with_capacity((last - first) * n);
+        let mut velocities = Vec::with_capacity((last - first) * n);
         for t in first..last {
             let centre = t + h;
             for i in 0..n {
-                let mut a = Vec3::zeros();
-                for (k, w) in g.iter().enumerate() {
-                    a += raw.pos(centre + k - reach, i) * *w;
+                let (mut a, mut v) = (Vec3::zeros(), Vec3::zeros());
+                for (k, (w, u)) in g.iter().zip(&kv).enumerate() {
+                    let x = raw.pos(centre + k - reach, i);
+                    a += x * *w;
+                    v += x * *u;
                 }
                 values.push(a / (dt * dt));
+                velocities.push(v / dt);
             }
         }
         Some(Accelerations {
             first,
             last,
             values,
+            velocities,
             particles: n,
             gain: g.iter().map(|w| w * w).sum(),
             accel_autocorrelation: autocorrelation(&g),
@@ -217,6 +282,37 @@ pub fn smooth(traj: &Trajectory, fixed: &[bool], noise: f64) -> Option<(Trajecto
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The dampers' velocity kernel: the scheme's backward difference on cubics, and no
+    /// covariance with the smoothed positions at the frame and the one before, nor with the
+    /// acceleration kernel (the equation's error).
+    #[test]
+    fn the_velocity_kernel_is_the_backward_difference_on_cubics_and_uncorrelated() {
+        for h in HALF_WIDTHS {
+            let g = acceleration_kernel_uncorrelated(h).expect("acceleration kernel");
+            let k = velocity_kernel_uncorrelated(h, &g).expect("velocity kernel");
+            let reach = k.len() / 2;
+            let c = weights(h);
+            let norm = k.iter().map(|w| w * w).sum::<f64>().sqrt();
+            let with_c = |shift: usize| -> f64 {
+                c.iter()
+                    .enumerate()
+                    .map(|(j, w)| w * k[reach - h - shift + j])
+                    .sum()
+            };
+            let with_g: f64 = g.iter().zip(&k).map(|(a, b)| a * b).sum();
+            for v in [with_c(0), with_c(1), with_g] {
+                assert!(v.abs() < 1e-10 * norm, "h {h}: {v}");
+            }
+            let cubic = |t: f64| 0.3 - 2.0 * t + 0.7 * t * t - 0.05 * t * t * t;
+            let v: f64 = k
+                .iter()
+                .enumerate()
+                .map(|(j, w)| w * cubic(j as f64 - reach as f64))
+                .sum();
+            assert!((v - (cubic(0.0) - cubic(-1.0))).abs() < 1e-8, "h {h}: {v}");
+        }
+    }
 
     #[test]
     fn the_acceleration_kernel_is_uncorrelated_with_the_smoothing_and_exact_on_quartics() {
