@@ -385,8 +385,8 @@ impl Prepared {
         })
     }
 
-    /// A stuck fit (a wrong basin) restarts from [`start::restart_genome`] while restarts are
-    /// left and the restarts do not repeat one optimum; then it goes on from the stuck attempt
+    /// A stuck fit (a wrong basin) restarts from [`start::restart_genome`] and, for what the
+    /// takes do not see, [`start::restart_states`] while restarts are left and the restarts do not repeat one optimum; then it goes on from the stuck attempt
     /// with the smallest residuals, settled (no more stepping back).
     fn unstick(
         &self,
@@ -413,8 +413,20 @@ impl Prepared {
         if progress.restarts < MAX_RESTARTS && !repeated {
             progress.best_stuck = Some(best);
             progress.restarts += 1;
+            let stuck_states = q[space.dim()..].to_vec();
             *q = start::restart_genome(&self.scene, space, &self.takes[0], progress.restarts);
-            q.extend_from_slice(&progress.states0);
+            let len = fitter.state_len();
+            for (k, take) in self.takes.iter().enumerate() {
+                let span = k * len..(k + 1) * len;
+                q.extend(start::restart_states(
+                    &self.scene,
+                    &self.tangent.free,
+                    take,
+                    &progress.states0[span.clone()],
+                    &stuck_states[span],
+                    (progress.restarts, k),
+                ));
+            }
             fitter.project(q);
             progress.schedule = self.schedule(&fitter, progress.restarts);
             return Ok(After::Stage);
