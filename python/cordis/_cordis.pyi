@@ -840,8 +840,8 @@ def discover(
     """Proposes a network of springs, anchors and dampers (links with their ``kind``, masses,
     gravity, types) from positions alone (GIL released). Give ``total_mass`` (kg, moving
     particles) or every particle's ``masses``. ``kinds``: the link kinds looked for, of
-    ``"spring"``, ``"anchor"`` (to a fixed particle), ``"damper"`` (isotropic); default all three
-    on noiseless data, spring and anchor on noisy data; an unknown name raises ``ValueError``.
+    ``"spring"``, ``"anchor"`` (to a fixed particle), ``"damper"`` (isotropic); default all three; an
+    unknown name raises ``ValueError``.
 
     >>> res = cordis.discover(traj, truth.dt, total_mass=12.3)  # doctest: +SKIP
     """

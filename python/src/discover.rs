@@ -97,8 +97,8 @@ fn to_py(py: Python<'_>, d: Discovery) -> PyResult<DiscoverResult> {
 /// `threshold_scale` multiplies the selection threshold; `type_tolerance` is the relative
 /// tolerance under which two links are of one type; `gravity` (m/s², `[x, y, z]`) when known,
 /// else it is estimated; `kinds` (e.g. `["spring", "damper"]`) the link kinds looked for
-/// (`spring`, `anchor`: to a fixed particle, `damper`: isotropic; default all three on noiseless
-/// data, spring and anchor on noisy data; an unknown name is a `ValueError`). Each link's `kind` is in `res.links`. `res.undetermined` names what the data cannot decide (also raised as
+/// (`spring`, `anchor`: to a fixed particle, `damper`: isotropic; default all three; an unknown
+/// name is a `ValueError`). Each link's `kind` is in `res.links`. `res.undetermined` names what the data cannot decide (also raised as
 /// warnings). See docs/discover.md.
 ///
 /// >>> truth = cordis.random_network(1, 12, 3)

@@ -67,3 +67,19 @@ def test_discover_estimates_the_noise_and_warns_when_the_data_look_noisy():
     assert res.noise_level == pytest.approx(sigma, rel=0.1)
     given = cordis.discover(noisy, truth.dt, total_mass=total, noise_level=sigma)
     assert not given.noise_estimated and given.noise_level == sigma
+
+
+def test_discover_reports_each_links_kind_and_takes_the_kinds_to_look_for():
+    # random_network: particle 0 fixed, so links to it are anchors.
+    truth = cordis.random_network(2, 14, 4)
+    traj = truth.simulate(300)
+    d = truth.to_dict()
+    total = sum(p["mass"] for p in d["particles"] if not p.get("fixed", False))
+    res = cordis.discover(traj, truth.dt, total_mass=total)
+    kinds = {l["kind"] for l in res.links}
+    assert kinds <= {"spring", "anchor", "damper"} and "spring" in kinds
+    only = cordis.discover(traj, truth.dt, total_mass=total, kinds=["spring", "anchor"])
+    assert all(l["kind"] != "damper" for l in only.links)
+    assert _pairs(only.scene) == _pairs(truth)
+    with pytest.raises(ValueError, match="dumper"):
+        cordis.discover(traj, truth.dt, total_mass=total, kinds=["spring", "dumper"])

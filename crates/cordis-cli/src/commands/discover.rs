@@ -47,8 +47,7 @@ pub struct Args {
     )]
     gravity: Option<Vec<f64>>,
     /// Link kinds to look for, comma-separated: spring (between moving particles), anchor (to a
-    /// fixed particle), damper (isotropic, F = Z (v_j - v_i)). Default: all three on noiseless
-    /// data, spring and anchor on noisy data.
+    /// fixed particle), damper (isotropic, F = Z (v_j - v_i)). Default: all three.
     #[arg(long, value_delimiter = ',', num_args = 1..)]
     kinds: Option<Vec<String>>,
     /// Where to write the proposed scene (JSON; stdout when absent).

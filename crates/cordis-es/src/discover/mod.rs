@@ -124,8 +124,7 @@ pub struct DiscoverOptions {
     pub type_tolerance: f64,
     /// Gravity, m/s², when known; estimated otherwise.
     pub gravity: Option<[f64; 3]>,
-    /// The link kinds looked for. `None`: all of [`Kinds::NAMES`] on noiseless data, springs
-    /// and anchors on noisy data (dampers under noise: `docs/discover.md`), with a note.
+    /// The link kinds looked for (`None`: all of [`Kinds::NAMES`]).
     pub kinds: Option<Kinds>,
 }
 
@@ -400,21 +399,7 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
         .map_or(traj.frames() - 2, |a: &smooth::Accelerations| {
             a.last - a.first
         });
-    let kinds = match opt.kinds {
-        Some(k) => k,
-        None if noise > 0.0 => {
-            notes.push(
-                "noisy positions: dampers not looked for (their test is not yet reliable under \
-                 noise: give --kinds spring,damper,anchor to look for them)"
-                    .into(),
-            );
-            Kinds {
-                damper: false,
-                ..Kinds::ALL
-            }
-        }
-        None => Kinds::ALL,
-    };
+    let kinds = opt.kinds.unwrap_or(Kinds::ALL);
     // Before storing any pair: each counted at the most columns a pair can take.
     let widest = kinds
         .groups(false, true)

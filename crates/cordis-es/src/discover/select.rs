@@ -511,9 +511,15 @@ pub fn fit(
         } else {
             group_wald(&b, &cov, width)
         };
+        // A damper dissipates: Z/m ≤ 0 is no damper, whatever its size (a one-sided test).
+        let dissipates = local.kinds[q] != GroupKind::Damper || b[0] > 0.0;
         out.beta[q] = b;
         out.cov[q] = cov;
-        out.wald[q] = if wald.is_finite() { wald.max(0.0) } else { 0.0 };
+        out.wald[q] = if wald.is_finite() && dissipates {
+            wald.max(0.0)
+        } else {
+            0.0
+        };
         c += width;
     }
     out
