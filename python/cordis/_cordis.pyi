@@ -694,6 +694,7 @@ def identify(
     param_gene: Optional[_PathLike] = None,
     descent_start: int = 400,
     descent_every: int = 100,
+    crossover: str = "mean",
     visible: Optional[Union[_ArrayLike, Sequence[_ArrayLike]]] = None,
     markers: Optional[Sequence[int]] = None,
     weights: Optional[Sequence[float]] = None,
@@ -717,8 +718,9 @@ def identify(
     ``--time-limit``), through the same session: the same checks, the same result.
     ``total_mass`` (kg) is needed when the free particles' masses are unknown; ``lock`` keeps
     unknowns at their start (a ``NAME.lock`` file or names); ``param_gene`` reads a thesis
-    ``Param.gene`` file; ``descent_start``/``descent_every`` set the thesis strategy's Powell
-    descent. ``threads`` beyond the machine's cores are capped, with a warning.
+    ``Param.gene`` file (its ``damping`` only as 0); ``descent_start``/``descent_every`` set
+    the thesis ES's Powell descent and ``crossover`` its crossover (``"mean"``: Annexe 1;
+    ``"n-parent"``, ``"mn-parent"``: §3.2). ``threads`` beyond the machine's cores are capped, with a warning.
 
     A strategy that cannot run on the problem is refused before any work (``RefusedError``, a
     ValueError naming why), an option out of range raises ``ArgumentError`` (a ValueError), a
@@ -731,7 +733,8 @@ def identify(
     that many thesis populations exchanging their ``migrants`` best every ``migrate_every``
     generations (deterministic given the seed and the island count).
 
-    ``strategy``: ``"auto"``, ``"thesis"``, ``"least-squares"``, ``"hybrid"``, ``"cmaes"``,
+    ``strategy``: ``"auto"``, ``"thesis"`` (the ES of thesis §3.2 and Annexe 1 as written),
+    ``"t2m"`` (the same ES with freer operators), ``"least-squares"``, ``"hybrid"``, ``"cmaes"``,
     ``"self-adaptive"``, ``"annealing"``, ``"parisian"``, ``"output-error"`` (the
     maximum-likelihood fit of simulated to observed positions) or ``"levenberg-marquardt"``
     (nonlinear least squares on the short cost's residuals; ``cost="short"`` only, residuals

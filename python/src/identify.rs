@@ -16,6 +16,7 @@ use cordis_es::report::{Report, SolverReport};
 use cordis_es::session::{Generations, IdentifyRequest, Lock, Outcome, Session, Style};
 use cordis_es::space::ParameterSpace;
 use cordis_es::strategies::islands::IslandConfig;
+use cordis_es::strategies::thesis::Crossover;
 use cordis_es::CostError;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2};
@@ -297,6 +298,7 @@ struct PyArgs<'py> {
     param_gene: Option<PathBuf>,
     descent_start: i64,
     descent_every: i64,
+    crossover: &'py str,
     visible: Option<Bound<'py, PyAny>>,
     markers: Option<Vec<i64>>,
     weights: Option<Vec<f64>>,
@@ -364,6 +366,7 @@ fn request(
     r.param_gene = a.param_gene;
     r.descent_start = count(a.descent_start, "descent_start")?;
     r.descent_every = count(a.descent_every, "descent_every")?;
+    r.crossover = Crossover::parse(a.crossover).map_err(|e| bad("crossover", e))?;
     r.truth = truth.map(|t| (*t.core()).clone());
     Ok(r)
 }
@@ -425,7 +428,7 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
 /// positions `traj` `(T, N, 3)`, m — what `cordis identify` does, with the GIL released, under
 /// the same option names (`time_limit` is `--time-limit`).
 ///
-/// - `strategy`: `auto`, `thesis`, `least-squares`, `hybrid`, `cmaes`, `self-adaptive`,
+/// - `strategy`: `auto`, `thesis`, `t2m`, `least-squares`, `hybrid`, `cmaes`, `self-adaptive`,
 ///   `annealing`, `parisian`, `levenberg-marquardt` or `output-error` (see
 ///   docs/identification.md; `auto` picks one from the scene and the data); `generations`
 ///   (None: no limit),
@@ -445,7 +448,9 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
 ///   time step.
 /// - `total_mass` (kg): the free particles' total, needed when their masses are unknown;
 ///   `lock`: unknowns kept at their start (a `NAME.lock` file or names); `param_gene`: a thesis
-///   `Param.gene` file; `descent_start`, `descent_every`: the thesis strategy's Powell descent.
+///   `Param.gene` file (`damping` only as 0); `descent_start`, `descent_every`: the thesis ES's
+///   Powell descent; `crossover`: its crossover, `"mean"` (Annexe 1), `"n-parent"` or
+///   `"mn-parent"` (§3.2).
 /// - `executor`: where populations are evaluated: None or `"local"`, `"ray"` (a
 ///   `cordis.RayExecutor()`: `pip install cordis-anima[ray]`), or an executor object whose
 ///   `evaluator(scene_json, traj, cost)` returns a callable `(genomes, generation, local) ->
@@ -487,8 +492,8 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
     max_evals = None, threads = None, truth = None, checkpoint = None, resume = None, dt = None,
     stable_horizon = None, stable_spread = cordis_es::stable::DEFAULT_SPREAD,
     executor = None, islands = None, migrate_every = 10, migrants = 2, total_mass = None,
-    lock = None, param_gene = None, descent_start = 400, descent_every = 100, visible = None,
-    markers = None, weights = None, loss = "squared"
+    lock = None, param_gene = None, descent_start = 400, descent_every = 100,
+    crossover = "mean", visible = None, markers = None, weights = None, loss = "squared"
 ))]
 #[pyo3(
     text_signature = "(scene, traj, strategy='auto', generations=1000, population=None, \
@@ -496,8 +501,8 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
     max_evals=None, threads=None, truth=None, checkpoint=None, resume=None, dt=None, \
     stable_horizon=None, stable_spread=2.0, \
     executor=None, islands=None, migrate_every=10, migrants=2, total_mass=None, lock=None, \
-    param_gene=None, descent_start=400, descent_every=100, visible=None, markers=None, \
-    weights=None, loss='squared')"
+    param_gene=None, descent_start=400, descent_every=100, crossover='mean', visible=None, \
+    markers=None, weights=None, loss='squared')"
 )]
 #[allow(clippy::too_many_arguments)]
 pub fn identify(
@@ -530,6 +535,7 @@ pub fn identify(
     param_gene: Option<PathBuf>,
     descent_start: i64,
     descent_every: i64,
+    crossover: &str,
     visible: Option<Bound<'_, PyAny>>,
     markers: Option<Vec<i64>>,
     weights: Option<Vec<f64>>,
@@ -559,6 +565,7 @@ pub fn identify(
         param_gene,
         descent_start,
         descent_every,
+        crossover,
         visible,
         markers,
         weights,

@@ -45,16 +45,21 @@ def same(a, b):
     assert a.params == b.params and a.cost == b.cost
 
 
-@pytest.mark.parametrize("strategy", ["thesis", "cmaes"])
+@pytest.mark.parametrize("strategy", ["thesis", "t2m", "cmaes"])
 def test_a_python_executor_gives_the_local_result(rigid, strategy):
     truth, traj, scene = rigid
     ex = Reversed()
     kw = dict(RUN, strategy=strategy, noise=1e-4)
     same(cordis.identify(scene, traj, **kw), cordis.identify(scene, traj, executor=ex, **kw))
-    assert len(ex.calls) == RUN["generations"] + 1, "one batch per generation"
-    # Only the thesis strategy asks for local costs (its crossover uses them).
-    assert all(local == (strategy == "thesis") for _, _, local in ex.calls)
-    assert [g for _, g, _ in ex.calls] == list(range(RUN["generations"] + 1))
+    gens = [g for _, g, _ in ex.calls]
+    if strategy == "thesis":
+        # The text's ES may draw no child in a generation of 16 (then no batch).
+        assert gens[0] == 0 and gens == sorted(set(gens)) and gens[-1] <= RUN["generations"]
+    else:
+        assert len(ex.calls) == RUN["generations"] + 1, "one batch per generation"
+        assert gens == list(range(RUN["generations"] + 1))
+    # Only the thesis ES asks for local costs (its crossover uses them).
+    assert all(local == (strategy in ("thesis", "t2m")) for _, _, local in ex.calls)
 
 
 def test_population_evaluator_matches_objective(rigid):

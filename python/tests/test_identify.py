@@ -23,7 +23,7 @@ def rigid():
 def run500(rigid):
     truth, traj, scene = rigid
     seen = []
-    res = cordis.identify(scene, traj, strategy="thesis", generations=500, seed=0, truth=truth,
+    res = cordis.identify(scene, traj, strategy="t2m", generations=500, seed=0, truth=truth,
                           callback=lambda g, c, p: seen.append((g, c, p)))
     return res, seen
 
@@ -48,7 +48,7 @@ def test_reaches_the_truth_after_the_descent(run500):
 def test_result_fields(run500, rigid):
     truth, traj, scene = rigid
     res, _ = run500
-    assert res.strategy == "thesis" and res.stopped_by == "generations"
+    assert res.strategy == "t2m" and res.stopped_by == "generations"
     assert res.generations == 500 and res.evals > 500 * 50 and res.seconds > 0
     assert not res.scene.has_unknowns
     assert res.scene.num_particles == truth.num_particles
@@ -59,7 +59,7 @@ def test_result_fields(run500, rigid):
     assert report.total == pytest.approx(res.cost, rel=1e-9, abs=1e-30)
     assert res.rmse == pytest.approx(np.sqrt(res.cost / report.terms), rel=1e-12)
     text = repr(res)
-    assert "IdentifyResult(strategy='thesis'" in text and "types.brace.stiffness" in text
+    assert "IdentifyResult(strategy='t2m'" in text and "types.brace.stiffness" in text
     assert "# truth" in text
 
 

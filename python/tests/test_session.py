@@ -13,7 +13,7 @@ import pytest
 
 import cordis
 
-STRATEGIES = ["auto", "thesis", "least-squares", "hybrid", "cmaes", "self-adaptive",
+STRATEGIES = ["auto", "thesis", "t2m", "least-squares", "hybrid", "cmaes", "self-adaptive",
               "annealing", "parisian", "levenberg-marquardt", "output-error"]
 
 
@@ -141,6 +141,16 @@ def test_the_report_and_lock_reach_python(rigid, tmp_path):
     g = cordis.identify(scene, traj, strategy="thesis", generations=3, param_gene=gene,
                         descent_start=2, descent_every=1)
     assert g.history[0, 1] == 12 and g.generations == 3
+    # Param.gene's `damping`: the thesis' 0 is accepted, another value refused by name.
+    gene.write_text("population=12\ndamping=0\n")
+    g = cordis.identify(scene, traj, strategy="thesis", generations=2, param_gene=gene,
+                        crossover="n-parent")
+    assert g.generations == 2
+    gene.write_text("population=12\ndamping=0.5\n")
+    with pytest.raises(ValueError, match=r"Param.gene:2: damping=0.5: not supported"):
+        cordis.identify(scene, traj, strategy="thesis", generations=2, param_gene=gene)
+    with pytest.raises(ValueError, match="crossover: unknown crossover `uniform`"):
+        cordis.identify(scene, traj, strategy="thesis", generations=2, crossover="uniform")
 
 
 def test_import_star_works_without_ray(tmp_path):

@@ -43,7 +43,7 @@ use serde_json::{json, Value};
 
 /// Every strategy but `auto` (which only picks one of these).
 const STRATEGIES: &str =
-    "thesis,self-adaptive,parisian,annealing,cmaes,least-squares,hybrid,levenberg-marquardt";
+    "thesis,t2m,self-adaptive,parisian,annealing,cmaes,least-squares,hybrid,levenberg-marquardt";
 
 #[derive(clap::Args, Debug)]
 pub struct Args {

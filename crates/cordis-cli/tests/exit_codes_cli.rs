@@ -84,6 +84,8 @@ fn an_unbounded_input_exits_1_with_the_limit_and_bad_content_exits_2() {
     std::fs::write(d.join("bad.csv"), "frame,particle,x,y,z\n0,0,1,2\n").unwrap();
     std::fs::write(d.join("cp.json"), "garbage").unwrap();
     std::fs::write(d.join("p.gene"), "population = -3\n").unwrap();
+    // Param.gene's `damping` is read by no strategy: any value but the thesis' 0 is refused.
+    std::fs::write(d.join("d.gene"), "pcross=15\ndamping = 0.2\n").unwrap();
     for (args, says) in [
         (&["check", "bad.json"][..], "duplicate key `dt`"),
         (&["cost", "r.json", "-t", "bad.csv"], "bad.csv"),
@@ -135,6 +137,32 @@ fn an_unbounded_input_exits_1_with_the_limit_and_bad_content_exits_2() {
                 "o.json",
             ],
             "p.gene",
+        ),
+        (
+            &[
+                "identify",
+                "u.json",
+                "-t",
+                "r.csv",
+                "--param-gene",
+                "d.gene",
+                "-o",
+                "o.json",
+            ],
+            "d.gene:2: damping=0.2: not supported",
+        ),
+        (
+            &[
+                "identify",
+                "u.json",
+                "-t",
+                "r.csv",
+                "--crossover",
+                "uniform",
+                "-o",
+                "o.json",
+            ],
+            "--crossover: unknown crossover `uniform` (expected one of: mean, n-parent, mn-parent)",
         ),
         (&["simulate", "r.json", "--frames", "x"], "--frames"),
     ] {

@@ -18,7 +18,7 @@ use crate::strategies::levenberg_marquardt::{self, LevenbergMarquardt, LmConfig}
 use crate::strategies::output_error::OutputError;
 use crate::strategies::parisian::{Parisian, ParisianConfig};
 use crate::strategies::self_adaptive::{SelfAdaptive, SelfAdaptiveConfig};
-use crate::strategies::thesis::{Thesis, ThesisConfig};
+use crate::strategies::thesis::{Crossover, Thesis, ThesisConfig};
 use crate::strategies::{self, hybrid, least_squares};
 
 pub use crate::strategies::registry::StrategyName;
@@ -32,6 +32,8 @@ pub struct StrategyOptions {
     /// Thesis strategy: Powell's descent from this generation, every `descent_every`.
     pub descent_start: u64,
     pub descent_every: u64,
+    /// `thesis` and `t2m`: the crossover (Annexe 1's mean, or §3.2's n- or m·n-parent).
+    pub crossover: Crossover,
     /// The output-error fit's loss on each residual.
     pub loss: output_error::Loss,
 }
@@ -44,6 +46,7 @@ impl Default for StrategyOptions {
             gene: None,
             descent_start: t.descent_start,
             descent_every: t.descent_every,
+            crossover: t.crossover,
             loss: output_error::Loss::Squared,
         }
     }
@@ -70,7 +73,7 @@ pub fn make_strategy(
             Ok(()) if exact::split(problem).nonlinear.is_empty() => StrategyName::LeastSquares,
             Ok(()) => StrategyName::Hybrid,
             Err(_) if smooth_short_cost(problem) => StrategyName::LevenbergMarquardt,
-            Err(_) => StrategyName::Thesis,
+            Err(_) => StrategyName::T2m,
         },
         other => other,
     };
@@ -83,19 +86,24 @@ pub fn make_strategy(
             (Box::new(strategy), name.name())
         }
         StrategyName::Hybrid => (Box::new(hybrid::strategy()), name.name()),
-        StrategyName::Auto | StrategyName::Thesis => {
+        StrategyName::Thesis | StrategyName::T2m | StrategyName::Auto => {
+            let (base, name) = match name {
+                StrategyName::T2m => (ThesisConfig::t2m(), StrategyName::T2m),
+                _ => (ThesisConfig::thesis(), StrategyName::Thesis),
+            };
             let mut c = ThesisConfig {
                 population: options.population,
                 descent_start: options.descent_start,
                 descent_every: options.descent_every,
-                ..ThesisConfig::default()
+                crossover: options.crossover,
+                ..base
             };
             if let Some(g) = &options.gene {
                 c.pcross = g.pcross.unwrap_or(c.pcross);
                 c.pmut = g.pmut.unwrap_or(c.pmut);
                 c.reducer = g.reducer.unwrap_or(c.reducer);
             }
-            (Box::new(Thesis::new(c)), StrategyName::Thesis.name())
+            (Box::new(Thesis::new(c)), name.name())
         }
         // `population` is λ (the initial λ for cmaes, the number of chains for annealing, the
         // total over the sub-populations for parisian).
@@ -215,7 +223,7 @@ fn smooth_short_cost(problem: &Problem) -> bool {
 
 /// `config.islands` copies of the named strategy run as an island model
 /// ([`Islands`]), each with `options.population` individuals; errors when that strategy
-/// cannot exchange individuals. `auto` means the thesis ES here: islands are populations
+/// cannot exchange individuals. `auto` means the `t2m` ES here: islands are populations
 /// exchanging individuals, and what `auto` picks otherwise (an exact solver, one
 /// levenberg-marquardt point) has none. Returns the strategy with the name of what each
 /// island runs.
@@ -226,7 +234,7 @@ pub fn make_islands(
     config: IslandConfig,
 ) -> Result<(Box<dyn Strategy>, &'static str), CostError> {
     let name = match name {
-        StrategyName::Auto => StrategyName::Thesis,
+        StrategyName::Auto => StrategyName::T2m,
         other => other,
     };
     let mut ran = "islands";

@@ -31,6 +31,7 @@ use crate::report::Report;
 use crate::stable::StableHorizon;
 use crate::strategies::exact;
 use crate::strategies::islands::IslandConfig;
+use crate::strategies::thesis::Crossover;
 use crate::strategy::Strategy;
 use crate::CostError;
 
@@ -102,11 +103,14 @@ pub struct IdentifyRequest {
     pub strategy: StrategyName,
     /// Population (λ, chains, …); `None`: the `Param.gene` file's, else [`DEFAULT_POPULATION`].
     pub population: Option<usize>,
-    /// A thesis `Param.gene` file (population, pcross, pmut, reducer, generation, noise).
+    /// A thesis `Param.gene` file (population, pcross, pmut, reducer, generation, noise;
+    /// `damping` only as 0).
     pub param_gene: Option<PathBuf>,
     /// Thesis strategy: first generation of Powell's descent, and generations between two.
     pub descent_start: u64,
     pub descent_every: u64,
+    /// `thesis` and `t2m`: the crossover (Annexe 1's mean, or §3.2's n- or m·n-parent).
+    pub crossover: Crossover,
     /// An island model of the strategy, when given.
     pub islands: Option<IslandConfig>,
     /// Cost kind.
@@ -169,6 +173,7 @@ impl IdentifyRequest {
             param_gene: None,
             descent_start: defaults.descent_start,
             descent_every: defaults.descent_every,
+            crossover: defaults.crossover,
             islands: None,
             cost: CostKind::Short,
             generations: Generations::Default,
@@ -251,6 +256,7 @@ impl Session {
                 .unwrap_or(DEFAULT_POPULATION),
             descent_start: req.descent_start,
             descent_every: req.descent_every,
+            crossover: req.crossover,
             gene: gene.clone(),
             loss: req.loss,
         };
@@ -488,10 +494,37 @@ fn read_gene(req: &IdentifyRequest) -> Result<Option<GeneParams>, CostError> {
         return Ok(None);
     };
     let text = cordis_core::io::read_text(p)?;
-    Ok(Some(cordis_core::thesis::parse_gene(
-        &p.display().to_string(),
-        &text,
-    )?))
+    let name = p.display().to_string();
+    let gene = cordis_core::thesis::parse_gene(&name, &text)?;
+    check_gene_damping(&name, &text, &gene)?;
+    Ok(Some(gene))
+}
+
+/// `damping` is the one `Param.gene` key no strategy reads: Annexe 1 lists `damping=0` without
+/// saying what it sets (an added damping, or no damping genes: its genome has none). Both
+/// readings leave a scene as it is at 0, so 0 is accepted; any other value is refused by name
+/// rather than silently ignored.
+fn check_gene_damping(name: &str, text: &str, gene: &GeneParams) -> Result<(), CostError> {
+    match gene.damping {
+        Some(d) if d != 0.0 => {
+            let line = text
+                .lines()
+                .position(|l| {
+                    l.split_once('=')
+                        .is_some_and(|(k, _)| k.trim() == "damping")
+                })
+                .map_or(0, |k| k + 1);
+            Err(CostError::invalid(
+                format!("{name}:{line}"),
+                format!(
+                    "damping={d}: not supported (the thesis does not say what Param.gene's \
+                     `damping` sets; only damping=0 is accepted): give the dampings in the \
+                     scene, known or as {{\"min\", \"max\"}}"
+                ),
+            ))
+        }
+        _ => Ok(()),
+    }
 }
 
 /// The problem of `data`: cost, locks, truth, stable horizon, total mass.
@@ -864,10 +897,15 @@ fn fingerprint(
     }
     f.insert("noise".into(), format!("{noise:e}"));
     f.insert("population".into(), options.population.to_string());
+    // The crossover is written only when not the default, so older checkpoints still match.
+    let crossover = match options.crossover {
+        Crossover::Mean => String::new(),
+        c => format!(" {}", c.name()),
+    };
     f.insert(
         "strategy options".into(),
         format!(
-            "{:?} {} {} {:?}",
+            "{:?} {} {} {:?}{crossover}",
             options.gene, options.descent_start, options.descent_every, req.islands
         ),
     );

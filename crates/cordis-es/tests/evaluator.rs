@@ -121,6 +121,7 @@ fn fingerprint(r: &RunResult) -> (Vec<u64>, u64, u64, Vec<[u64; 4]>) {
 fn a_foreign_evaluator_changes_nothing() {
     for name in [
         StrategyName::Thesis,
+        StrategyName::T2m,
         StrategyName::Cmaes,
         StrategyName::Parisian,
     ] {
@@ -134,7 +135,15 @@ fn a_foreign_evaluator_changes_nothing() {
             "{name:?}: evaluator unused"
         );
         assert_eq!(fingerprint(&a), fingerprint(&b), "{name:?}");
-        assert!(a.cost < a.history[0].best_cost, "{name:?}: no progress");
+        // The text's ES changes a sixth of its population per generation, mostly by means of
+        // fathers: 15 generations need not beat the initial best, but they move the mean.
+        match name {
+            StrategyName::Thesis => assert_ne!(
+                a.history[0].mean_cost, a.history[15].mean_cost,
+                "{name:?}: the population never changed"
+            ),
+            _ => assert!(a.cost < a.history[0].best_cost, "{name:?}: no progress"),
+        }
     }
 }
 
@@ -238,7 +247,8 @@ fn a_strategy_that_cannot_migrate_is_refused() {
 #[test]
 fn islands_with_auto_run_thesis_populations_even_where_auto_alone_would_not() {
     // Alone, `auto` picks least-squares on the rigid scene and levenberg-marquardt on the
-    // muscle: neither has a population to exchange. With islands it means the thesis ES.
+    // muscle: neither has a population to exchange. With islands it means the thesis ES (its
+    // `t2m` variant, what `auto` falls back to alone).
     for truth in [
         cordis_core::examples::rigid(),
         cordis_core::examples::muscle(),
@@ -247,9 +257,9 @@ fn islands_with_auto_run_thesis_populations_even_where_auto_alone_would_not() {
         let problem =
             Problem::new(&with_unknown_boxes(&truth, 25.0, 2), &traj, CostKind::Short).unwrap();
         let (_, alone) = make_strategy(StrategyName::Auto, &problem, &options());
-        assert_ne!(alone, "thesis");
+        assert_ne!(alone, "t2m");
         let (_, ran) = make_islands(StrategyName::Auto, &problem, &options(), islands(2))
             .expect("auto islands");
-        assert_eq!(ran, "thesis");
+        assert_eq!(ran, "t2m");
     }
 }

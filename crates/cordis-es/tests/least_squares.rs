@@ -349,7 +349,7 @@ fn auto_runs_least_squares_through_the_executor() {
     }
     // A long-term cost is not the short cost.
     let p = Problem::new(&unknown, &traj, CostKind::Long).unwrap();
-    assert_eq!(auto_pick(&p), "thesis");
+    assert_eq!(auto_pick(&p), "t2m");
 }
 
 /// What `--strategy auto` runs on `p`.

@@ -141,7 +141,7 @@ fn weights_get_additive_boxes_and_auto_runs_the_thesis_es() {
     let long = Problem::new(&with_unknown_boxes(&truth, 10.0, 0), &traj, CostKind::Long).unwrap();
     let (_, ran) = make_strategy(StrategyName::Auto, &long, &StrategyOptions::default());
     assert_eq!(
-        ran, "thesis",
+        ran, "t2m",
         "levenberg-marquardt minimises the short cost only"
     );
 }

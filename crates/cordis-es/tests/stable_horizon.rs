@@ -128,20 +128,22 @@ fn run(problem: &mut Problem, strategy: StrategyName, evals: u64, seed: u64) -> 
 
 /// Issue 7 part 4: the long cost over boxes 1e-3…1e3 × the truth. Most candidates' rollouts
 /// explode (`+inf`); no run may produce a NaN or leave its boxes, and the reported cost is the
-/// cost of the reported parameters. The thesis strategy (what `auto` runs for a rollout cost)
-/// must end finite. CMA-ES is only held to the first rules: on the horse, every one of its
-/// candidates may diverge within the 53 frames (BENCHMARKS.md, `wide_identification`).
+/// cost of the reported parameters. `t2m` (what `auto` runs for a rollout cost) must end
+/// finite. CMA-ES and the text's `thesis` are only held to the first rules: on the horse,
+/// every CMA-ES candidate may diverge within the 53 frames (BENCHMARKS.md,
+/// `wide_identification`), and the text's ES makes ~0.3 new individuals per generation (a
+/// third of its 1 % mutations), too few to meet a finite one in 1,500 evaluations there.
 #[test]
 fn long_cost_over_wide_boxes_ends_without_nan_on_rigid_and_horse() {
     for name in ["rigid", "horse"] {
         let truth = by_name(name).unwrap();
         let traj = truth.simulate(default_frames(name)).unwrap();
         let scene = with_unknown_boxes(&truth, 1e6, 1);
-        for strategy in [StrategyName::Thesis, StrategyName::Cmaes] {
+        for strategy in [StrategyName::T2m, StrategyName::Thesis, StrategyName::Cmaes] {
             let mut problem = Problem::new(&scene, &traj, CostKind::Long).unwrap();
             let r = run(&mut problem, strategy, 1500, 3);
             assert!(!r.cost.is_nan() && !r.rmse.is_nan(), "{name} {strategy:?}");
-            if strategy == StrategyName::Thesis {
+            if strategy == StrategyName::T2m {
                 assert!(
                     r.cost.is_finite() && r.rmse.is_finite(),
                     "{name}: cost {} rmse {}",

@@ -10,6 +10,7 @@ use cordis_es::executor::{HistoryRow, Observer, StopReason};
 use cordis_es::identify::StrategyName;
 use cordis_es::session::{Generations, IdentifyRequest, Lock, Outcome, Session, Style};
 use cordis_es::strategies::islands::IslandConfig;
+use cordis_es::strategies::thesis::Crossover;
 
 use super::Output;
 
@@ -38,12 +39,13 @@ pub struct Args {
     /// auto then picks output-error).
     #[arg(long, default_value = "squared")]
     loss: String,
-    /// Strategy: auto | thesis | least-squares | hybrid | cmaes | self-adaptive | annealing |
-    /// parisian | levenberg-marquardt | output-error. auto = output-error on noisy or gappy data
-    /// (when every kind has exact sensitivities), else least-squares when every unknown enters
-    /// linearly, hybrid when only ranges, v_max or a TGR's stiffness and tendon do not,
-    /// levenberg-marquardt when the short cost is smooth in every unknown (muscles, worlds),
-    /// else thesis.
+    /// Strategy: auto | thesis | t2m | least-squares | hybrid | cmaes | self-adaptive |
+    /// annealing | parisian | levenberg-marquardt | output-error. thesis = the ES of thesis
+    /// §3.2 and Annexe 1 as written; t2m = the same ES with freer operators. auto = output-error
+    /// on noisy or gappy data (when every kind has exact sensitivities), else least-squares when
+    /// every unknown enters linearly, hybrid when only ranges, v_max or a TGR's stiffness and
+    /// tendon do not, levenberg-marquardt when the short cost is smooth in every unknown
+    /// (muscles, worlds), else t2m.
     #[arg(long, default_value = "auto")]
     strategy: StrategyName,
     /// Stop after this many generations.
@@ -92,9 +94,15 @@ pub struct Args {
     /// With --islands: individuals each island sends per migration.
     #[arg(long, default_value_t = 2)]
     migrants: usize,
-    /// Thesis file Param.gene (key=value): population, pcross, pmut, reducer, generation, noise.
+    /// Thesis file Param.gene (key=value): population, pcross, pmut, reducer, generation, noise
+    /// (damping only as 0).
     #[arg(long)]
     param_gene: Option<PathBuf>,
+    /// thesis and t2m: the crossover: mean (Annexe 1: per type, the mean of fathers chosen by
+    /// local cost at each end particle), n-parent or mn-parent (§3.2: a type, or each of its
+    /// parameters, from one father).
+    #[arg(long, default_value = "mean")]
+    crossover: String,
     /// Thesis strategy: first generation of Powell's descent on the best individual.
     #[arg(long, default_value_t = 400)]
     descent_start: u64,
@@ -250,6 +258,8 @@ fn request(a: &Args) -> Result<IdentifyRequest> {
     r.param_gene = a.param_gene.clone();
     r.descent_start = a.descent_start;
     r.descent_every = a.descent_every;
+    r.crossover =
+        Crossover::parse(&a.crossover).map_err(|e| anyhow::anyhow!("--crossover: {e}"))?;
     r.islands = a.islands.map(|islands| IslandConfig {
         islands,
         migrate_every: a.migrate_every,

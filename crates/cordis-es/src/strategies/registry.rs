@@ -15,9 +15,15 @@ pub enum StrategyName {
     /// `least-squares` when every unknown enters the short cost linearly, `hybrid` when only
     /// ranges, v_max and a TGR's stiffness and tendon do not, `levenberg-marquardt` when the
     /// exact solvers refuse but the short cost is smooth in every unknown (no unknown range
-    /// or v_max: muscles, worlds, couplings), else `thesis`.
+    /// or v_max: muscles, worlds, couplings), else `t2m` (the thesis ES with a
+    /// larger share of new individuals: it meets finite costs where the text's rare mutations
+    /// do not, e.g. a long cost over wide boxes).
     Auto,
+    /// The evolution strategy of thesis §3.2 and Annexe 1, its operators as the text states
+    /// them.
     Thesis,
+    /// The same ES with this crate's earlier, freer operators (`docs/identification.md`).
+    T2m,
     LeastSquares,
     Hybrid,
     Cmaes,
@@ -33,9 +39,10 @@ pub enum StrategyName {
 
 /// Every strategy and its `--strategy` name (also its [`Strategy::name`] and the checkpoint's
 /// `strategy`), in the order help texts list them: the one list of names.
-pub const STRATEGIES: [(StrategyName, &str); 10] = [
+pub const STRATEGIES: [(StrategyName, &str); 11] = [
     (StrategyName::Auto, "auto"),
     (StrategyName::Thesis, "thesis"),
+    (StrategyName::T2m, "t2m"),
     (StrategyName::LeastSquares, "least-squares"),
     (StrategyName::Hybrid, "hybrid"),
     (StrategyName::Cmaes, "cmaes"),
