@@ -507,6 +507,9 @@ class CostReport:
 def cost(scene: Scene, traj: _ArrayLike, kind: str = "short") -> CostReport:
     """The cost of ``kind`` of ``scene`` (at its own values) against ``traj`` ``(T, N, 3)`` m.
 
+    ``kind="static"`` reads every frame as an equilibrium pose (T ≥ 1): 0 exactly when the
+    scene is at rest in every frame.
+
     The last few compiled (scene, trajectory, kind) triples are cached; an optimiser should use
     :class:`Objective`.
 
@@ -572,7 +575,8 @@ class Objective:
     def particles(self) -> int: ...
     @property
     def terms(self) -> int:
-        """Number of (predicted frame, free particle) pairs: rmse = sqrt(cost / terms)."""
+        """Number of (predicted frame, free particle) pairs (``static``: (frame, free
+        particle)): rmse = sqrt(cost / terms)."""
     @property
     def kind(self) -> str: ...
     @property
@@ -737,8 +741,16 @@ def identify(
     ``"t2m"`` (the same ES with freer operators), ``"least-squares"``, ``"hybrid"``, ``"cmaes"``,
     ``"self-adaptive"``, ``"annealing"``, ``"parisian"``, ``"output-error"`` (the
     maximum-likelihood fit of simulated to observed positions) or ``"levenberg-marquardt"``
-    (nonlinear least squares on the short cost's residuals; ``cost="short"`` only, residuals
-    computed in this process even with an ``executor``; ``population`` is ignored).
+    (nonlinear least squares on the short cost's residuals; ``cost="short"`` or
+    ``cost="static"`` only, residuals computed in this process even with an ``executor``;
+    ``population`` is ignored).
+
+    ``cost``: ``"short"``, ``"horizon:H"``, ``"long"``, ``"progressive[:G[:START]]"``,
+    ``"harmonic[:EPS]"`` or ``"static"``: every frame of ``traj`` is a pose at rest (one frame
+    is enough) and its residual is the net force at zero velocity, as the step from rest
+    ``dt² (F/m + g)`` (m); it determines stiffnesses and rest lengths, not masses and
+    stiffnesses together (only K/m), and refuses unknown dampings, drags and friction by name
+    (``RefusedError``); ``auto`` then runs ``levenberg-marquardt``.
 
     ``stable_horizon=H`` rejects (cost ``inf``) every candidate whose stability bound exceeds
     1 or whose free run from the observed frames 0 and 1 diverges within ``H`` frames: a

@@ -120,7 +120,8 @@ fn params_from_py(x: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
 #[pymethods]
 impl Objective {
     /// Compiles the cost of `kind` (`short`, `horizon:H`, `long`, `progressive[:G[:START]]`,
-    /// `harmonic[:EPS]`) for `scene` and the observed positions `traj` `(T, N, 3)`, m.
+    /// `harmonic[:EPS]`, `static`: equilibrium poses) for `scene` and the observed positions
+    /// `traj` `(T, N, 3)`, m.
     /// `generation` sets the progressive horizon's generation counter (other kinds ignore it).
     /// `precompute=False` forces the generic path (for checks and benchmarks) where the short
     /// cost could be a precomputed quadratic form.

@@ -187,3 +187,108 @@ fn levenberg_marquardt_identifies_the_muscle_and_refuses_other_costs() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("short cost"), "{err}");
 }
+
+/// A chain of 5 beads between fixed ends `span` m apart, under gravity, damped (springs and
+/// air) so that it settles; `unknown`: K and l0 of the links in boxes.
+fn chain_json(span: f64, unknown: &str) -> String {
+    let mut particles = vec![r#"{"mass": 1.0, "pos": [0, 0, 0], "fixed": true}"#.to_string()];
+    for k in 1..6 {
+        let x = span * k as f64 / 6.0;
+        particles.push(format!(r#"{{"mass": 0.1, "pos": [{x}, 0, 0]}}"#));
+    }
+    particles.push(format!(
+        r#"{{"mass": 1.0, "pos": [{span}, 0, 0], "fixed": true}}"#
+    ));
+    let links: Vec<String> = (0..6)
+        .map(|i| format!(r#"{{"type": "link", "particles": [{i}, {}]}}"#, i + 1))
+        .chain((1..6).map(|i| format!(r#"{{"type": "air", "particles": [{i}]}}"#)))
+        .collect();
+    format!(
+        r#"{{"dt": 0.01, "gravity": [0, 0, -9.81], "particles": [{}],
+ "types": {{"link": {{"kind": "spring", {unknown}}},
+           "air": {{"kind": "drag", "damping": 0.3}}}},
+ "links": [{}]}}"#,
+        particles.join(", "),
+        links.join(", ")
+    )
+}
+
+/// The last frame of a CSV trajectory, renumbered as frame `as_frame`.
+fn last_frame(csv: &str, as_frame: usize) -> Vec<String> {
+    let rows: Vec<&str> = csv.lines().skip(1).filter(|l| !l.is_empty()).collect();
+    let frame = |l: &str| {
+        l.split(',')
+            .next()
+            .unwrap()
+            .trim()
+            .parse::<usize>()
+            .unwrap()
+    };
+    let last = rows.iter().map(|l| frame(l)).max().unwrap();
+    rows.iter()
+        .filter(|l| frame(l) == last)
+        .map(|l| format!("{as_frame}{}", &l[l.find(',').unwrap()..]))
+        .collect()
+}
+
+#[test]
+fn the_static_cost_identifies_a_chain_from_two_equilibrium_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let known = r#""stiffness": 40.0, "rest_length": 0.2, "damping": 0.3"#;
+    let free = r#""stiffness": {"min": 2, "max": 500}, "rest_length": {"min": 0.05, "max": 0.5},
+                  "damping": 0.3"#;
+    // Two poses at rest of one chain: its ends 1.2 m and 1.0 m apart (the fixed particles are
+    // read from each frame).
+    let mut rows = vec!["frame,particle,x,y,z".to_string()];
+    for (f, span) in [1.2, 1.0].into_iter().enumerate() {
+        std::fs::write(d.join(format!("c{f}.json")), chain_json(span, known)).unwrap();
+        let out = cordis(
+            d,
+            &[
+                "simulate",
+                &format!("c{f}.json"),
+                "--frames",
+                "6000",
+                "--out",
+                &format!("c{f}.csv"),
+            ],
+        );
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let csv = std::fs::read_to_string(d.join(format!("c{f}.csv"))).unwrap();
+        rows.extend(last_frame(&csv, f));
+    }
+    std::fs::write(d.join("rest.csv"), rows.join("\n") + "\n").unwrap();
+    std::fs::write(d.join("u.json"), chain_json(1.2, free)).unwrap();
+    let args = [
+        "identify", "u.json", "-t", "rest.csv", "--truth", "c0.json", "--cost", "static", "-q",
+    ];
+    let s = summary(&cordis(d, &args));
+    assert_eq!(s["strategy"], "levenberg-marquardt", "{s}");
+    assert_eq!(s["stopped_by"], "converged", "{s}");
+    assert!(s["param_error_pct"].as_f64().unwrap() < 1e-6, "{s}");
+    // The short cost cannot read two poses.
+    let out = cordis(d, &["identify", "u.json", "-t", "rest.csv", "-q"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("at least 3"));
+    // A damping is refused by name: it acts on nothing at rest.
+    let damped = r#""stiffness": 40.0, "rest_length": 0.2, "damping": {"min": 0.01, "max": 1}"#;
+    std::fs::write(d.join("z.json"), chain_json(1.2, damped)).unwrap();
+    let out = cordis(
+        d,
+        &[
+            "identify", "z.json", "-t", "rest.csv", "--cost", "static", "-q",
+        ],
+    );
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.contains("types.link.damping") && err.contains("zero velocity"),
+        "{err}"
+    );
+}

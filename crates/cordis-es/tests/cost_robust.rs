@@ -111,7 +111,7 @@ fn trajectory_scene_mismatches_are_errors_naming_the_place() {
     let err = Objective::new(&s, &two, CostKind::Short).unwrap_err();
     assert_eq!(
         err.to_string(),
-        "trajectory: has 2 frames, a cost needs at least 3"
+        "trajectory: has 2 frames, the cost needs at least 3"
     );
     let wrong_dt = traj.clone().with_dt(0.01);
     let err = Objective::new(&s, &wrong_dt, CostKind::Short).unwrap_err();

@@ -14,7 +14,7 @@ pub struct Args {
     /// Observed trajectory (.csv, .tsv, .npy, .tra, .trc, .c3d, .npz; see --columns, --units).
     #[arg(long, short = 't')]
     trajectory: PathBuf,
-    /// Cost: short | horizon:H | long | progressive[:G[:START]] | harmonic[:EPS].
+    /// Cost: short | horizon:H | long | progressive[:G[:START]] | harmonic[:EPS] | static.
     #[arg(long, default_value = "short")]
     cost: String,
     #[command(flatten)]

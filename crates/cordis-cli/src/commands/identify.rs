@@ -63,7 +63,7 @@ pub struct Args {
     /// Add Gaussian noise of this standard deviation (m) to the observed positions first.
     #[arg(long, default_value_t = 0.0)]
     noise: f64,
-    /// Cost: short | horizon:H | long | progressive | harmonic.
+    /// Cost: short | horizon:H | long | progressive | harmonic | static (equilibrium poses).
     #[arg(long, default_value = "short")]
     cost: String,
     /// Reject (+inf cost) every candidate whose stability bound exceeds 1 or whose free run

@@ -1,6 +1,7 @@
 //! The free run of a candidate from the observed start, for stability-aware identification
 //! ([`crate::problem::stable`]): no observed frame is used after the first two.
 
+use super::kind::CostKind;
 use super::objective::{CostScratch, Objective};
 use cordis_core::Vec3;
 
@@ -16,7 +17,8 @@ impl Objective {
 
     /// Runs the rollout step of the costs (the simulator's step, fixed particles held where
     /// frame 1 has them, hidden state — TGR tendons… — driven along frame 0 then carried) from
-    /// the observed frames 0 and 1 up to frame `frames - 1`, as `simulate --frames` would;
+    /// the observed frames 0 and 1 (static cost: at rest at frame 0) up to frame
+    /// `frames - 1`, as `simulate --frames` would;
     /// returns the first frame at which a free particle's position is not finite or beyond
     /// the observed motion's divergence guard ([`cordis_core::runaway`], growing with the
     /// time run), or the free particles' spread exceeds `limit` (m).
@@ -28,13 +30,15 @@ impl Objective {
         s: &mut CostScratch,
     ) -> Option<usize> {
         let mg = self.masses_gravity(p);
+        // Static frames are poses, not a motion: the run starts at rest at the first one.
+        let start = usize::from(self.kind != CostKind::Static);
         s.x_prev.copy_from_slice(self.obs.frame(0));
-        s.x.copy_from_slice(self.obs.frame(1));
+        s.x.copy_from_slice(self.obs.frame(start));
         if !self.hidden.is_empty() {
             self.reset_hidden(p, &mut s.hidden);
             self.advance_hidden_observed(p, 0, &mut s.hidden, &mut s.discard);
         }
-        let hold = self.obs.frame(1);
+        let hold = self.obs.frame(start);
         for t in 2..frames {
             self.rollout_step(p, t - 1, mg, hold, s);
             let bound = self.runaway.limit(t - 1, mg.1.norm());

@@ -15,6 +15,16 @@ pub(crate) struct Geometry {
 }
 
 impl Geometry {
+    /// No precomputed geometry: every pass computes it at each evaluation (the static cost,
+    /// whose frames are poses at rest that the precomputed blocks, built for the frames that
+    /// start a step with their observed velocities, do not cover).
+    pub(crate) fn none(conditionals: usize) -> Geometry {
+        Geometry {
+            springs: None,
+            conditionals: vec![None; conditionals],
+        }
+    }
+
     /// The geometry of the `springs` pairs and of every conditional pass whose pairs `obs`
     /// knows, each pass while `budget` bytes last (springs first, then the conditional passes
     /// in plan order).

@@ -1,6 +1,7 @@
 //! Which cost an [`crate::cost::Objective`] computes (SPEC §3, thesis §3.2.1).
 
 use crate::error::CostError;
+use cordis_core::{Plan, Scene};
 use std::fmt;
 use std::str::FromStr;
 
@@ -12,7 +13,7 @@ pub const DEFAULT_HARMONIC_EPS: f64 = 1e-12;
 pub const DEFAULT_GENERATIONS_TO_FULL: usize = 1000;
 
 /// The cost kinds of SPEC §3. Parsed from and displayed as the strings `short`, `horizon:H`,
-/// `long`, `progressive[:G[:START]]`, `harmonic[:EPS]`.
+/// `long`, `progressive[:G[:START]]`, `harmonic[:EPS]`, `static`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum CostKind {
     /// Louchet's short-term cost (the default): every frame predicted by one step from the two
@@ -47,9 +48,21 @@ pub enum CostKind {
     /// `C = 1 / Σ_i 1/c_i` (not `Σ_i c_i`). Like the thesis says, one good frame can hide many
     /// bad ones: it is here for comparison, not as a default.
     Harmonic { eps: f64 },
+    /// Equilibrium frames (thesis §4.2: the cloth identified from "une seule image
+    /// correspondant à l'état de l'équilibre"): every frame is a pose at rest, and its
+    /// residual is the net force on each free particle at zero velocity — links at the pose,
+    /// plus gravity — as the displacement `dt² (F/m + g)` one simulator step makes from rest
+    /// at the pose (m), then Provot's pass when the scene has one. So the static cost of a
+    /// pose is the short cost of that pose held for three frames; it is 0 exactly at a fixed
+    /// point of the simulator. Frames are independent poses (no velocity is read from
+    /// consecutive frames; one frame is enough). It determines the parameters of forces at
+    /// rest only up to the scale `K/m` (with gravity, `K/(m g)`): see
+    /// [`crate::problem::Problem::new`] for the unknowns it refuses.
+    Static,
 }
 
-const SYNTAX: &str = "expected short, horizon:H, long, progressive[:G[:START]] or harmonic[:EPS]";
+const SYNTAX: &str =
+    "expected short, horizon:H, long, progressive[:G[:START]], harmonic[:EPS] or static";
 
 impl FromStr for CostKind {
     type Err = CostError;
@@ -77,7 +90,8 @@ impl FromStr for CostKind {
         match name.trim() {
             "short" if args.is_empty() => Ok(CostKind::Short),
             "long" if args.is_empty() => Ok(CostKind::Long),
-            "short" | "long" => Err(too_many(0)),
+            "static" if args.is_empty() => Ok(CostKind::Static),
+            "short" | "long" | "static" => Err(too_many(0)),
             "horizon" => match args.as_slice() {
                 [h] => Ok(CostKind::Horizon(count(h, "the horizon H")?)),
                 [] => Err(CostError::kind(
@@ -134,6 +148,7 @@ impl fmt::Display for CostKind {
                 generations_to_full,
             } => write!(f, "progressive:{generations_to_full}:{start}"),
             CostKind::Harmonic { eps } => write!(f, "harmonic:{eps}"),
+            CostKind::Static => f.write_str("static"),
         }
     }
 }
@@ -142,7 +157,7 @@ impl CostKind {
     /// For the windowed kinds (`short`, `horizon`, `progressive`): the number of steps each
     /// window predicts at generation `generation` on a trajectory of `frames` frames, clamped
     /// to `1..=frames - 2` (the whole trajectory). `None` for `long` and `harmonic`, which are
-    /// one rollout from frames 0 and 1.
+    /// one rollout from frames 0 and 1, and for `static`, which predicts no motion.
     pub fn window(&self, frames: usize, generation: usize) -> Option<usize> {
         let full = frames.saturating_sub(2).max(1);
         let h = match *self {
@@ -158,8 +173,34 @@ impl CostKind {
                 let grown = (full - start) as u128 * g as u128 / generations_to_full.max(1) as u128;
                 start + grown as usize
             }
-            CostKind::Long | CostKind::Harmonic { .. } => return None,
+            CostKind::Long | CostKind::Harmonic { .. } | CostKind::Static => return None,
         };
         Some(h.clamp(1, full))
+    }
+}
+
+impl CostKind {
+    /// Whether this kind can read `scene` (compiled as `plan`): `Err` naming what it cannot.
+    /// The static kind refuses couplings by the type's name: they carry a state between steps
+    /// (a TGR's tendon follows a signal in time, a quadripole remembers Δ(n-1)) that a pose
+    /// at rest does not show.
+    pub(crate) fn check_scene(self, scene: &Scene, plan: &Plan) -> Result<(), CostError> {
+        if self != CostKind::Static {
+            return Ok(());
+        }
+        if let Some(ty) = scene.types.iter().find(|t| t.kind.is_coupling()) {
+            return Err(CostError::refused(
+                format!("types.{} ({})", ty.name, ty.kind),
+                "the static cost cannot read a coupling's state from an equilibrium pose \
+                 (use a dynamic cost: short, horizon:H, long)",
+            ));
+        }
+        if !plan.stateful.is_empty() {
+            return Err(CostError::refused(
+                "cost kind `static`",
+                "the scene has stateful passes, whose state a pose does not show",
+            ));
+        }
+        Ok(())
     }
 }

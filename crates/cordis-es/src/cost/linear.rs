@@ -80,7 +80,7 @@ impl LinearShortCost {
     /// particle, a conditional type with an unknown range).
     pub fn new(scene: &Scene, traj: &Trajectory) -> Result<Option<Self>, CostError> {
         let plan = Plan::compile(scene)?;
-        let obs = Observed::new(scene, &plan, traj)?;
+        let obs = Observed::new(scene, &plan, traj, 3)?;
         Ok(Self::build(scene, &plan, &obs))
     }
 

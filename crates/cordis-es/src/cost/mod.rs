@@ -2,7 +2,7 @@
 //! predictions are from an observed trajectory.
 //!
 //! - [`CostKind`]: `short` (default), `horizon:H`, `long`, `progressive[:G]`,
-//!   `harmonic[:EPS]`.
+//!   `harmonic[:EPS]`, `static` (equilibrium frames: [`CostKind::Static`]).
 //! - [`Objective`]: a scene + trajectory + kind compiled once, evaluated on parameter vectors
 //!   ([`Objective::evaluate`] with local costs, [`Objective::total`],
 //!   [`Objective::evaluate_batch`] in parallel, [`Objective::report`]).
@@ -26,6 +26,7 @@
 //! ```
 
 mod batch;
+mod equilibrium;
 mod free_run;
 mod geometry;
 pub mod hidden;

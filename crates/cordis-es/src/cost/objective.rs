@@ -59,6 +59,8 @@ pub struct Objective {
     /// The divergence guard of the observed motion ([`cordis_core::runaway`]), for the stable
     /// horizon's free run.
     pub(crate) runaway: Runaway,
+    /// The scene's gravity, m/s² (fixed: not a parameter one identifies).
+    pub(crate) gravity: Vec3,
 }
 
 /// Per-evaluation buffers, one per thread ([`Objective::scratch`]); an evaluation allocates
@@ -100,7 +102,7 @@ pub struct CostReport {
     pub rmse: f64,
     /// Local cost `c_i` of every particle (0 for fixed particles).
     pub per_particle: Vec<f64>,
-    /// Number of (predicted frame, free particle) pairs.
+    /// Number of (predicted frame, free particle) pairs (static: (frame, free particle)).
     pub terms: usize,
 }
 
@@ -109,9 +111,18 @@ impl Objective {
     /// same `dt` when the trajectory states one) and precomputes what does not depend on the
     /// parameters: velocities, conditional pairs at a known range, and for a short cost on a
     /// linear-in-parameter scene its quadratic form ([`LinearShortCost`]).
+    ///
+    /// The static kind needs 1 frame, refuses couplings by name (their state between steps has
+    /// no rest value here) and reads every frame with zero velocity.
     pub fn new(scene: &Scene, traj: &Trajectory, kind: CostKind) -> Result<Objective, CostError> {
         let plan = Plan::compile(scene)?;
-        let obs = Observed::new(scene, &plan, traj)?;
+        let is_static = kind == CostKind::Static;
+        kind.check_scene(scene, &plan)?;
+        let mut obs = Observed::new(scene, &plan, traj, if is_static { 1 } else { 3 })?;
+        if is_static {
+            // Frames are independent poses at rest: no velocity between them.
+            obs.vs.fill(Vec3::zeros());
+        }
         let free = (0..plan.n).filter(|&i| plan.free[i]).collect();
         let runaway = plan.runaway_of((0..obs.frames).map(|t| obs.frame(t)));
         let mut hidden: Vec<Box<dyn HiddenState>> = Vec::new();
@@ -125,17 +136,22 @@ impl Objective {
         } else {
             None
         };
+        let geometry = OnceLock::new();
+        if is_static {
+            let _ = geometry.set(Geometry::none(obs.pairs.len()));
+        }
         Ok(Objective {
             kind,
             obs,
             free,
             linear,
             use_linear: true,
-            geometry: OnceLock::new(),
+            geometry,
             geometry_budget: GEOMETRY_BUDGET_BYTES,
             generation: 0,
             hidden,
             runaway,
+            gravity: Vec3::from(scene.gravity),
             plan,
         })
     }
@@ -225,6 +241,8 @@ impl Objective {
         let steps: usize = match self.window() {
             // Windows start at t0 = 2 … T-1 and stop at the last frame.
             Some(h) => (2..t).map(|t0| h.min(t - t0)).sum(),
+            // Every frame is a pose at rest.
+            None if self.kind == CostKind::Static => t,
             None => t - 2,
         };
         steps * self.free.len()
@@ -262,7 +280,9 @@ impl Objective {
     /// not fit compute their geometry at each evaluation; results are identical either way.
     pub fn set_geometry_budget(&mut self, bytes: usize) {
         self.geometry_budget = bytes;
-        self.geometry = OnceLock::new();
+        if self.kind != CostKind::Static {
+            self.geometry = OnceLock::new();
+        }
     }
 
     /// The precomputed geometry, built on first call (thread-safe; later calls are free).
@@ -343,6 +363,7 @@ impl Objective {
         }
         let c = match self.kind {
             CostKind::Harmonic { eps } => self.harmonic(p, eps, s, per),
+            CostKind::Static => self.static_cost(p, s, per),
             _ => match self.window() {
                 Some(1) => self.short_generic(p, s, per),
                 Some(h) => self.windows(p, h, 2..self.obs.frames, s, per),

@@ -36,9 +36,15 @@ pub(crate) struct Observed {
 }
 
 impl Observed {
-    /// Checks that `traj` fits `scene` (particles, at least 3 frames, same dt when the
-    /// trajectory states one) and precomputes.
-    pub fn new(scene: &Scene, plan: &Plan, traj: &Trajectory) -> Result<Self, CostError> {
+    /// Checks that `traj` fits `scene` (particles, at least `min_frames` frames — 3 for the
+    /// costs that predict motion, 1 for the static cost — same dt when the trajectory states
+    /// one) and precomputes.
+    pub fn new(
+        scene: &Scene,
+        plan: &Plan,
+        traj: &Trajectory,
+        min_frames: usize,
+    ) -> Result<Self, CostError> {
         let (frames, n) = (traj.frames(), traj.particles());
         if n != plan.n {
             return Err(CostError::mismatch(
@@ -46,10 +52,10 @@ impl Observed {
                 format!("has {n} particles, the scene has {}", plan.n),
             ));
         }
-        if frames < 3 {
+        if frames < min_frames {
             return Err(CostError::mismatch(
                 "trajectory",
-                format!("has {frames} frames, a cost needs at least 3"),
+                format!("has {frames} frames, the cost needs at least {min_frames}"),
             ));
         }
         if let Some(dt) = traj.dt {

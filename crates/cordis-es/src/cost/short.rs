@@ -173,9 +173,14 @@ impl Objective {
     }
 
     /// Number of residual components of the short cost: 3 per (predicted frame, free
-    /// particle), the length [`Objective::residuals`] writes.
+    /// particle), the length [`Objective::residuals`] writes (static cost: 3 per (frame, free
+    /// particle)).
     pub fn residual_len(&self) -> usize {
-        3 * self.obs.frames.saturating_sub(2) * self.free.len()
+        let frames = match self.kind {
+            CostKind::Static => self.obs.frames,
+            _ => self.obs.frames.saturating_sub(2),
+        };
+        3 * frames * self.free.len()
     }
 
     /// The short cost as a residual vector, for least-squares solvers: writes the components
@@ -186,18 +191,21 @@ impl Objective {
     /// particle's terms first). When a prediction is not finite the cost is `+inf` and `out`
     /// must not be used.
     ///
-    /// Errors unless the kind is `short` (the residuals of other kinds are not written), or
-    /// when `p` or `out` has the wrong length.
+    /// The static cost's residuals are written the same way: `x̂_i - x_i(t)` of the step
+    /// from rest at every frame t = 0 … T-1 ([`CostKind::Static`]).
+    ///
+    /// Errors unless the kind is `short` or `static` (the residuals of other kinds are not
+    /// written), or when `p` or `out` has the wrong length.
     pub fn residuals(
         &self,
         p: &[f64],
         s: &mut CostScratch,
         out: &mut [f64],
     ) -> Result<f64, CostError> {
-        if self.kind != CostKind::Short {
+        if !self.writes_residuals() {
             return Err(CostError::kind(
                 format!("cost kind `{}`", self.kind),
-                "residuals are written for the short cost only",
+                "residuals are written for the short and static costs only",
             ));
         }
         self.check_params(p)?;
@@ -226,9 +234,12 @@ impl Objective {
             k += 3;
             per[i] += squared_error(xh, x0);
         };
-        match &self.plan.worlds {
-            None => self.short_terms(&OneClock::new(self.plan.dt, g), p, s, &mut write),
-            Some(steps) => self.short_terms(&WorldClock { steps, g }, p, s, &mut write),
+        let rest = self.kind == CostKind::Static;
+        match (&self.plan.worlds, rest) {
+            (None, false) => self.short_terms(&OneClock::new(self.plan.dt, g), p, s, &mut write),
+            (None, true) => self.static_terms(&OneClock::new(self.plan.dt, g), p, s, &mut write),
+            (Some(steps), false) => self.short_terms(&WorldClock { steps, g }, p, s, &mut write),
+            (Some(steps), true) => self.static_terms(&WorldClock { steps, g }, p, s, &mut write),
         }
         let c: f64 = self.free.iter().map(|&i| per[i]).sum();
         s.per = per;
@@ -240,10 +251,20 @@ impl Objective {
         }
     }
 
+    /// Whether [`Objective::residuals`] writes this kind's residuals (`short`, `static`).
+    pub fn writes_residuals(&self) -> bool {
+        matches!(self.kind, CostKind::Short | CostKind::Static)
+    }
+
     /// The short cost of a model with no force and no gravity, `Σ |x(t) - 2x(t-1) + x(t-2)|²`
     /// over the free particles (m²): the scale of what the forces must explain, against which
-    /// a least-squares solver judges whether a minimum it found is a fit.
+    /// a least-squares solver judges whether a minimum it found is a fit. For the static cost,
+    /// what gravity alone would move the poses in one step, `Σ_t Σ_i |dt_i² g|²` (0 without
+    /// gravity).
     pub fn acceleration_cost(&self) -> f64 {
+        if self.kind == CostKind::Static {
+            return self.static_scale();
+        }
         let mut c = 0.0;
         for t in 2..self.obs.frames {
             let (x0, x1, x2) = (

@@ -4,6 +4,7 @@
 //! Beside [`Problem`]: the unknowns and their genome coordinates ([`space`]), where populations
 //! are evaluated ([`evaluator`]) and stability-aware identification ([`stable`]).
 
+mod equilibrium;
 pub mod evaluator;
 pub mod space;
 pub mod stable;
@@ -93,9 +94,16 @@ pub struct EvalScratch {
 }
 
 impl Problem {
+    /// With the static cost, refuses by name the unknowns equilibrium frames cannot determine
+    /// (see [`CostKind::Static`]): parameters of velocity-dependent forces (damping,
+    /// `damping_quadratic`, drags, friction, `v_max`), masses beside stiffnesses or gains
+    /// (only `K/m` is seen), masses without gravity, and every stiffness without gravity.
     pub fn new(scene: &Scene, traj: &Trajectory, kind: CostKind) -> Result<Self, CostError> {
         let objective = Objective::new(scene, traj, kind)?;
         let space = ParameterSpace::from_scene(scene);
+        if kind == CostKind::Static {
+            equilibrium::check_unknowns(scene, &space)?;
+        }
         let mut observed = Vec::with_capacity(space.dim());
         let mut touches = Vec::with_capacity(space.dim());
         for u in &space.unknowns {
@@ -352,17 +360,17 @@ impl Problem {
     /// the stable horizon rejects it: its row must then not be used). Counts `costs.len()`
     /// evaluations and their time. Computed on this process' rayon pool, whatever evaluator is
     /// plugged in (a residual vector is too large to be worth shipping); the kind must be
-    /// `short` (the least-squares strategies check it before a run).
+    /// `short` or `static` (the least-squares strategies check it before a run).
     pub fn residuals_population(&self, genomes: &[f64], out: &mut [f64], costs: &mut [f64]) {
         self.evals.fetch_add(costs.len() as u64, Ordering::Relaxed);
         let dim = self.dim();
         let len = self.objective.residual_len();
         debug_assert_eq!(out.len(), costs.len() * len, "one residual row per cost");
-        if self.objective.kind() != CostKind::Short {
+        if !self.objective.writes_residuals() {
             costs.fill(f64::INFINITY);
             let mut slot = self.eval_error.lock().unwrap_or_else(|p| p.into_inner());
             slot.get_or_insert(CostError::evaluation(format!(
-                "cost kind `{}`: residuals are written for the short cost only",
+                "cost kind `{}`: residuals are written for the short and static costs only",
                 self.objective.kind()
             )));
             return;

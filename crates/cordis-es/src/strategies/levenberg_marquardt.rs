@@ -3,7 +3,8 @@
 //! (muscles' `tanh`, Provot's limit, ranges).
 //!
 //! The short cost is `C(z) = |r(z)|²` with `r` the residual vector of
-//! [`crate::cost::Objective::residuals`] (3 per predicted frame and free particle). Each
+//! [`crate::cost::Objective::residuals`] (3 per predicted frame and free particle); the static
+//! cost ([`crate::cost::CostKind::Static`], equilibrium frames) is minimised the same way. Each
 //! iteration works in the search space's internal coordinates `z` ([`crate::problem::space`]: log for
 //! wide positive boxes, so a relative change of a stiffness is one step):
 //!
@@ -562,12 +563,15 @@ fn internal_bounds(problem: &Problem) -> Vec<(f64, f64)> {
         .collect()
 }
 
-/// Why `levenberg-marquardt` cannot run on `problem` (it needs the short cost's residuals).
+/// Why `levenberg-marquardt` cannot run on `problem` (it needs the short or static cost's
+/// residuals).
 pub fn supported(problem: &Problem) -> Result<(), String> {
-    match problem.objective.kind() {
-        crate::cost::CostKind::Short => Ok(()),
-        k => Err(format!(
-            "cost kind `{k}`: levenberg-marquardt minimises the short cost only (use --cost short)"
+    match problem.objective.writes_residuals() {
+        true => Ok(()),
+        false => Err(format!(
+            "cost kind `{}`: levenberg-marquardt minimises the short cost or the static cost only \
+             (use --cost short)",
+            problem.objective.kind()
         )),
     }
 }

@@ -148,8 +148,16 @@ fn problem_cost(problem: &Problem, genome: &[f64]) -> f64 {
     problem.evaluate(genome, &mut s, &mut local)
 }
 
-/// Whether `output-error` can run on `problem` (its kinds have exact sensitivities).
+/// Whether `output-error` can run on `problem` (its kinds have exact sensitivities, and the
+/// data are a motion: not the static cost's poses at rest).
 pub fn supported(problem: &Problem) -> Result<(), String> {
+    if problem.objective.kind() == crate::cost::CostKind::Static {
+        return Err(
+            "cost kind `static`: output-error fits a motion, the static cost's frames \
+                    are poses at rest (use levenberg-marquardt or an evolution strategy)"
+                .into(),
+        );
+    }
     output_error::tangent::Tangent::supports(&problem.scene).map_err(|e| e.to_string())
 }
 
