@@ -34,7 +34,7 @@ fn unknown_stiffness(truth: &Scene) -> Scene {
     for (t, tt) in unknown.types.iter_mut().zip(&truth.types) {
         for (k, p) in t.params.iter_mut().enumerate() {
             if !matches!(tt.param_name(k).as_str(), "stiffness" | "rest_length") {
-                *p = tt.params[k].clone();
+                *p = tt.params[k];
             }
         }
     }
@@ -165,7 +165,7 @@ fn the_static_cost_refuses_what_a_pose_at_rest_cannot_determine() {
     assert!(e.contains("common factor"), "{e}");
     // One stiffness known sets the scale.
     let st = s.types.iter().position(|t| t.name == "bend").unwrap();
-    s.types[st].params[0] = truth.types[st].params[0].clone();
+    s.types[st].params[0] = truth.types[st].params[0];
     assert_eq!(s.types[st].kind, LinkKind::Spring);
     assert!(Problem::new(&s, &pose, CostKind::Static).is_ok());
 }
