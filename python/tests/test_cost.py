@@ -176,6 +176,24 @@ def test_other_kinds_are_zero_at_the_truth_and_positive_elsewhere(rigid, kind):
     assert f(q) > f(p)
 
 
+def test_static_cost_is_the_force_balance_of_each_pose(chain):
+    # Any pose, at rest or not: the static residual is the step from rest dt² (F(x, 0)/m + g),
+    # the numpy short cost of the pose held for three frames.
+    d, traj = chain
+    scene = cordis.Scene.from_dict(d)
+    for pose in (traj[-1:], traj[[10, 40]]):
+        held = np.concatenate([np.repeat(pose[k:k + 1], 3, axis=0) for k in range(len(pose))])
+        want = sum(numpy_short_cost(d, held[3 * k:3 * k + 3])[0] for k in range(len(pose)))
+        got = cordis.cost(scene, pose, "static")
+        assert got.kind == "static" and got.terms == 5 * len(pose)
+        assert got.total == pytest.approx(want, rel=1e-9)
+    # A damping acts on nothing at rest: refused by name.
+    u = {**d, "types": {**d["types"], "soft": {**d["types"]["soft"],
+                                               "damping": {"min": 0.1, "max": 1.0}}}}
+    with pytest.raises(cordis.RefusedError, match=r"types\.soft\.damping"):
+        cordis.identify(cordis.Scene.from_dict(u), traj[-1:], cost="static")
+
+
 def test_wrong_lengths_are_param_length_errors(rigid):
     _, _, f = rigid
     p = f.param_vector()
