@@ -16,7 +16,12 @@ use cordis_es::strategies::levenberg_marquardt::{LevenbergMarquardt, LmConfig};
 /// The 5×5 hanging cloth of the common scenes (no Provot limit) with a stronger air drag
 /// (0.05 N·s/m), so that it settles: its pose after 50 s (10,000 steps), as one frame.
 fn sagging_cloth() -> (Scene, Trajectory) {
-    let mut truth = common::cloth(5, 5, false);
+    settled_cloth(false)
+}
+
+/// [`sagging_cloth`], with Provot's limit (τc 0.1) on the structural springs when `provot`.
+fn settled_cloth(provot: bool) -> (Scene, Trajectory) {
+    let mut truth = common::cloth(5, 5, provot);
     let air = truth.types.iter().position(|t| t.name == "air").unwrap();
     truth.types[air].params[0] = Param::Known(0.05);
     let run = truth.simulate(10_000).expect("the cloth simulates");
@@ -168,4 +173,25 @@ fn the_static_cost_refuses_what_a_pose_at_rest_cannot_determine() {
     s.types[st].params[0] = truth.types[st].params[0];
     assert_eq!(s.types[st].kind, LinkKind::Spring);
     assert!(Problem::new(&s, &pose, CostKind::Static).is_ok());
+}
+
+#[test]
+fn a_provot_cloth_at_rest_is_a_fixed_point_of_its_limit() {
+    // At rest, the structural springs the limit holds carry a reaction the forces do not
+    // balance: the static residual includes Provot's pass, as a simulator step does.
+    let (truth, pose) = settled_cloth(true);
+    let obj = Objective::new(&truth, &pose, CostKind::Static).unwrap();
+    let at_truth = obj.report(&truth.param_values()).unwrap().total;
+    let mut free = truth.clone();
+    free.types[0].set_optional(cordis_core::OptionalParam::MaxElongation, None);
+    let unlimited = Objective::new(&free, &pose, CostKind::Static).unwrap();
+    let without = unlimited.report(&free.param_values()).unwrap().total;
+    eprintln!(
+        "Provot cloth at rest: static cost {at_truth:.3e} with its limit, {without:.3e} without"
+    );
+    assert!(at_truth < 1e-26, "{at_truth:e}");
+    assert!(
+        without > 1e6 * at_truth.max(1e-30),
+        "the limit is active: {without:e}"
+    );
 }
