@@ -699,6 +699,8 @@ def identify(
     descent_start: int = 400,
     descent_every: int = 100,
     crossover: str = "mean",
+    plus: bool = False,
+    correlated: bool = False,
     visible: Optional[Union[_ArrayLike, Sequence[_ArrayLike]]] = None,
     markers: Optional[Sequence[int]] = None,
     weights: Optional[Sequence[float]] = None,
@@ -724,7 +726,8 @@ def identify(
     unknowns at their start (a ``NAME.lock`` file or names); ``param_gene`` reads a thesis
     ``Param.gene`` file (its ``damping`` only as 0); ``descent_start``/``descent_every`` set
     the thesis ES's Powell descent and ``crossover`` its crossover (``"mean"``: Annexe 1;
-    ``"n-parent"``, ``"mn-parent"``: §3.2). ``threads`` beyond the machine's cores are capped, with a warning.
+    ``"n-parent"``, ``"mn-parent"``: §3.2); ``plus`` and ``correlated`` give ``self-adaptive``
+    (μ+λ) selection and correlated mutations (refused with another strategy). ``threads`` beyond the machine's cores are capped, with a warning.
 
     A strategy that cannot run on the problem is refused before any work (``RefusedError``, a
     ValueError naming why), an option out of range raises ``ArgumentError`` (a ValueError), a

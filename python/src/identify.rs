@@ -299,6 +299,8 @@ struct PyArgs<'py> {
     descent_start: i64,
     descent_every: i64,
     crossover: &'py str,
+    plus: bool,
+    correlated: bool,
     visible: Option<Bound<'py, PyAny>>,
     markers: Option<Vec<i64>>,
     weights: Option<Vec<f64>>,
@@ -367,6 +369,8 @@ fn request(
     r.descent_start = count(a.descent_start, "descent_start")?;
     r.descent_every = count(a.descent_every, "descent_every")?;
     r.crossover = Crossover::parse(a.crossover).map_err(|e| bad("crossover", e))?;
+    r.plus = a.plus;
+    r.correlated = a.correlated;
     r.truth = truth.map(|t| (*t.core()).clone());
     Ok(r)
 }
@@ -450,7 +454,8 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
 ///   `lock`: unknowns kept at their start (a `NAME.lock` file or names); `param_gene`: a thesis
 ///   `Param.gene` file (`damping` only as 0); `descent_start`, `descent_every`: the thesis ES's
 ///   Powell descent; `crossover`: its crossover, `"mean"` (Annexe 1), `"n-parent"` or
-///   `"mn-parent"` (§3.2).
+///   `"mn-parent"` (§3.2); `plus`, `correlated`: `self-adaptive`'s (μ+λ) selection and
+///   correlated mutations (refused with another strategy).
 /// - `executor`: where populations are evaluated: None or `"local"`, `"ray"` (a
 ///   `cordis.RayExecutor()`: `pip install cordis-anima[ray]`), or an executor object whose
 ///   `evaluator(scene_json, traj, cost)` returns a callable `(genomes, generation, local) ->
@@ -493,7 +498,7 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
     stable_horizon = None, stable_spread = cordis_es::stable::DEFAULT_SPREAD,
     executor = None, islands = None, migrate_every = 10, migrants = 2, total_mass = None,
     lock = None, param_gene = None, descent_start = 400, descent_every = 100,
-    crossover = "mean", visible = None, markers = None, weights = None, loss = "squared"
+    crossover = "mean", plus = false, correlated = false, visible = None, markers = None, weights = None, loss = "squared"
 ))]
 #[pyo3(
     text_signature = "(scene, traj, strategy='auto', generations=1000, population=None, \
@@ -501,8 +506,8 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
     max_evals=None, threads=None, truth=None, checkpoint=None, resume=None, dt=None, \
     stable_horizon=None, stable_spread=2.0, \
     executor=None, islands=None, migrate_every=10, migrants=2, total_mass=None, lock=None, \
-    param_gene=None, descent_start=400, descent_every=100, crossover='mean', visible=None, \
-    markers=None, weights=None, loss='squared')"
+    param_gene=None, descent_start=400, descent_every=100, crossover='mean', plus=False, \
+    correlated=False, visible=None, markers=None, weights=None, loss='squared')"
 )]
 #[allow(clippy::too_many_arguments)]
 pub fn identify(
@@ -536,6 +541,8 @@ pub fn identify(
     descent_start: i64,
     descent_every: i64,
     crossover: &str,
+    plus: bool,
+    correlated: bool,
     visible: Option<Bound<'_, PyAny>>,
     markers: Option<Vec<i64>>,
     weights: Option<Vec<f64>>,
@@ -566,6 +573,8 @@ pub fn identify(
         descent_start,
         descent_every,
         crossover,
+        plus,
+        correlated,
         visible,
         markers,
         weights,

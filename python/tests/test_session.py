@@ -202,3 +202,33 @@ def test_the_cli_and_python_give_the_same_outcome(rigid, tmp_path, strategy):
         assert summary["strategy"] == res.strategy
     assert json.loads(json.dumps(summary.get("solver"))) == json.loads(json.dumps(res.report))
     assert cordis.Scene.from_json(tmp_path / "out.json") == res.scene
+
+
+def falling_chain(unknown):
+    """Five beads between fixed ends 1 m apart, falling under gravity (as the CLI test's)."""
+    particles = [{"mass": 1.0, "pos": [0, 0, 0], "fixed": True}]
+    particles += [{"mass": 0.1, "pos": [k / 6.0, 0, 0]} for k in range(1, 6)]
+    particles.append({"mass": 1.0, "pos": [1.0, 0, 0], "fixed": True})
+    links = [{"type": "link", "particles": [i, i + 1]} for i in range(6)]
+    links += [{"type": "air", "particles": [i]} for i in range(1, 6)]
+    return cordis.Scene.from_dict({
+        "dt": 0.01, "gravity": [0, 0, -9.81], "particles": particles, "links": links,
+        "types": {"link": dict(kind="spring", **unknown), "air": {"kind": "drag", "damping": 0.3}},
+    })
+
+
+def test_self_adaptive_plus_and_correlated_are_read_and_refused_elsewhere():
+    traj = falling_chain(dict(stiffness=50, rest_length=0.15, damping=0.5)).simulate(60)
+    scene = falling_chain(dict(stiffness={"min": 5, "max": 500},
+                               rest_length={"min": 0.05, "max": 0.5}, damping=0.5))
+    kw = dict(strategy="self-adaptive", generations=15, population=14, seed=3)
+    costs = {}
+    for opts in [(), ("plus",), ("correlated",), ("plus", "correlated")]:
+        res = cordis.identify(scene, traj, **kw, **{o: True for o in opts})
+        assert res.strategy == "self-adaptive" and res.cost == res.cost
+        costs[opts] = res.cost
+    # Each option changes the search: it is read, not ignored.
+    assert len(set(costs.values())) == 4, costs
+    for key in ("plus", "correlated"):
+        with pytest.raises(ValueError, match=f"{key}.*self-adaptive"):
+            cordis.identify(scene, traj, strategy="cmaes", generations=2, **{key: True})

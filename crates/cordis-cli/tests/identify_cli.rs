@@ -292,3 +292,72 @@ fn the_static_cost_identifies_a_chain_from_two_equilibrium_frames() {
         "{err}"
     );
 }
+
+#[test]
+fn self_adaptive_takes_plus_and_correlated_and_other_strategies_refuse_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // The falling chain: two unknowns a 15-generation run of 14 improves on (the rigid
+    // example's 20 keep the initial population's best that long, whatever the options).
+    let truth = chain_json(
+        1.0,
+        r#""stiffness": 50, "rest_length": 0.15, "damping": 0.5"#,
+    );
+    std::fs::write(d.join("truth.json"), truth).unwrap();
+    let boxes = r#""stiffness": {"min": 5, "max": 500}, "rest_length": {"min": 0.05, "max": 0.5},
+        "damping": 0.5"#;
+    std::fs::write(d.join("u.json"), chain_json(1.0, boxes)).unwrap();
+    let sim = ["simulate", "truth.json", "--frames", "60", "--out", "t.csv"];
+    assert!(cordis(d, &sim).status.success());
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "identify",
+            "u.json",
+            "--trajectory",
+            "t.csv",
+            "--strategy",
+            "self-adaptive",
+            "--generations",
+            "15",
+            "--population",
+            "14",
+            "--seed",
+            "3",
+            "-q",
+        ];
+        args.extend_from_slice(extra);
+        let s = summary(&cordis(d, &args));
+        assert_eq!(s["strategy"], "self-adaptive", "{s}");
+        let cost = s["cost"].as_f64().unwrap();
+        assert!(cost.is_finite(), "{s}");
+        cost
+    };
+    let comma = run(&[]);
+    let plus = run(&["--plus"]);
+    let correlated = run(&["--correlated"]);
+    let both = run(&["--plus", "--correlated"]);
+    // Each option changes the search (it is read, not ignored); a seed fixes each run.
+    assert_ne!(comma, plus);
+    assert_ne!(comma, correlated);
+    assert_ne!(plus, both);
+    assert_eq!(correlated, run(&["--correlated"]));
+
+    for (option, strategy) in [("--correlated", "cmaes"), ("--plus", "thesis")] {
+        let args = [
+            "identify",
+            "u.json",
+            "--trajectory",
+            "t.csv",
+            "--strategy",
+            strategy,
+            option,
+        ];
+        let out = cordis(d, &args);
+        assert_eq!(out.status.code(), Some(2), "{option} {strategy}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains(option) && err.contains("self-adaptive") && err.lines().count() == 1,
+            "{err}"
+        );
+    }
+}

@@ -36,6 +36,10 @@ pub struct StrategyOptions {
     pub crossover: Crossover,
     /// The output-error fit's loss on each residual.
     pub loss: output_error::Loss,
+    /// `self-adaptive`: (μ+λ) selection instead of (μ,λ).
+    pub plus: bool,
+    /// `self-adaptive`: correlated mutations (rotation angles, Schwefel).
+    pub correlated: bool,
 }
 
 impl Default for StrategyOptions {
@@ -48,6 +52,8 @@ impl Default for StrategyOptions {
             descent_every: t.descent_every,
             crossover: t.crossover,
             loss: output_error::Loss::Squared,
+            plus: false,
+            correlated: false,
         }
     }
 }
@@ -114,12 +120,14 @@ pub fn make_strategy(
             };
             (Box::new(Cmaes::new(c)), name.name())
         }
-        StrategyName::SelfAdaptive => (
-            Box::new(SelfAdaptive::new(SelfAdaptiveConfig::with_lambda(
-                options.population,
-            ))),
-            name.name(),
-        ),
+        StrategyName::SelfAdaptive => {
+            let c = SelfAdaptiveConfig {
+                plus: options.plus,
+                correlated: options.correlated,
+                ..SelfAdaptiveConfig::with_lambda(options.population)
+            };
+            (Box::new(SelfAdaptive::new(c)), name.name())
+        }
         StrategyName::Annealing => {
             let c = AnnealingConfig {
                 chains: options.population,

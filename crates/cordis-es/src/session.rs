@@ -111,6 +111,10 @@ pub struct IdentifyRequest {
     pub descent_every: u64,
     /// `thesis` and `t2m`: the crossover (Annexe 1's mean, or §3.2's n- or m·n-parent).
     pub crossover: Crossover,
+    /// `self-adaptive`: (μ+λ) selection (parents compete with their children) instead of (μ,λ).
+    pub plus: bool,
+    /// `self-adaptive`: correlated mutations (one rotation angle per pair of coordinates).
+    pub correlated: bool,
     /// An island model of the strategy, when given.
     pub islands: Option<IslandConfig>,
     /// Cost kind.
@@ -174,6 +178,8 @@ impl IdentifyRequest {
             descent_start: defaults.descent_start,
             descent_every: defaults.descent_every,
             crossover: defaults.crossover,
+            plus: false,
+            correlated: false,
             islands: None,
             cost: CostKind::Short,
             generations: Generations::Default,
@@ -259,7 +265,10 @@ impl Session {
             crossover: req.crossover,
             gene: gene.clone(),
             loss: req.loss,
+            plus: req.plus,
+            correlated: req.correlated,
         };
+        check_self_adaptive_options(&req)?;
         check_islands(&req, options.population)?;
         check_memory(&req, &problem, &options)?;
         check_horizon_time(&req, &problem)?;
@@ -674,6 +683,22 @@ fn check(req: &IdentifyRequest, ran: &str, problem: &Problem) -> Result<(), Cost
 /// An island model's layout, each value under its own option's name: 2 or more islands,
 /// migrations at least a generation apart, and no more migrants than an island holds
 /// (`migrants` above the population used to be accepted and silently cut).
+/// `plus` and `correlated` configure `self-adaptive` only: asked of another strategy, they are
+/// refused by name rather than ignored.
+fn check_self_adaptive_options(req: &IdentifyRequest) -> Result<(), CostError> {
+    let asked = [("plus", req.plus), ("correlated", req.correlated)];
+    match asked.iter().find(|(_, on)| *on) {
+        Some((name, _)) if req.strategy != StrategyName::SelfAdaptive => Err(CostError::invalid(
+            req.opt(name),
+            format!(
+                "configures the self-adaptive strategy only, not {}",
+                req.strategy.name()
+            ),
+        )),
+        _ => Ok(()),
+    }
+}
+
 fn check_islands(req: &IdentifyRequest, population: usize) -> Result<(), CostError> {
     let Some(c) = req.islands else {
         return Ok(());
@@ -898,10 +923,17 @@ fn fingerprint(
     f.insert("noise".into(), format!("{noise:e}"));
     f.insert("population".into(), options.population.to_string());
     // The crossover is written only when not the default, so older checkpoints still match.
-    let crossover = match options.crossover {
+    let mut crossover = match options.crossover {
         Crossover::Mean => String::new(),
         c => format!(" {}", c.name()),
     };
+    // Likewise self-adaptive's selection and mutation options.
+    if options.plus {
+        crossover.push_str(" plus");
+    }
+    if options.correlated {
+        crossover.push_str(" correlated");
+    }
     f.insert(
         "strategy options".into(),
         format!(

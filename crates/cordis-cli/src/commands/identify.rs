@@ -103,6 +103,13 @@ pub struct Args {
     /// parameters, from one father).
     #[arg(long, default_value = "mean")]
     crossover: String,
+    /// self-adaptive: (μ+λ) selection, parents competing with their children (default (μ,λ)).
+    #[arg(long)]
+    plus: bool,
+    /// self-adaptive: correlated mutations (Schwefel's rotation angles, one per pair of
+    /// coordinates) instead of independent ones.
+    #[arg(long)]
+    correlated: bool,
     /// Thesis strategy: first generation of Powell's descent on the best individual.
     #[arg(long, default_value_t = 400)]
     descent_start: u64,
@@ -260,6 +267,8 @@ fn request(a: &Args) -> Result<IdentifyRequest> {
     r.descent_every = a.descent_every;
     r.crossover =
         Crossover::parse(&a.crossover).map_err(|e| anyhow::anyhow!("--crossover: {e}"))?;
+    r.plus = a.plus;
+    r.correlated = a.correlated;
     r.islands = a.islands.map(|islands| IslandConfig {
         islands,
         migrate_every: a.migrate_every,
