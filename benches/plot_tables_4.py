@@ -20,6 +20,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+from thesis_tables_4 import errors  # noqa: E402  (the error the tables print)
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 FLOOR = 1e-13
 
@@ -38,31 +41,25 @@ THESIS_4_2 = {
 }
 
 
-def types(path):
-    return json.loads(pathlib.Path(path).read_text())["types"]
-
-
-def error(found, truth):
-    return max(abs(found - truth) / abs(truth) * 100, FLOOR)
+def rows(identified, truth, names, thesis):
+    """(label, cordis' error, the thesis' error) per parameter, errors floored for the log axis."""
+    found = errors(identified, truth, names)
+    return [(name.replace(".", "\n", 1).replace("max_elongation", "τc"), max(err, FLOOR),
+             max(t, FLOOR))
+            for (name, _, _, err), t in zip(found, thesis)]
 
 
 def table_4_1(out):
-    truth = types(out / "cloth.json")
-    found = types(out / "cloth-identified-0-cloth-kl-tauv.json")
-    rows = []
-    for key in ("rest_length", "stiffness"):
-        for name in truth:
-            rows.append((f"{name}\n{key}", error(found[name][key], truth[name][key]), THESIS_4_1[key]))
-    name = "structural_v"
-    tau = error(found[name]["max_elongation"], truth[name]["max_elongation"])
-    rows.append((f"{name}\nτc", tau, THESIS_4_1["max_elongation"]))
-    return rows
+    truth = json.loads((out / "cloth.json").read_text())["types"]
+    names = [(n, k) for k in ("rest_length", "stiffness") for n in truth]
+    names.append(("structural_v", "max_elongation"))
+    thesis = [THESIS_4_1[k] for _, k in names]
+    return rows(out / "cloth-identified-0-cloth-kl-tauv.json", out / "cloth.json", names, thesis)
 
 
 def table_4_2(out):
-    truth = types(out / "fluid-table-4-2.json")
-    found = types(out / "fluid-identified.json")
-    return [(f"{n}\n{k}", error(found[n][k], truth[n][k]), max(t, FLOOR)) for (n, k), t in THESIS_4_2.items()]
+    return rows(out / "fluid-identified.json", out / "fluid-table-4-2.json", list(THESIS_4_2),
+                list(THESIS_4_2.values()))
 
 
 def panel(ax, rows, title):

@@ -278,9 +278,12 @@ pub fn restart_states(
     let Some(rigid) = RigidStart::fit(scene, free, fitted, &seen) else {
         return out;
     };
+    let on_rigid: Vec<(Vec3, Vec3)> = free
+        .iter()
+        .map(|&i| rigid.at(Vec3::from(scene.particles[i].pos)))
+        .collect();
     let (mut sx, mut sv, mut n) = (0.0, 0.0, 0usize);
-    for (k, &i) in free.iter().enumerate() {
-        let (x, v) = rigid.at(Vec3::from(scene.particles[i].pos));
+    for (k, (x, v)) in on_rigid.iter().enumerate() {
         for c in (0..3).filter(|&c| seen[k][c]) {
             sx += (fitted[6 * k + c] - x[c]).powi(2);
             sv += (fitted[6 * k + 3 + c] - v[c]).powi(2);
@@ -292,8 +295,7 @@ pub fn restart_states(
     }
     let (sx, sv) = ((sx / n as f64).sqrt(), (sv / n as f64).sqrt());
     let mut draw = crate::rng::stream(RESTART_STATES_STREAM, attempt as u64, take_index as u64);
-    for (k, &i) in free.iter().enumerate() {
-        let (x, v) = rigid.at(Vec3::from(scene.particles[i].pos));
+    for (k, (x, v)) in on_rigid.iter().enumerate() {
         for c in (0..3).filter(|&c| !seen[k][c]) {
             out[6 * k + c] = x[c] + sx * crate::rng::normal(&mut draw);
             out[6 * k + 3 + c] = v[c] + sv * crate::rng::normal(&mut draw);
@@ -440,23 +442,31 @@ mod tests {
         traj
     }
 
+    /// Five particles of a body, off any symmetry.
+    const BODY: [[f64; 3]; 5] = [
+        [0.0, 0.0, 0.0],
+        [0.3, 0.0, 0.0],
+        [0.0, 0.25, 0.0],
+        [0.0, 0.0, 0.2],
+        [0.2, 0.2, 0.1],
+    ];
+
+    /// The scene of `layout`: it knows the layout, not the motion (at rest).
+    fn at_rest(layout: &[[f64; 3]], dt: f64) -> Scene {
+        let mut scene = Scene::new(dt);
+        for p in layout {
+            scene.add_particle(Particle::new(1.0, *p));
+        }
+        scene
+    }
+
     #[test]
     fn a_hidden_particle_starts_on_the_rigid_motion_of_the_seen_ones() {
-        let layout = [
-            [0.0, 0.0, 0.0],
-            [0.3, 0.0, 0.0],
-            [0.0, 0.25, 0.0],
-            [0.0, 0.0, 0.2],
-            [0.2, 0.2, 0.1],
-        ];
+        let layout = BODY;
         let dt = 1e-3;
         let (omega, drift) = (Vec3::new(0.4, -1.1, 2.0), Vec3::new(0.5, 0.0, -0.3));
         let traj = spinning(&layout, omega, drift, dt, 20);
-        let mut scene = Scene::new(dt);
-        for p in &layout {
-            // The scene knows the layout, not the motion: at rest.
-            scene.add_particle(Particle::new(1.0, *p));
-        }
+        let scene = at_rest(&layout, dt);
         let hidden = 4;
         let take = Take::complete(&traj).masked(|_, i, _| i != hidden);
         let free: Vec<usize> = (0..layout.len()).collect();
@@ -480,19 +490,10 @@ mod tests {
 
     #[test]
     fn a_restart_moves_the_hidden_state_by_the_seen_particles_spread() {
-        let layout = [
-            [0.0, 0.0, 0.0],
-            [0.3, 0.0, 0.0],
-            [0.0, 0.25, 0.0],
-            [0.0, 0.0, 0.2],
-            [0.2, 0.2, 0.1],
-        ];
+        let layout = BODY;
         let dt = 1e-3;
         let traj = spinning(&layout, Vec3::new(0.4, -1.1, 2.0), Vec3::x(), dt, 20);
-        let mut scene = Scene::new(dt);
-        for p in &layout {
-            scene.add_particle(Particle::new(1.0, *p));
-        }
+        let scene = at_rest(&layout, dt);
         let hidden = 4;
         let take = Take::complete(&traj).masked(|_, i, _| i != hidden);
         let free: Vec<usize> = (0..layout.len()).collect();
