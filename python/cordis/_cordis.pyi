@@ -696,9 +696,9 @@ def identify(
     total_mass: Optional[float] = None,
     lock: Optional[Union[str, _PathLike, Sequence[str]]] = None,
     param_gene: Optional[_PathLike] = None,
-    descent_start: int = 400,
-    descent_every: int = 100,
-    crossover: str = "mean",
+    descent_start: Optional[int] = None,
+    descent_every: Optional[int] = None,
+    crossover: Optional[str] = None,
     plus: bool = False,
     correlated: bool = False,
     visible: Optional[Union[_ArrayLike, Sequence[_ArrayLike]]] = None,
@@ -725,8 +725,10 @@ def identify(
     ``total_mass`` (kg) is needed when the free particles' masses are unknown; ``lock`` keeps
     unknowns at their start (a ``NAME.lock`` file or names); ``param_gene`` reads a thesis
     ``Param.gene`` file (its ``damping`` only as 0); ``descent_start``/``descent_every`` set
-    the thesis ES's Powell descent and ``crossover`` its crossover (``"mean"``: Annexe 1;
-    ``"n-parent"``, ``"mn-parent"``: §3.2); ``plus`` and ``correlated`` give ``self-adaptive``
+    the thesis ES's Powell descent (None: 400 and 100) and ``crossover`` its crossover
+    (``"mean"``: Annexe 1, the default; ``"n-parent"``, ``"mn-parent"``: §3.2), refused with a
+    strategy other than ``thesis``/``t2m``, as are ``param_gene``'s ``pcross``, ``pmut`` and
+    ``reducer``; ``plus`` and ``correlated`` give ``self-adaptive``
     (μ+λ) selection and correlated mutations (refused with another strategy). ``threads`` beyond the machine's cores are capped, with a warning.
 
     A strategy that cannot run on the problem is refused before any work (``RefusedError``, a

@@ -296,9 +296,9 @@ struct PyArgs<'py> {
     total_mass: Option<f64>,
     lock: Option<Bound<'py, PyAny>>,
     param_gene: Option<PathBuf>,
-    descent_start: i64,
-    descent_every: i64,
-    crossover: &'py str,
+    descent_start: Option<i64>,
+    descent_every: Option<i64>,
+    crossover: Option<&'py str>,
     plus: bool,
     correlated: bool,
     visible: Option<Bound<'py, PyAny>>,
@@ -366,9 +366,19 @@ fn request(
     r.total_mass = a.total_mass;
     r.lock = a.lock.map(|l| lock_arg(&l)).transpose()?;
     r.param_gene = a.param_gene;
-    r.descent_start = count(a.descent_start, "descent_start")?;
-    r.descent_every = count(a.descent_every, "descent_every")?;
-    r.crossover = Crossover::parse(a.crossover).map_err(|e| bad("crossover", e))?;
+    r.descent_start = a
+        .descent_start
+        .map(|d| count(d, "descent_start"))
+        .transpose()?;
+    r.descent_every = a
+        .descent_every
+        .map(|d| count(d, "descent_every"))
+        .transpose()?;
+    r.crossover = a
+        .crossover
+        .map(Crossover::parse)
+        .transpose()
+        .map_err(|e| bad("crossover", e))?;
     r.plus = a.plus;
     r.correlated = a.correlated;
     r.truth = truth.map(|t| (*t.core()).clone());
@@ -452,9 +462,10 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
 ///   time step.
 /// - `total_mass` (kg): the free particles' total, needed when their masses are unknown;
 ///   `lock`: unknowns kept at their start (a `NAME.lock` file or names); `param_gene`: a thesis
-///   `Param.gene` file (`damping` only as 0); `descent_start`, `descent_every`: the thesis ES's
-///   Powell descent; `crossover`: its crossover, `"mean"` (Annexe 1), `"n-parent"` or
-///   `"mn-parent"` (§3.2); `plus`, `correlated`: `self-adaptive`'s (μ+λ) selection and
+///   `Param.gene` file (`damping` only as 0; its `pcross`, `pmut`, `reducer` read by `thesis`
+///   and `t2m` only); `descent_start`, `descent_every`: the thesis ES's Powell descent (None:
+///   400 and 100); `crossover`: its crossover, `"mean"` (Annexe 1, None's), `"n-parent"` or
+///   `"mn-parent"` (§3.2) — these refused with another strategy; `plus`, `correlated`: `self-adaptive`'s (μ+λ) selection and
 ///   correlated mutations (refused with another strategy).
 /// - `executor`: where populations are evaluated: None or `"local"`, `"ray"` (a
 ///   `cordis.RayExecutor()`: `pip install cordis-anima[ray]`), or an executor object whose
@@ -497,8 +508,8 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
     max_evals = None, threads = None, truth = None, checkpoint = None, resume = None, dt = None,
     stable_horizon = None, stable_spread = cordis_es::stable::DEFAULT_SPREAD,
     executor = None, islands = None, migrate_every = 10, migrants = 2, total_mass = None,
-    lock = None, param_gene = None, descent_start = 400, descent_every = 100,
-    crossover = "mean", plus = false, correlated = false, visible = None, markers = None, weights = None, loss = "squared"
+    lock = None, param_gene = None, descent_start = None, descent_every = None,
+    crossover = None, plus = false, correlated = false, visible = None, markers = None, weights = None, loss = "squared"
 ))]
 #[pyo3(
     text_signature = "(scene, traj, strategy='auto', generations=1000, population=None, \
@@ -506,7 +517,7 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
     max_evals=None, threads=None, truth=None, checkpoint=None, resume=None, dt=None, \
     stable_horizon=None, stable_spread=2.0, \
     executor=None, islands=None, migrate_every=10, migrants=2, total_mass=None, lock=None, \
-    param_gene=None, descent_start=400, descent_every=100, crossover='mean', plus=False, \
+    param_gene=None, descent_start=None, descent_every=None, crossover=None, plus=False, \
     correlated=False, visible=None, markers=None, weights=None, loss='squared')"
 )]
 #[allow(clippy::too_many_arguments)]
@@ -538,9 +549,9 @@ pub fn identify(
     total_mass: Option<f64>,
     lock: Option<Bound<'_, PyAny>>,
     param_gene: Option<PathBuf>,
-    descent_start: i64,
-    descent_every: i64,
-    crossover: &str,
+    descent_start: Option<i64>,
+    descent_every: Option<i64>,
+    crossover: Option<&str>,
     plus: bool,
     correlated: bool,
     visible: Option<Bound<'_, PyAny>>,

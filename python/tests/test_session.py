@@ -232,3 +232,28 @@ def test_self_adaptive_plus_and_correlated_are_read_and_refused_elsewhere():
     for key in ("plus", "correlated"):
         with pytest.raises(ValueError, match=f"{key}.*self-adaptive"):
             cordis.identify(scene, traj, strategy="cmaes", generations=2, **{key: True})
+
+
+def test_thesis_options_are_read_by_the_thesis_es_and_refused_elsewhere(tmp_path):
+    traj = falling_chain(dict(stiffness=50, rest_length=0.15, damping=0.5)).simulate(60)
+    scene = falling_chain(dict(stiffness={"min": 5, "max": 500},
+                               rest_length={"min": 0.05, "max": 0.5}, damping=0.5))
+    es = tmp_path / "es.gene"
+    es.write_text("pcross=30\npmut=2\n")
+    kw = dict(strategy="t2m", generations=15, population=14, seed=3)
+    plain = cordis.identify(scene, traj, **kw).cost
+    # Read: each changes the t2m search.
+    for opts in [dict(crossover="n-parent"), dict(descent_start=5, descent_every=5),
+                 dict(param_gene=es)]:
+        assert cordis.identify(scene, traj, **kw, **opts).cost != plain, opts
+    assert cordis.identify(scene, traj, **kw, crossover="mean").cost == plain
+    # Ignored elsewhere: refused by name (`auto` picks least-squares on this linear chain).
+    for strategy, opts, says in [
+            ("cmaes", dict(crossover="mean"), "crossover: .*, not cmaes"),
+            ("self-adaptive", dict(descent_start=5), "descent_start: .*, not self-adaptive"),
+            ("hybrid", dict(descent_every=0), "descent_every: .*, not hybrid"),
+            ("auto", dict(crossover="n-parent"), r"crossover: .*least-squares \(what auto picked"),
+            ("annealing", dict(param_gene=es), "param_gene .*es.gene: pcross, pmut configure")]:
+        with pytest.raises(ValueError, match=says) as e:
+            cordis.identify(scene, traj, strategy=strategy, generations=2, **opts)
+        assert "the thesis ES only (thesis, t2m)" in str(e.value)

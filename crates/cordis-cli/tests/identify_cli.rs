@@ -361,3 +361,92 @@ fn self_adaptive_takes_plus_and_correlated_and_other_strategies_refuse_them() {
         );
     }
 }
+
+/// Issue 19: `--crossover`, `--descent-start`, `--descent-every` and a `Param.gene`'s `pcross`,
+/// `pmut`, `reducer` configure the thesis ES (thesis, t2m). They were silently ignored by the
+/// other strategies; now refused by name in one line, and still read where they apply.
+#[test]
+fn thesis_options_are_read_by_the_thesis_es_and_refused_by_other_strategies() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let truth = chain_json(
+        1.0,
+        r#""stiffness": 50, "rest_length": 0.15, "damping": 0.5"#,
+    );
+    std::fs::write(d.join("truth.json"), truth).unwrap();
+    let boxes = r#""stiffness": {"min": 5, "max": 500}, "rest_length": {"min": 0.05, "max": 0.5},
+        "damping": 0.5"#;
+    std::fs::write(d.join("u.json"), chain_json(1.0, boxes)).unwrap();
+    let sim = ["simulate", "truth.json", "--frames", "60", "--out", "t.csv"];
+    assert!(cordis(d, &sim).status.success());
+    std::fs::write(d.join("es.gene"), "pcross=30\npmut=2\n").unwrap();
+    std::fs::write(d.join("size.gene"), "population=8\ngeneration=3\n").unwrap();
+    let base = [
+        "identify",
+        "u.json",
+        "--trajectory",
+        "t.csv",
+        "-q",
+        "--seed",
+        "3",
+    ];
+    let run = |strategy: &str, extra: &[&str]| {
+        let mut args = base.to_vec();
+        args.extend_from_slice(&["--strategy", strategy, "-g", "15", "-p", "14"]);
+        args.extend_from_slice(extra);
+        let s = summary(&cordis(d, &args));
+        assert_eq!(s["strategy"], strategy, "{s}");
+        s["cost"].as_f64().unwrap()
+    };
+    // Read: each changes the t2m search (a seed fixes each run).
+    let plain = run("t2m", &[]);
+    let n_parent = run("t2m", &["--crossover", "n-parent"]);
+    let descents = run("t2m", &["--descent-start", "5", "--descent-every", "5"]);
+    let gene = run("t2m", &["--param-gene", "es.gene"]);
+    assert_ne!(plain, n_parent);
+    assert_ne!(plain, descents);
+    assert_ne!(plain, gene);
+    assert_eq!(n_parent, run("t2m", &["--crossover", "n-parent"]));
+    // The default given by hand is the default.
+    assert_eq!(plain, run("t2m", &["--crossover", "mean"]));
+    // A Param.gene of population and generations only is read by every strategy.
+    let mut args = base.to_vec();
+    args.extend_from_slice(&["--strategy", "cmaes", "--param-gene", "size.gene"]);
+    let s = summary(&cordis(d, &args));
+    assert_eq!(s["generations"], 3, "{s}");
+
+    for (extra, strategy, says) in [
+        (&["--crossover", "mean"][..], "cmaes", "--crossover"),
+        (
+            &["--descent-start", "5"][..],
+            "self-adaptive",
+            "--descent-start",
+        ),
+        (&["--descent-every", "0"][..], "hybrid", "--descent-every"),
+        // `auto` picks least-squares on this linear scene: the option would be ignored.
+        (
+            &["--crossover", "n-parent"][..],
+            "auto",
+            "least-squares (what auto picked",
+        ),
+        (
+            &["--param-gene", "es.gene"][..],
+            "annealing",
+            "pcross, pmut configure",
+        ),
+    ] {
+        let mut args = base.to_vec();
+        args.extend_from_slice(&["--strategy", strategy]);
+        args.extend_from_slice(extra);
+        let out = cordis(d, &args);
+        assert_eq!(out.status.code(), Some(2), "{extra:?} {strategy}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains(extra[0])
+                && err.contains(says)
+                && err.contains("thesis ES only (thesis, t2m)")
+                && err.lines().count() == 1,
+            "{err}"
+        );
+    }
+}

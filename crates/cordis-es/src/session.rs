@@ -106,11 +106,13 @@ pub struct IdentifyRequest {
     /// A thesis `Param.gene` file (population, pcross, pmut, reducer, generation, noise;
     /// `damping` only as 0).
     pub param_gene: Option<PathBuf>,
-    /// Thesis strategy: first generation of Powell's descent, and generations between two.
-    pub descent_start: u64,
-    pub descent_every: u64,
-    /// `thesis` and `t2m`: the crossover (Annexe 1's mean, or §3.2's n- or m·n-parent).
-    pub crossover: Crossover,
+    /// `thesis` and `t2m`: first generation of Powell's descent, and generations between two
+    /// (`None`: 400 and 100; given with another strategy, refused by name).
+    pub descent_start: Option<u64>,
+    pub descent_every: Option<u64>,
+    /// `thesis` and `t2m`: the crossover (Annexe 1's mean, or §3.2's n- or m·n-parent;
+    /// `None`: the mean; given with another strategy, refused by name).
+    pub crossover: Option<Crossover>,
     /// `self-adaptive`: (μ+λ) selection (parents compete with their children) instead of (μ,λ).
     pub plus: bool,
     /// `self-adaptive`: correlated mutations (one rotation angle per pair of coordinates).
@@ -164,7 +166,6 @@ impl IdentifyRequest {
     /// A request with the defaults of `cordis identify` for `scene` and takes as recorded
     /// (gaps are NaN; see [`IdentifyRequest::takes`]).
     pub fn with_takes(scene: Scene, takes: Vec<Observations>) -> Self {
-        let defaults = StrategyOptions::default();
         IdentifyRequest {
             scene,
             scene_place: "scene".into(),
@@ -175,9 +176,9 @@ impl IdentifyRequest {
             strategy: StrategyName::Auto,
             population: None,
             param_gene: None,
-            descent_start: defaults.descent_start,
-            descent_every: defaults.descent_every,
-            crossover: defaults.crossover,
+            descent_start: None,
+            descent_every: None,
+            crossover: None,
             plus: false,
             correlated: false,
             islands: None,
@@ -255,14 +256,15 @@ impl Session {
         if recorded {
             problem = problem.with_takes(takes);
         }
+        let defaults = StrategyOptions::default();
         let options = StrategyOptions {
             population: req
                 .population
                 .or(gene.as_ref().and_then(|g| g.population).map(|p| p as usize))
                 .unwrap_or(DEFAULT_POPULATION),
-            descent_start: req.descent_start,
-            descent_every: req.descent_every,
-            crossover: req.crossover,
+            descent_start: req.descent_start.unwrap_or(defaults.descent_start),
+            descent_every: req.descent_every.unwrap_or(defaults.descent_every),
+            crossover: req.crossover.unwrap_or(defaults.crossover),
             gene: gene.clone(),
             loss: req.loss,
             plus: req.plus,
@@ -285,6 +287,7 @@ impl Session {
             })?,
             None => make_strategy(req.strategy, &problem, &options),
         };
+        check_thesis_options(&req, ran, gene.as_ref())?;
         check(&req, ran, &problem)?;
         // Only a checkpoint reads it; hashing the data costs a pass over it.
         let fingerprint = (req.checkpoint.is_some() || req.resume.is_some())
@@ -678,11 +681,6 @@ fn check(req: &IdentifyRequest, ran: &str, problem: &Problem) -> Result<(), Cost
     identify::check_strategy(ran, problem).map_err(|e| CostError::refused(place, e))
 }
 
-/// Refuses a population whose individuals would not fit in memory (rather than aborting on
-/// the allocation), with the estimate.
-/// An island model's layout, each value under its own option's name: 2 or more islands,
-/// migrations at least a generation apart, and no more migrants than an island holds
-/// (`migrants` above the population used to be accepted and silently cut).
 /// `plus` and `correlated` configure `self-adaptive` only: asked of another strategy, they are
 /// refused by name rather than ignored.
 fn check_self_adaptive_options(req: &IdentifyRequest) -> Result<(), CostError> {
@@ -699,6 +697,64 @@ fn check_self_adaptive_options(req: &IdentifyRequest) -> Result<(), CostError> {
     }
 }
 
+/// The thesis ES's own options, given with a strategy that would ignore them (issue 19):
+/// refused by name, in one line. `ran` is what runs (`auto` resolved; each island's
+/// strategy), so `auto` accepts them when it picks `t2m`. A `Param.gene` file is read by every
+/// strategy for its `population`, `generation` and `noise`; its `pcross`, `pmut` and `reducer`
+/// only by `thesis` and `t2m`.
+fn check_thesis_options(
+    req: &IdentifyRequest,
+    ran: &str,
+    gene: Option<&GeneParams>,
+) -> Result<(), CostError> {
+    if matches!(ran, "thesis" | "t2m") {
+        return Ok(());
+    }
+    let which = match req.strategy {
+        StrategyName::Auto => format!("{ran} (what auto picked here)"),
+        _ => ran.to_string(),
+    };
+    let asked = [
+        ("crossover", req.crossover.is_some()),
+        ("descent_start", req.descent_start.is_some()),
+        ("descent_every", req.descent_every.is_some()),
+    ];
+    if let Some((name, _)) = asked.iter().find(|(_, given)| *given) {
+        return Err(CostError::invalid(
+            req.opt(name),
+            format!("configures the thesis ES only (thesis, t2m), not {which}"),
+        ));
+    }
+    let Some(g) = gene else { return Ok(()) };
+    let keys: Vec<&str> = [
+        ("pcross", g.pcross.is_some()),
+        ("pmut", g.pmut.is_some()),
+        ("reducer", g.reducer.is_some()),
+    ]
+    .iter()
+    .filter_map(|&(k, set)| set.then_some(k))
+    .collect();
+    if keys.is_empty() {
+        return Ok(());
+    }
+    let file = req
+        .param_gene
+        .as_ref()
+        .map_or(String::new(), |p| format!(" {}", p.display()));
+    Err(CostError::invalid(
+        format!("{}{file}", req.opt("param_gene")),
+        format!(
+            "{} configure the thesis ES only (thesis, t2m), not {which} (which reads the \
+             file's population, generation and noise): remove them or use {} thesis or t2m",
+            keys.join(", "),
+            req.opt("strategy")
+        ),
+    ))
+}
+
+/// An island model's layout, each value under its own option's name: 2 or more islands,
+/// migrations at least a generation apart, and no more migrants than an island holds
+/// (`migrants` above the population used to be accepted and silently cut).
 fn check_islands(req: &IdentifyRequest, population: usize) -> Result<(), CostError> {
     let Some(c) = req.islands else {
         return Ok(());
@@ -729,6 +785,8 @@ fn check_islands(req: &IdentifyRequest, population: usize) -> Result<(), CostErr
     Ok(())
 }
 
+/// Refuses a population whose individuals would not fit in memory (rather than aborting on
+/// the allocation), with the estimate.
 fn check_memory(
     req: &IdentifyRequest,
     problem: &Problem,
@@ -813,7 +871,6 @@ fn available_memory() -> f64 {
         .map_or(16.0 * GIB, |kib| kib * 1024.0)
 }
 
-/// What a checkpoint must match to be resumed by this request, by component.
 /// The takes with the request's noise added (seeded as `try_add_noise`, take k from `seed +
 /// k`), as the estimators read them, and the complete trajectory the costs are built on: the
 /// first take itself when it is complete (bit for bit what one complete take always gave),
@@ -884,6 +941,7 @@ fn prepare_takes(req: &IdentifyRequest, noise: f64) -> Result<(Trajectory, Vec<T
     Ok((data, takes))
 }
 
+/// What a checkpoint must match to be resumed by this request, by component.
 fn fingerprint(
     req: &IdentifyRequest,
     data: &Trajectory,

@@ -95,14 +95,15 @@ pub struct Args {
     #[arg(long, default_value_t = 2)]
     migrants: usize,
     /// Thesis file Param.gene (key=value): population, pcross, pmut, reducer, generation, noise
-    /// (damping only as 0).
+    /// (damping only as 0); pcross, pmut and reducer configure thesis and t2m only (refused
+    /// with another strategy).
     #[arg(long)]
     param_gene: Option<PathBuf>,
     /// thesis and t2m: the crossover: mean (Annexe 1: per type, the mean of fathers chosen by
     /// local cost at each end particle), n-parent or mn-parent (§3.2: a type, or each of its
-    /// parameters, from one father).
-    #[arg(long, default_value = "mean")]
-    crossover: String,
+    /// parameters, from one father). Default mean; refused with another strategy.
+    #[arg(long)]
+    crossover: Option<String>,
     /// self-adaptive: (μ+λ) selection, parents competing with their children (default (μ,λ)).
     #[arg(long)]
     plus: bool,
@@ -110,12 +111,14 @@ pub struct Args {
     /// coordinates) instead of independent ones.
     #[arg(long)]
     correlated: bool,
-    /// Thesis strategy: first generation of Powell's descent on the best individual.
-    #[arg(long, default_value_t = 400)]
-    descent_start: u64,
-    /// Thesis strategy: generations between descents (0: never).
-    #[arg(long, default_value_t = 100)]
-    descent_every: u64,
+    /// thesis and t2m: first generation of Powell's descent on the best individual (default
+    /// 400; refused with another strategy).
+    #[arg(long)]
+    descent_start: Option<u64>,
+    /// thesis and t2m: generations between descents (0: never; default 100; refused with
+    /// another strategy).
+    #[arg(long)]
+    descent_every: Option<u64>,
     /// Parameters to keep at their starting value (thesis `.lock`): a `NAME.lock` file, or
     /// comma-separated names such as `types.rib.stiffness,particles[3].mass`.
     #[arg(long)]
@@ -265,8 +268,12 @@ fn request(a: &Args) -> Result<IdentifyRequest> {
     r.param_gene = a.param_gene.clone();
     r.descent_start = a.descent_start;
     r.descent_every = a.descent_every;
-    r.crossover =
-        Crossover::parse(&a.crossover).map_err(|e| anyhow::anyhow!("--crossover: {e}"))?;
+    r.crossover = a
+        .crossover
+        .as_deref()
+        .map(Crossover::parse)
+        .transpose()
+        .map_err(|e| anyhow::anyhow!("--crossover: {e}"))?;
     r.plus = a.plus;
     r.correlated = a.correlated;
     r.islands = a.islands.map(|islands| IslandConfig {
