@@ -61,6 +61,51 @@
 //! - tgr: its link like a spring (K, Z). The tendon (a 1-D mass m_t under K + K_t) is not a
 //!   particle and is not reported: keep `(K + K_t) dt² + 2 Z_t dt < 4 m_t` by hand.
 //! - Provot's elongation limit is a projection, not a force: it only removes energy.
+//! - muscle: its spring (K, Z) plus its neuron's slopes, next section.
+//!
+//! # Neurons
+//!
+//! A muscle link m pulls its ends together with `f_m = K e_m + Z s_m + G tanh(h_m - θ)`,
+//! `h_m = Σ_k (w_len[k] e_k + w_rate[k] s_k)` over the links k it observes (SPEC §2.4). Its
+//! linearisation about any state adds to the spring's `K δe_m + Z δs_m` the neuron's
+//! `Σ_k D_mk δs_k + Σ_k E_mk δe_k` with `D_mk = G c_m w_rate[k]`, `E_mk = G c_m w_len[k]`
+//! and `c_m = tanh'(h_m - θ) ∈ (0, 1]`: a damping (and a stiffness) between links, of either
+//! sign and not symmetric, at most `|G w|` whatever the state. The rate part injects energy
+//! in some modes (the `muscle` example's negative weights feed the muscles' in-phase stretch:
+//! a negative damping) and damps others (its anti-phase stretch gets `+G |w|`), and the
+//! scheme's flip limit `k + 2z < 4` sees the latter. With `s_m` the link's rate, the
+//! neurons' damping form is `Σ_mk D_mk s_m s_k`, and `|D_mk s_m s_k| ≤ ½ |D_mk| (s_m² + s_k²)`
+//! gives
+//!
+//! ```text
+//! -Σ_m a_m s_m²  ≤  Σ_mk D_mk s_m s_k  ≤  Σ_m a_m s_m²,   a_m = Σ ½ |G w_rate|
+//! ```
+//!
+//! the sum over every (neuron, observed link) pair in which m is the neuron's muscle or the
+//! observed link. So the neurons' damping is, as a quadratic form, at most a damper `a_m`
+//! (N·s/m) on each muscle link, and the bound counts each muscle as a spring of damping
+//! `Z + a_m` — and of stiffness `K + b_m`, `b_m` the same sum of `½ |G w_len|` (the length
+//! weights' slope, bounded the same way). It is a bound: sufficient, not necessary. It is
+//! exact for one mass held by muscles that observe each other's rate at `tanh' = 1` (the test
+//! `neurons_rate_damping_counts_in_the_bound_and_matches_the_measured_limit`: ratio 1.5,
+//! measured 1.5 to 0.2 %, where the spring part alone read 0.005), and conservative when
+//! weights of opposite signs cancel or `tanh` saturates.
+//!
+//! What `q < 1` then guarantees is that the scheme adds no growth of its own; the model may
+//! still grow. In one dimension (one mass, `k = K dt²/m`, passive `z = Z dt/m`, neuron slope
+//! `ζ ∈ [-α, α]`, `α = a dt/m`): `q = (k + 2z + 2α)/4 < 1` keeps `k + 2(z + ζ) < 4` (no flip)
+//! for every slope; where `z + ζ < 0` (the neuron injects more than Z removes) the roots'
+//! product `1 - (z + ζ) ≤ 1 + α` bounds the growth by `√(1 + α) ≈ 1 + a dt / 2m` per step,
+//! the rate `a / 2m` per second that the continuous model's negative damping has, whatever
+//! the step. (In a network the energy `E` above, built on the bound's matrix, is positive
+//! definite when `q < 1`, and the neurons change it per step only by the difference between
+//! their slopes and the bound's, of order `dt a / m` relative: again a rate per second, not a
+//! factor per step.) That growth is the limit cycle the `muscle` and `horse-gait` examples
+//! are built on (tanh saturates it), and no step removes it, so the bound does not report it.
+//! `bound_keeps_random_muscle_chains_from_blowing_up` checks the claim on random chains whose
+//! passive damping covers the neurons': at ratios 0.3–0.95 of this bound none gains energy
+//! (at most ×1.04 over 1,000 frames), while scaled to 0.95 of the spring-only bound 79 of 200
+//! blow up.
 //!
 //! Fixed particles have no ratio. Unknown parameters count at [`crate::Param::value`].
 //!
@@ -137,6 +182,8 @@ pub struct StabilityScratch {
     own: Vec<f64>,
     coupled: Vec<f64>,
     root: Vec<f64>,
+    /// Per muscle link, the neurons' `[stiffness, damping]` it carries (`neural_slopes`).
+    neural: Vec<[f64; 2]>,
     grid: Grid,
 }
 
@@ -222,13 +269,16 @@ fn row_sums(plan: &Plan, p: &[f64], ws: &mut StabilityScratch) {
             acc.pair(c as usize, d as usize, g(kt, zc, c));
         }
     }
-    // A muscle is a spring (K, l0, Z first in its parameters) plus a neuron whose force is
-    // bounded by its gain: the neuron adds no stiffness at large amplitude, so only K and Z
-    // count, as for the angle's curvature part below.
+    // A muscle is a spring (K, l0, Z first in its parameters) plus a neuron whose slopes in
+    // the observed links' elongations and rates are bounded by `|G w|`: each muscle link
+    // counts the share of them it carries (`neural_slopes`) on top of its K and Z.
+    neural_slopes(plan, p, &mut ws.neural);
     for r in &plan.muscles.runs {
         let (k, z) = (p[r.param], p[r.param + 2]);
-        for &[i, j] in &plan.muscles.pairs[r.start..r.end] {
-            acc.pair(i as usize, j as usize, g(k, z, i));
+        for m in r.start..r.end {
+            let [i, j] = plan.muscles.pairs[m];
+            let [kn, zn] = ws.neural[m];
+            acc.pair(i as usize, j as usize, g(k + kn, z + zn, i));
         }
     }
     for r in &plan.dampers.runs {
@@ -282,6 +332,34 @@ fn row_sums(plan: &Plan, p: &[f64], ws: &mut StabilityScratch) {
             };
             acc.pair(i, j, g(k, z, i as u32))
         });
+    }
+}
+
+/// Per muscle link m, `[Σ ½|G w_len|, Σ ½|G w_rate|]` over every (neuron, observed link) pair
+/// it is one side of: the stiffness (N/m) and damping (N·s/m) that bound, as quadratic forms,
+/// what the neurons add to the linearised scheme (module documentation, "Neurons"). Zero for
+/// a muscle whose neuron and observers have every weight 0, so it then counts as its spring
+/// bit for bit (`k + 0.0`, `z + 0.0`).
+fn neural_slopes(plan: &Plan, p: &[f64], out: &mut Vec<[f64; 2]>) {
+    let muscles = &plan.muscles;
+    out.clear();
+    out.resize(muscles.len(), [0.0; 2]);
+    for (ri, r) in muscles.runs.iter().enumerate() {
+        let gain = p[r.param + 3].abs();
+        let nw = muscles.weights[ri];
+        let w0 = r.param + 5;
+        let (w_len, w_rate) = (&p[w0..w0 + nw], &p[w0 + nw..w0 + 2 * nw]);
+        for m in r.start..r.end {
+            let seen = &muscles.observed[muscles.start[m] as usize..muscles.start[m + 1] as usize];
+            for ((&k, wl), wr) in seen.iter().zip(w_len).zip(w_rate) {
+                // ½ on each side: |D s_m s_k| ≤ ½|D| (s_m² + s_k²).
+                let (kn, zn) = (0.5 * mul(gain, wl.abs()), 0.5 * mul(gain, wr.abs()));
+                for side in [m, k as usize] {
+                    out[side][0] += kn;
+                    out[side][1] += zn;
+                }
+            }
+        }
     }
 }
 
