@@ -162,12 +162,13 @@ pub(crate) fn local(store: &Pairs, t: usize, kii: &mut [f64], cii: &mut [f64]) {
     for k in 0..store.passes {
         let (pairs, recs) = store.step(t, k);
         for (&[i, j], d) in pairs.iter().zip(recs.chunks_exact(LINK)) {
-            let u = &d[9..12];
+            let u = spring::unit(d);
             let z = d[spring::ZEFF];
+            let a = spring::a_matrix(d);
             for e in [i as usize, j as usize] {
                 for r in 0..3 {
                     for q in 0..3 {
-                        kii[9 * e + 3 * r + q] -= d[3 * r + q];
+                        kii[9 * e + 3 * r + q] -= a[3 * r + q];
                         cii[9 * e + 3 * r + q] -= z * u[r] * u[q];
                     }
                 }

@@ -19,13 +19,46 @@ use cordis_core::Vec3;
 
 use super::no_column::NONE;
 
-/// Floats stored per spring or anchor per step by the matrix-free linearisation: A (9,
-/// row-major), u (3), `l - l0`, `s = w·u` (∂f_i/∂(K, l0, Z, Z₂) = (l - l0, -K, s, s|s|) u) and
-/// `Z'` (∂f_i/∂w = Z' u uᵀ). The passes are bound by reading this: 15 floats, not the 30 of
-/// A, B and ∂f/∂θ.
-pub(crate) const LINK: usize = 15;
+/// Floats stored per spring or anchor per step by the matrix-free linearisation, A held by
+/// its three factors instead of its nine entries:
+///
+/// ```text
+/// A = α u uᵀ + β I + u qᵀ,   α = K - m/l,  β = m/l,  q = (Z'/l) (I - u uᵀ) w
+/// ```
+///
+/// so a record is u (3), q (3), α, β, `l - l0`, `s = w·u` (∂f_i/∂(K, l0, Z, Z₂) =
+/// (l - l0, -K, s, s|s|) u) and `Z'` (∂f_i/∂w = Z' u uᵀ). The passes are bound by reading
+/// records: 11 floats, not the 15 of A stored whole (nor the 30 of A, B and ∂f/∂θ), and
+/// `A d = β d + u (α u·d + q·d)` is three dot products instead of a 3×3 product. Measured on
+/// the 32 × 32 cloth's fit (BENCHMARKS, "Large scenes").
+pub(crate) const LINK: usize = 11;
+/// Where u, q, α, β, `l - l0`, s and `Z'` are in a record.
+const U: usize = 0;
+const Q: usize = 3;
+const ALPHA: usize = 6;
+const BETA: usize = 7;
+const ELONGATION: usize = 8;
+const RATE: usize = 9;
 /// Where `Z'` is in a stored record.
-pub(crate) const ZEFF: usize = 14;
+pub(crate) const ZEFF: usize = 10;
+
+/// The unit direction u of a stored record.
+pub(crate) fn unit(d: &[f64]) -> &[f64] {
+    &d[U..U + 3]
+}
+
+/// A = ∂f_i/∂d of a stored record, row-major (the preconditioner's local blocks).
+pub(crate) fn a_matrix(d: &[f64]) -> [f64; 9] {
+    let (u, q, alpha, beta) = (&d[U..U + 3], &d[Q..Q + 3], d[ALPHA], d[BETA]);
+    let mut a = [0.0; 9];
+    for r in 0..3 {
+        for c in 0..3 {
+            let id = if r == c { beta } else { 0.0 };
+            a[3 * r + c] = alpha * u[r] * u[c] + id + u[r] * q[c];
+        }
+    }
+    a
+}
 
 /// The slot of run `ri`'s quadratic viscosity Z₂, when its type has one.
 pub(crate) fn quadratic(pass: &SpringPass, ri: usize) -> Option<usize> {
@@ -58,6 +91,10 @@ pub(crate) struct SpringLink {
     /// The rate's coefficient `Z' = Z + 2 Z₂ |s|`.
     zeff: f64,
     damped: bool,
+    /// A's factors (see [`LINK`]): α = K - m/l, β = m/l, q = (Z'/l) (I - u uᵀ) w.
+    alpha: f64,
+    beta: f64,
+    q: Vec3,
 }
 
 /// The spring from `xi` to `xj` (the force acts on i): see the module docs. `z2` is the
@@ -110,18 +147,21 @@ pub(crate) fn spring_link(
         s,
         zeff,
         damped: zeff != 0.0,
+        alpha: k - mag * inv,
+        beta: mag * inv,
+        q: perp * (zeff * inv),
     }
 }
 
 impl SpringLink {
     /// The matrix-free record ([`LINK`] floats).
     pub(crate) fn store(&self, d: &mut [f64]) {
-        for r in 0..3 {
-            d[3 * r..3 * r + 3].copy_from_slice(&self.a[r]);
-        }
-        d[9..12].copy_from_slice(self.u.as_slice());
-        d[12] = self.e;
-        d[13] = self.s;
+        d[U..U + 3].copy_from_slice(self.u.as_slice());
+        d[Q..Q + 3].copy_from_slice(self.q.as_slice());
+        d[ALPHA] = self.alpha;
+        d[BETA] = self.beta;
+        d[ELONGATION] = self.e;
+        d[RATE] = self.s;
         d[ZEFF] = self.zeff;
     }
 
@@ -186,8 +226,9 @@ pub(crate) fn forward(
     df: &mut [f64],
     dth: &[f64],
 ) {
-    let (a, u, z) = (&d[..9], &d[9..12], d[ZEFF]);
-    let (e, sr) = (d[12], d[13]);
+    let (u, q, z) = (&d[U..U + 3], &d[Q..Q + 3], d[ZEFF]);
+    let (alpha, beta) = (d[ALPHA], d[BETA]);
+    let (e, sr) = (d[ELONGATION], d[RATE]);
     for col in 0..w {
         let at = |m: &[f64], e: usize, c: usize| m[(3 * e + c) * w + col];
         let (dd, dv) = match j {
@@ -206,10 +247,13 @@ pub(crate) fn forward(
         if slots[3] != NONE {
             theta += sr * sr.abs() * th(slots[3]);
         }
-        // B dv = Z' u (u·dv), plus the θ forcing along u.
-        let along = z * (u[0] * dv[0] + u[1] * dv[1] + u[2] * dv[2]) + theta;
+        // A dd + B dv + θ forcing = β dd + u (α u·dd + q·dd + Z' u·dv + θ forcing).
+        let ud = u[0] * dd[0] + u[1] * dd[1] + u[2] * dd[2];
+        let qd = q[0] * dd[0] + q[1] * dd[1] + q[2] * dd[2];
+        let uv = u[0] * dv[0] + u[1] * dv[1] + u[2] * dv[2];
+        let along = alpha * ud + qd + z * uv + theta;
         for c in 0..3 {
-            let g = a[3 * c] * dd[0] + a[3 * c + 1] * dd[1] + a[3 * c + 2] * dd[2] + u[c] * along;
+            let g = beta * dd[c] + u[c] * along;
             df[(3 * i + c) * w + col] += g;
             if let Some(j) = j {
                 df[(3 * j + c) * w + col] -= g;
@@ -233,8 +277,9 @@ pub(crate) fn adjoint(
     (na, psi): (&mut [f64], &mut [f64]),
     grad: &mut [f64],
 ) {
-    let (am, u, z) = (&d[..9], &d[9..12], d[ZEFF]);
-    let (e, sr) = (d[12], d[13]);
+    let (u, q, z) = (&d[U..U + 3], &d[Q..Q + 3], d[ZEFF]);
+    let (alpha, beta) = (d[ALPHA], d[BETA]);
+    let (e, sr) = (d[ELONGATION], d[RATE]);
     for col in 0..w {
         let del = match j {
             Some(j) => [0, 1, 2].map(|c| phi[(3 * j + c) * w + col] - phi[(3 * i + c) * w + col]),
@@ -242,13 +287,14 @@ pub(crate) fn adjoint(
         };
         let ud = u[0] * del[0] + u[1] * del[1] + u[2] * del[2];
         for c in 0..3 {
-            // (Aᵀ δ)_c: column c of A.
-            let g = am[c] * del[0] + am[3 + c] * del[1] + am[6 + c] * del[2];
+            // Aᵀ δ = β δ + (α u + q) (u·δ).
+            let g = beta * del[c] + (alpha * u[c] + q[c]) * ud;
+            let h = z * u[c] * ud;
             na[(3 * i + c) * w + col] += g;
-            psi[(3 * i + c) * w + col] += z * u[c] * ud;
+            psi[(3 * i + c) * w + col] += h;
             if let Some(j) = j {
                 na[(3 * j + c) * w + col] -= g;
-                psi[(3 * j + c) * w + col] -= z * u[c] * ud;
+                psi[(3 * j + c) * w + col] -= h;
             }
         }
         // θ: -δ·∂f_i/∂θ = -(u·δ) (e, -K, s, s|s|).
@@ -299,6 +345,104 @@ mod tests {
                     "θ {t}"
                 );
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod record_tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    /// Links from a damped quadratic spring to an undamped one, and a zero-length one (u = 0).
+    fn links() -> Vec<SpringLink> {
+        let (xi, vi) = (Vec3::new(0.1, -0.2, 0.05), Vec3::new(0.2, 0.1, -0.4));
+        vec![
+            spring_link(
+                &Vec3::new(0.7, 0.1, -0.3),
+                &xi,
+                &Vec3::new(-0.5, 0.9, 0.3),
+                &vi,
+                35.0,
+                0.6,
+                0.3,
+                1.7,
+            ),
+            spring_link(
+                &Vec3::new(-0.4, 0.3, 0.2),
+                &xi,
+                &vi,
+                &vi,
+                12.0,
+                0.9,
+                0.0,
+                0.0,
+            ),
+            spring_link(&xi, &xi, &Vec3::new(1.0, 0.0, 0.0), &vi, 5.0, 0.2, 0.4, 0.0),
+        ]
+    }
+
+    /// The factored record (α u uᵀ + β I + u qᵀ) rebuilds the link's A, and the record-driven
+    /// forward and adjoint apply A, B = Z' u uᵀ and ∂f/∂θ as the link's full matrices do
+    /// (guards the 11-float record against the 15-float one it replaced).
+    #[test]
+    fn a_stored_record_applies_the_links_full_derivatives() {
+        let slots = [0, 1, 2, 3];
+        let k_of = [35.0, 12.0, 5.0];
+        for (lk, k) in links().into_iter().zip(k_of) {
+            let mut d = [0.0; LINK];
+            lk.store(&mut d);
+            let a = a_matrix(&d);
+            for r in 0..3 {
+                for c in 0..3 {
+                    assert_relative_eq!(a[3 * r + c], lk.a[r][c], epsilon = 1e-13);
+                }
+            }
+            // Two particles (rows 0..6), one direction; θ directions in 4 slots.
+            let cur = [0.3, -0.7, 0.2, 1.1, 0.4, -0.5];
+            let vel = [-0.2, 0.6, 0.9, 0.1, -0.8, 0.3];
+            let dth = [0.5, -1.5, 2.0, 0.7];
+            let mut df = [0.0; 6];
+            forward(&d, k, &slots, (0, Some(1)), 1, (&cur, &vel), &mut df, &dth);
+            let mut diff = [0.0; 6];
+            for c in 0..3 {
+                diff[c] = cur[3 + c] - cur[c];
+                diff[3 + c] = vel[3 + c] - vel[c];
+            }
+            let mut want = [0.0; 3];
+            for r in 0..3 {
+                let mut g = 0.0;
+                for c in 0..3 {
+                    g += lk.a[r][c] * diff[c] + lk.b[r][c] * diff[3 + c];
+                }
+                for t in 0..4 {
+                    g += lk.dp[t][r] * dth[t];
+                }
+                want[r] = g;
+            }
+            for r in 0..3 {
+                assert_relative_eq!(df[r], want[r], epsilon = 1e-12);
+                assert_relative_eq!(df[3 + r], -want[r], epsilon = 1e-12);
+            }
+            // Adjoint: ⟨δ, A dd + B dv + ∂f/∂θ dθ⟩ = ⟨Aᵀδ, dd⟩ + ⟨Bᵀδ, dv⟩ + ⟨∂f/∂θᵀ δ, dθ⟩.
+            let phi = [0.0, 0.0, 0.0, 0.4, -0.9, 0.25];
+            let (mut na, mut psi, mut grad) = ([0.0; 6], [0.0; 6], [0.0; 4]);
+            adjoint(
+                &d,
+                k,
+                &slots,
+                (0, Some(1)),
+                1,
+                &phi,
+                (&mut na, &mut psi),
+                &mut grad,
+            );
+            let lhs: f64 = (0..3).map(|c| phi[3 + c] * (-want[c])).sum();
+            let rhs: f64 = (0..6)
+                .map(|r| na[r] * cur[r] + psi[r] * vel[r])
+                .sum::<f64>()
+                + (0..4).map(|t| grad[t] * dth[t]).sum::<f64>();
+            assert_relative_eq!(lhs, rhs, epsilon = 1e-12);
         }
     }
 }
