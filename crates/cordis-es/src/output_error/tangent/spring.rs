@@ -350,6 +350,8 @@ mod tests {
 }
 
 #[cfg(test)]
+// Index loops mirror the 3 × 3 and 3 × 4 derivative layouts.
+#[allow(clippy::needless_range_loop)]
 mod record_tests {
     use super::*;
     use approx::assert_relative_eq;
