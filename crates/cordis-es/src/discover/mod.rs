@@ -12,6 +12,7 @@
 
 pub mod candidates;
 pub mod cluster;
+pub mod identify;
 pub mod select;
 pub mod smooth;
 

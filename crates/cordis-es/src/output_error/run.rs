@@ -22,7 +22,7 @@ use super::summary::{self, Estimate};
 use super::tangent::{Columns, Sens, Tangent};
 use super::windows::{After, Schedule};
 use crate::error::CostError;
-use crate::space::ParameterSpace;
+use crate::space::{ParameterSpace, Role};
 use crate::strategy::bits;
 
 /// Restarts from other starts after a fit got stuck in a wrong basin (a window whose
@@ -153,6 +153,19 @@ impl Prepared {
         let slots: Vec<usize> = space.unknowns.iter().map(|u| u.slot).collect();
         let cols = tangent.columns(&slots);
         let large = cols.len > matrix_free::DENSE_MAX_COLUMNS;
+        if let Some(u) = space.unknowns.iter().find(|u| u.role == Role::Gravity) {
+            if large {
+                return Err(CostError::mismatch(
+                    &u.name,
+                    format!(
+                        "an unknown gravity has sensitivities on the dense path only ({} fit \
+                         variables > {}): give it",
+                        cols.len,
+                        matrix_free::DENSE_MAX_COLUMNS
+                    ),
+                ));
+            }
+        }
         if large {
             matrix_free::check_memory(&tangent, &takes)?;
         } else {

@@ -184,14 +184,16 @@ fn sensitivities_through_provot_match_central_differences() {
     against_central_differences(&s, 6, 60, 1e-7);
 }
 
-/// The rollout's sensitivity columns (every type parameter, particle `mass`'s mass, every
-/// free particle's initial state) against central differences of the rollout, relative step
+/// The rollout's sensitivity columns (every type parameter, particle `mass`'s mass, gravity,
+/// every free particle's initial state) against central differences of the rollout, relative step
 /// `h`, over `frames` frames.
 fn against_central_differences(s: &Scene, mass: usize, frames: usize, h: f64) {
     let t = Tangent::new(s).unwrap();
     let layout = s.param_layout();
     let mut slots: Vec<usize> = (0..layout.mass_offset).collect();
     slots.push(layout.mass_offset + mass);
+    // Gravity's three components (`discover --identify` fits them).
+    slots.extend(layout.gravity_offset..layout.gravity_offset + 3);
     let cols = t.columns(&slots);
     let p = s.param_values();
     let q = state_of(s, &t);

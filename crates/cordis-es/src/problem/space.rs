@@ -22,6 +22,8 @@ pub enum Role {
     /// Provot's critical deformation rate τc (`max_elongation`, 1).
     Elongation,
     Mass,
+    /// A component of gravity, m/s² (output-error only: `cordis discover --identify`).
+    Gravity,
     /// A muscle neuron's gain, threshold or weight (SPEC §2.4): any sign for the last two.
     Neural,
 }

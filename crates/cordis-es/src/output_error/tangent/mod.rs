@@ -389,6 +389,10 @@ impl Tangent {
         }
         let mo = plan.layout.mass_offset;
         let dt2 = dt * dt;
+        // An unknown gravity component g_k: `∂(dt² g)/∂g_k = dt² e_k` on every free particle
+        // (one world: gravity acts on all of them).
+        let go = plan.layout.gravity_offset;
+        let gcol = [0, 1, 2].map(|k| c.of_slot[go + k]);
         for i in 0..n {
             let base = 3 * i * w;
             if !plan.free[i] {
@@ -410,6 +414,9 @@ impl Tangent {
                 }
                 if mcol != NONE {
                     sp[mcol] -= h * scratch.f[i][k] / m;
+                }
+                if gcol[k] != NONE {
+                    sp[gcol[k]] += dt2;
                 }
             }
         }
