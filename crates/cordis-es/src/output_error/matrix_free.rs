@@ -93,6 +93,7 @@
 use cordis_core::plan::Scratch;
 use cordis_core::Vec3;
 use nalgebra::{DMatrix, DVector, Matrix6};
+use std::ops::Range;
 
 use super::fit::{Counts, Fitter, LmSettings, StageEnd};
 use super::tangent::spring::{self, LINK};
@@ -106,6 +107,13 @@ use super::tangent::{angle, conditional, plane, provot, spring_link, NONE};
 /// path stays: it is exact, it reports the undetermined directions, and on the 12–30-mass
 /// networks it is well under a second.
 pub const DENSE_MAX_COLUMNS: usize = 500;
+
+/// From this many springs each step of a pass splits its springs in two halves summed into
+/// separate buffers, the second half on another rayon thread, and adds the buffers (the first
+/// half's plus the second's, in that order whatever the thread count: the sums, hence the
+/// fit, do not depend on it). Below it a step (~15 µs on the 12 × 12 cloth's 818 springs) is
+/// too short to pay a fork–join. The 32 × 32 cloth has 5,826 (BENCHMARKS, "Large scenes").
+pub const SPLIT_MIN_SPRINGS: usize = 2048;
 
 /// Refuses matrix-free fits whose stored linearisations would not fit in memory: per take and
 /// frame, 14 floats per spring or anchor, 3 per damper, 4 per coordinate, plus the θ-wide
@@ -244,6 +252,18 @@ pub(crate) struct Work {
     cii: Vec<f64>,
     /// One grid per conditional pass.
     grids: Vec<cordis_core::forces::grid::Grid>,
+    /// The second half's sums when a step's springs are split over two threads
+    /// ([`SPLIT_MIN_SPRINGS`]): its force (forward), Aᵀφ and Bᵀφ and θ gradient (adjoint).
+    half: Half,
+}
+
+/// Buffers of the second half of a split step.
+#[derive(Clone, Debug, Default)]
+struct Half {
+    df: Vec<f64>,
+    na: Vec<f64>,
+    psi: Vec<f64>,
+    grad: Vec<f64>,
 }
 
 /// The matrix-free operator at one iterate: the fitter, its parameters and every take's
@@ -253,6 +273,8 @@ pub(crate) struct Mf<'a, 'b> {
     p: Vec<f64>,
     chain: Vec<f64>,
     pub lins: Vec<Lin>,
+    /// Steps split their springs over two threads from this many ([`SPLIT_MIN_SPRINGS`]).
+    split_min_springs: usize,
 }
 
 impl<'a, 'b> Mf<'a, 'b> {
@@ -262,6 +284,7 @@ impl<'a, 'b> Mf<'a, 'b> {
             p: Vec::new(),
             chain: Vec::new(),
             lins: vec![Lin::default(); fit.takes.len()],
+            split_min_springs: SPLIT_MIN_SPRINGS,
         }
     }
 
@@ -595,6 +618,7 @@ impl<'a, 'b> Mf<'a, 'b> {
             dth,
             dir,
             out,
+            half,
             ..
         } = work;
         for b in [&mut *cur, &mut *prev, &mut *vel, &mut *df] {
@@ -620,7 +644,7 @@ impl<'a, 'b> Mf<'a, 'b> {
             if t + 1 == lin.frames {
                 break;
             }
-            self.forward_step(lin, t, w, cur, prev, vel, df, dth);
+            self.forward_step(lin, t, w, cur, prev, vel, (df, &mut half.df), dth);
             std::mem::swap(cur, prev);
             let pass = &plan.provot;
             if !pass.links.is_empty() {
@@ -635,11 +659,13 @@ impl<'a, 'b> Mf<'a, 'b> {
     /// The springs' and anchors' share of one forward step (`df += ∂f/∂x s + ∂f/∂v ṡ + ∂f/∂θ
     /// dθ`), inlined so that a constant `w` specialises it.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn links_forward(
         &self,
         lin: &Lin,
         t: usize,
         w: usize,
+        (springs, anchors): (Range<usize>, bool),
         sv: (&[f64], &[f64]),
         df: &mut [f64],
         dth: &[f64],
@@ -648,16 +674,20 @@ impl<'a, 'b> Mf<'a, 'b> {
         let (of_slot, p) = (&self.fit.cols.of_slot, &self.p);
         let (nsp, nan) = (plan.springs.pairs.len(), plan.anchors.particles.len());
         for (ri, r) in plan.springs.runs.iter().enumerate() {
+            let (a, b) = (r.start.max(springs.start), r.end.min(springs.end));
+            if a >= b {
+                continue;
+            }
             let k = p[r.param];
             let slots = spring::slots(&plan.springs, ri, r.param, of_slot);
-            let recs = &lin.springs[(t * nsp + r.start) * LINK..(t * nsp + r.end) * LINK];
-            for (&[i, j], d) in plan.springs.pairs[r.start..r.end]
-                .iter()
-                .zip(recs.chunks_exact(LINK))
-            {
+            let recs = &lin.springs[(t * nsp + a) * LINK..(t * nsp + b) * LINK];
+            for (&[i, j], d) in plan.springs.pairs[a..b].iter().zip(recs.chunks_exact(LINK)) {
                 let ends = (i as usize, Some(j as usize));
                 spring::forward(d, k, &slots, ends, w, sv, df, dth);
             }
+        }
+        if !anchors {
+            return;
         }
         for r in &plan.anchors.runs {
             let k = p[r.param];
@@ -676,11 +706,13 @@ impl<'a, 'b> Mf<'a, 'b> {
     /// The springs' and anchors' share of one adjoint step (`na += Aᵀ φ`, `psi += Bᵀ φ`,
     /// `grad += (∂f/∂θ)ᵀ φ`), inlined so that a constant `w` specialises it.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn links_adjoint(
         &self,
         lin: &Lin,
         t: usize,
         w: usize,
+        (springs, anchors): (Range<usize>, bool),
         phi: &[f64],
         (na, psi): (&mut [f64], &mut [f64]),
         grad: &mut [f64],
@@ -689,16 +721,20 @@ impl<'a, 'b> Mf<'a, 'b> {
         let (of_slot, p) = (&self.fit.cols.of_slot, &self.p);
         let (nsp, nan) = (plan.springs.pairs.len(), plan.anchors.particles.len());
         for (ri, r) in plan.springs.runs.iter().enumerate() {
+            let (a, b) = (r.start.max(springs.start), r.end.min(springs.end));
+            if a >= b {
+                continue;
+            }
             let k = p[r.param];
             let slots = spring::slots(&plan.springs, ri, r.param, of_slot);
-            let recs = &lin.springs[(t * nsp + r.start) * LINK..(t * nsp + r.end) * LINK];
-            for (&[i, j], d) in plan.springs.pairs[r.start..r.end]
-                .iter()
-                .zip(recs.chunks_exact(LINK))
-            {
+            let recs = &lin.springs[(t * nsp + a) * LINK..(t * nsp + b) * LINK];
+            for (&[i, j], d) in plan.springs.pairs[a..b].iter().zip(recs.chunks_exact(LINK)) {
                 let ends = (i as usize, Some(j as usize));
                 spring::adjoint(d, k, &slots, ends, w, phi, (&mut *na, &mut *psi), grad);
             }
+        }
+        if !anchors {
+            return;
         }
         for r in &plan.anchors.runs {
             let k = p[r.param];
@@ -715,6 +751,108 @@ impl<'a, 'b> Mf<'a, 'b> {
         }
     }
 
+    /// The springs' and anchors' share of one forward step into `df`: split over two threads
+    /// from [`SPLIT_MIN_SPRINGS`] springs (the second half summed in `df2`, then added).
+    #[allow(clippy::too_many_arguments)]
+    fn forward_links_step(
+        &self,
+        lin: &Lin,
+        t: usize,
+        w: usize,
+        sv: (&[f64], &[f64]),
+        df: &mut [f64],
+        df2: &mut Vec<f64>,
+        dth: &[f64],
+    ) {
+        let nsp = self.fit.tangent.plan.springs.pairs.len();
+        // One direction (every CG iteration) gets its own instance of the link loops, the
+        // width a constant (BENCHMARKS, "Large scenes").
+        let run = |springs: (Range<usize>, bool), df: &mut [f64]| {
+            if w == 1 {
+                self.links_forward(lin, t, 1, springs, sv, df, dth);
+            } else {
+                self.links_forward(lin, t, w, springs, sv, df, dth);
+            }
+        };
+        if nsp < self.split_min_springs {
+            run((0..nsp, true), df);
+            return;
+        }
+        let half = nsp / 2;
+        df2.clear();
+        df2.resize(df.len(), 0.0);
+        rayon::join(
+            || run((0..half, true), &mut *df),
+            || run((half..nsp, false), &mut df2[..]),
+        );
+        for (a, b) in df.iter_mut().zip(df2.iter()) {
+            *a += b;
+        }
+    }
+
+    /// The springs' and anchors' share of one adjoint step: split as
+    /// [`Self::forward_links_step`], the second half's `na`, `psi` and θ gradient in `half`.
+    #[allow(clippy::too_many_arguments)]
+    fn adjoint_links_step(
+        &self,
+        lin: &Lin,
+        t: usize,
+        w: usize,
+        phi: &[f64],
+        (na, psi): (&mut [f64], &mut [f64]),
+        grad: &mut [f64],
+        half: &mut Half,
+    ) {
+        let nsp = self.fit.tangent.plan.springs.pairs.len();
+        let run = |springs: (Range<usize>, bool), nps: (&mut [f64], &mut [f64]), g: &mut [f64]| {
+            if w == 1 {
+                self.links_adjoint(lin, t, 1, springs, phi, nps, g);
+            } else {
+                self.links_adjoint(lin, t, w, springs, phi, nps, g);
+            }
+        };
+        if nsp < self.split_min_springs {
+            run((0..nsp, true), (na, psi), grad);
+            return;
+        }
+        let mid = nsp / 2;
+        // Spring parameters are θ columns: the second half's gradient is nθ × w wide.
+        let nt = self.fit.theta() * w;
+        let Half {
+            na: na2,
+            psi: psi2,
+            grad: grad2,
+            ..
+        } = half;
+        for (b, len) in [
+            (&mut *na2, na.len()),
+            (&mut *psi2, psi.len()),
+            (&mut *grad2, nt),
+        ] {
+            b.clear();
+            b.resize(len, 0.0);
+        }
+        rayon::join(
+            || run((0..mid, true), (&mut *na, &mut *psi), &mut *grad),
+            || {
+                run(
+                    (mid..nsp, false),
+                    (&mut na2[..], &mut psi2[..]),
+                    &mut grad2[..],
+                )
+            },
+        );
+        for (a, b) in na.iter_mut().zip(na2.iter()) {
+            *a += b;
+        }
+        for (a, b) in psi.iter_mut().zip(psi2.iter()) {
+            *a += b;
+        }
+        for (a, b) in grad[..nt].iter_mut().zip(grad2.iter()) {
+            *a += b;
+        }
+    }
+
     /// One step of the directional tangent recursion: writes s(t+1) into `prev`.
     #[allow(clippy::too_many_arguments)]
     fn forward_step(
@@ -725,7 +863,7 @@ impl<'a, 'b> Mf<'a, 'b> {
         cur: &[f64],
         prev: &mut [f64],
         vel: &mut [f64],
-        df: &mut [f64],
+        (df, df2): (&mut [f64], &mut Vec<f64>),
         dth: &[f64],
     ) {
         let plan = &self.fit.tangent.plan;
@@ -738,13 +876,7 @@ impl<'a, 'b> Mf<'a, 'b> {
         }
         df.iter_mut().for_each(|x| *x = 0.0);
         let nd = plan.dampers.pairs.len();
-        // One direction (every CG iteration) gets its own instance of the link loops, the
-        // width a constant: measured 1.2x on the 32 x 32 cloth's passes (BENCHMARKS).
-        if w == 1 {
-            self.links_forward(lin, t, 1, (cur, vel), df, dth);
-        } else {
-            self.links_forward(lin, t, w, (cur, vel), df, dth);
-        }
+        self.forward_links_step(lin, t, w, (cur, vel), df, df2, dth);
         for r in &plan.dampers.runs {
             let z = p[r.param];
             let s = of_slot[r.param];
@@ -832,6 +964,7 @@ impl<'a, 'b> Mf<'a, 'b> {
             df: na,
             phi,
             grad,
+            half,
             ..
         } = work;
         for buf in [&mut *b, &mut *psi, &mut *na, &mut *phi] {
@@ -880,11 +1013,7 @@ impl<'a, 'b> Mf<'a, 'b> {
                 }
             }
             psi.iter_mut().for_each(|x| *x = 0.0);
-            if w == 1 {
-                self.links_adjoint(lin, t, 1, phi, (na, psi), grad);
-            } else {
-                self.links_adjoint(lin, t, w, phi, (na, psi), grad);
-            }
+            self.adjoint_links_step(lin, t, w, phi, (na, psi), grad, half);
             for r in &plan.dampers.runs {
                 let z = p[r.param];
                 let s = of_slot[r.param];
@@ -1957,6 +2086,56 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// A step split over two threads sums as the unsplit one to rounding, and bit for bit the
+    /// same whatever the thread count (guards determinism and the halves' bookkeeping: a
+    /// half skipped or added twice, anchors in both halves).
+    #[test]
+    fn split_steps_match_the_unsplit_ones_and_not_the_thread_count() {
+        let s = setup(1e-3);
+        let fit = fitter(&s);
+        let frames = 40;
+        let rows = 3 * s.tangent.plan.n;
+        let width = fit.cols.len;
+        let v: Vec<f64> = (0..width).map(|a| noise(a, 7)).collect();
+        let u: Vec<f64> = (0..frames * rows).map(|a| noise(a, 8)).collect();
+        let run = |split_min: usize, threads: usize| {
+            let mut mf = Mf::new(&fit);
+            mf.split_min_springs = split_min;
+            let mut work = Work::default();
+            assert!(mf.linearise(&s.q, frames, &mut work));
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                work.dir = v.clone();
+                mf.forward(1, 1, &mut work);
+                let jv = work.out.clone();
+                mf.adjoint(1, 1, &u, &mut work);
+                (jv, work.grad.clone())
+            })
+        };
+        let (jv, jtu) = run(usize::MAX, 1);
+        let (jv1, jtu1) = run(1, 1);
+        let (jv2, jtu2) = run(1, 2);
+        assert!(
+            jv1 == jv2 && jtu1 == jtu2,
+            "the thread count changed a split pass"
+        );
+        let close = |a: &[f64], b: &[f64]| {
+            let scale = a.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 1e-12 * scale)
+        };
+        assert!(
+            close(&jv, &jv1),
+            "split forward differs from the unsplit one"
+        );
+        assert!(
+            close(&jtu, &jtu1),
+            "split adjoint differs from the unsplit one"
+        );
     }
 
     #[test]
