@@ -2,6 +2,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{anyhow, bail, Result};
+use cordis_es::discover::identify::{identify_discovered, Identified};
 use cordis_es::discover::{discover, DiscoverOptions, Kinds};
 
 use super::Output;
@@ -56,6 +57,12 @@ pub struct Args {
     /// Where to write the per-link scores and the near misses (JSON).
     #[arg(long)]
     scores: Option<PathBuf>,
+    /// Then identify the discovered network by output-error on the same motion (link
+    /// parameters, gravity and discovered masses in boxes around the discovered values) and
+    /// write the identified scene here (JSON). Refused when the discovery names something as
+    /// not determined.
+    #[arg(long, value_name = "OUT")]
+    identify: Option<PathBuf>,
 }
 
 fn read_masses(path: &std::path::Path) -> Result<Vec<f64>> {
@@ -80,6 +87,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         &[
             ("--out", a.out.as_deref()),
             ("--scores", a.scores.as_deref()),
+            ("--identify", a.identify.as_deref()),
         ],
     )?;
     let traj = cordis_core::io::read_trajectory_with(&a.trajectory, &a.read.options()?)?;
@@ -117,6 +125,15 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     let start = Instant::now();
     let d = discover(&traj, dt, &opt)?;
     let seconds = start.elapsed().as_secs_f64();
+    // Identified before anything is written: a refused or failed fit leaves no file behind.
+    let identified = match &a.identify {
+        Some(_) => {
+            let t = Instant::now();
+            let id = identify_discovered(&traj, &d, &opt)?;
+            Some((id, t.elapsed().as_secs_f64()))
+        }
+        None => None,
+    };
     let scores = serde_json::json!({
         "radius": d.radius,
         "candidates": d.candidates,
@@ -136,10 +153,19 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         let text = serde_json::to_string_pretty(&scores)?;
         cordis_core::io::write_atomic(path, text.as_bytes())?;
     }
+    if let (Some(path), Some((id, _))) = (&a.identify, &identified) {
+        cordis_core::io::write_atomic(path, id.scene.to_json_string().as_bytes())?;
+    }
     let mut summary = scores;
     summary["particles"] = d.scene.num_particles().into();
     summary["types"] = d.scene.types.len().into();
     summary["num_links"] = d.scene.links.len().into();
+    if let (Some(path), Some((id, secs))) = (&a.identify, &identified) {
+        let mut v = serde_json::to_value(id)?;
+        v["out"] = path.display().to_string().into();
+        v["seconds"] = (*secs).into();
+        summary["identify"] = v;
+    }
     output.scene_result(&d.scene, a.out.as_deref(), summary.clone())?;
     if output.human() {
         eprintln!(
@@ -174,6 +200,43 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         for w in d.warnings() {
             eprintln!("warning: {w}");
         }
+        if let (Some(path), Some((id, secs))) = (&a.identify, &identified) {
+            report_identified(id, path, *secs);
+        }
     }
     Ok(())
+}
+
+/// The identification's lines for a terminal: status, each unknown with its interval.
+fn report_identified(id: &Identified, path: &std::path::Path, seconds: f64) {
+    eprintln!(
+        "identified (output-error, {} unknowns) in {seconds:.2} s: end {}, residual σ̂ {:.3e} m (noise read from the data {:.3e} m) -> {}",
+        id.params.len(),
+        id.end,
+        id.sigma,
+        id.noise_level,
+        path.display()
+    );
+    for p in &id.params {
+        eprintln!(
+            "  {}: {:.6e} (discovered {:.6e}), 95 % [{:.6e}, {:.6e}]",
+            p.name, p.value, p.discovered, p.low, p.high
+        );
+    }
+    if let Some(r) = id.reference {
+        eprintln!(
+            "note: masses fitted with particles[{r}].mass held, then every mass, stiffness and \
+             damping rescaled to the total mass (the motion does not change)"
+        );
+    }
+    for u in &id.undetermined {
+        eprintln!("warning: not determined by the motion: {}", u.join(", "));
+    }
+    if !id.converged {
+        eprintln!(
+            "warning: the identification did not converge (end {}): its parameters are the \
+             best point reached, not an estimate",
+            id.end
+        );
+    }
 }
