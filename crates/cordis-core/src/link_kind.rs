@@ -181,7 +181,7 @@ impl LinkKind {
             LinkKind::Plane => &["point", "normal"],
             LinkKind::Conditional => &["groups", "damping_quadratic"],
             LinkKind::Muscle => &["w_len", "w_rate", "observes"],
-            LinkKind::Tgr => &["signal"],
+            LinkKind::Tgr => &["signal", "tendon_position", "tendon_velocity"],
             _ => &[],
         }
     }

@@ -20,12 +20,21 @@ pub enum OptionalParam {
     /// The quadratic viscosity Z₂ (N·s²/m², springs and conditional links, thesis §4.3's
     /// "visc n.l"): the force along the link gains `Z₂ s |s|`.
     DampingQuadratic,
+    /// A TGR tendon's position at frame 0, m (relative to its anchor: 0 for a signal-driven
+    /// tendon, the controller dipole's length for a controlled one); default 0, at the anchor.
+    /// A take cropped mid-motion starts with its tendons where the motion left them: this and
+    /// [`OptionalParam::TendonVelocity`] say where, known or as unknowns to identify.
+    TendonPosition,
+    /// A TGR tendon's velocity at frame 0, m/s (`y(-1) = y(0) - v dt`); default 0, at rest.
+    TendonVelocity,
 }
 
 impl OptionalParam {
-    pub const ALL: [OptionalParam; 2] = [
+    pub const ALL: [OptionalParam; 4] = [
         OptionalParam::MaxElongation,
         OptionalParam::DampingQuadratic,
+        OptionalParam::TendonPosition,
+        OptionalParam::TendonVelocity,
     ];
 
     /// The key in a scene file.
@@ -33,6 +42,8 @@ impl OptionalParam {
         match self {
             OptionalParam::MaxElongation => "max_elongation",
             OptionalParam::DampingQuadratic => "damping_quadratic",
+            OptionalParam::TendonPosition => "tendon_position",
+            OptionalParam::TendonVelocity => "tendon_velocity",
         }
     }
 
@@ -45,6 +56,7 @@ impl OptionalParam {
         match self {
             OptionalParam::MaxElongation => &[LinkKind::Spring],
             OptionalParam::DampingQuadratic => &[LinkKind::Spring, LinkKind::Conditional],
+            OptionalParam::TendonPosition | OptionalParam::TendonVelocity => &[LinkKind::Tgr],
         }
     }
 }

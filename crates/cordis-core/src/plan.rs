@@ -256,6 +256,19 @@ impl Plan {
             )
         };
         let (c_runs, c_worlds, c_items) = runs_by_type_and_world(&controlled_items, off);
+        // A run's tendon start: the slots of its type's `tendon_position` and `tendon_velocity`
+        // (absent: 0, at rest at the anchor).
+        let initial_of = |r: &crate::forces::Run| {
+            let t = off
+                .iter()
+                .position(|&o| o == r.param)
+                .expect("a run's type");
+            let slot = |w| scene.types[t].optional_index(w).map(|k| off[t] + k);
+            [
+                slot(OptionalParam::TendonPosition),
+                slot(OptionalParam::TendonVelocity),
+            ]
+        };
         let stateful = Stateful {
             signals: scene.signals.clone(),
             tgrs: TgrPass {
@@ -264,12 +277,14 @@ impl Plan {
                     .map(|r| signal_of(r).expect("validated: an undriven tgr has a signal"))
                     .collect(),
                 dts: tgr_worlds.iter().map(|&w| scene.world_dt(w)).collect(),
+                initial: runs.iter().map(initial_of).collect(),
                 runs,
                 pairs,
             },
             controlled_tgrs: ControlledTgrPass {
                 signals: c_runs.iter().map(signal_of).collect(),
                 dts: c_worlds.iter().map(|&w| scene.world_dt(w)).collect(),
+                initial: c_runs.iter().map(initial_of).collect(),
                 pairs: c_items.iter().map(|i| i.0).collect(),
                 controllers: c_items.iter().map(|i| i.1).collect(),
                 runs: c_runs,

@@ -237,6 +237,9 @@ impl Scene {
                 let who = match which {
                     OptionalParam::MaxElongation => "only springs have it",
                     OptionalParam::DampingQuadratic => "only springs and conditional links have it",
+                    OptionalParam::TendonPosition | OptionalParam::TendonVelocity => {
+                        "only TGRs have a tendon"
+                    }
                 };
                 return Err(CordisError::scene(place, who));
             }
@@ -246,6 +249,7 @@ impl Scene {
             let sign = match which {
                 OptionalParam::MaxElongation => Sign::Positive,
                 OptionalParam::DampingQuadratic => Sign::NonNegative,
+                OptionalParam::TendonPosition | OptionalParam::TendonVelocity => Sign::Any,
             };
             check_param(&place, &t.params[specs.len() + k], sign)?;
         }

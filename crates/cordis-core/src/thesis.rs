@@ -699,6 +699,9 @@ fn check_writable(scene: &Scene) -> Result<()> {
             let what = match which {
                 crate::OptionalParam::MaxElongation => "the type has a breaking rate",
                 crate::OptionalParam::DampingQuadratic => "the type has a quadratic viscosity",
+                crate::OptionalParam::TendonPosition | crate::OptionalParam::TendonVelocity => {
+                    "the type has a tendon's initial state"
+                }
             };
             return no(format!("{at}.{}", which.name()), what);
         }

@@ -28,6 +28,43 @@ pub struct World {
 }
 
 impl Scene {
+    /// The scene as its frame `k` sees the clock: every signal's phase advanced by
+    /// `k dt_w / period`, `dt_w` the time step of the world whose TGRs read it (a TGR reads
+    /// its signal at `n dt_w`), so that a take cropped to start at frame `k` of this scene's
+    /// motion is driven by the same commands at the same frames. Signals no TGR reads are
+    /// advanced by the main `dt`. Fails, naming the signal, when TGRs in worlds of different
+    /// time steps read one signal (no single phase fits both). The tendons' state at frame `k`
+    /// is another matter: `tendon_position` / `tendon_velocity` (known or identified).
+    pub fn from_frame(&self, k: usize) -> Result<Scene> {
+        let mut out = self.clone();
+        for sg in out.signals.iter_mut() {
+            let mut dt = None;
+            for c in &self.couplings {
+                let ty = &self.types[c.type_index];
+                if ty.kind != LinkKind::Tgr || ty.signal.as_deref() != Some(sg.name.as_str()) {
+                    continue;
+                }
+                let w = self.particle_dt(c.particles[0]);
+                match dt {
+                    Some(d) if d != w => {
+                        return Err(CordisError::scene(
+                            format!("signals.{}", sg.name),
+                            format!(
+                                "`{}` drives TGRs in worlds of time steps {d} s and {w} s: \
+                                 frame {k} is not one time for both",
+                                sg.name
+                            ),
+                        ));
+                    }
+                    _ => dt = Some(w),
+                }
+            }
+            let c = sg.phase + k as f64 * dt.unwrap_or(self.dt) / sg.period;
+            sg.phase = c - c.floor();
+        }
+        Ok(out)
+    }
+
     /// Declares a world of time step `dt` (s), replacing one of the same name; returns its
     /// world index (main = 0).
     pub fn add_world(&mut self, name: impl Into<String>, dt: f64) -> usize {

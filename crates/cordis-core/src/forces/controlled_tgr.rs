@@ -49,6 +49,9 @@ pub struct ControlledTgrPass {
     pub signals: Vec<Option<usize>>,
     /// Time step of each run's (the muscle's) world, s.
     pub dts: Vec<f64>,
+    /// Slots of each run's type's `tendon_position` and `tendon_velocity` (see
+    /// [`super::tgr::initial_tendon`]): the tendon's start about its anchor.
+    pub initial: Vec<[Option<usize>; 2]>,
     /// `[M1, M2]` of each instance.
     pub pairs: Vec<[u32; 2]>,
     /// The controller dipole `[c, d]` of each instance.
@@ -68,15 +71,17 @@ impl ControlledTgrPass {
         STATE_PER_CONTROLLED_TGR * self.pairs.len()
     }
 
-    /// Each tendon at its anchor and at rest: `y(0) = y(-1) = a(-1) = a(0)`, the controller
-    /// dipole's length at positions `x0` (m).
-    pub fn reset(&self, x0: &[Vec3], state: &mut [f64]) {
-        for (s, &cd) in state
-            .chunks_exact_mut(STATE_PER_CONTROLLED_TGR)
-            .zip(&self.controllers)
-        {
-            let a = anchor(cd, x0).1;
-            s.copy_from_slice(&[a, a, a]);
+    /// Each tendon at its anchor and at rest, `y(0) = y(-1) = a(-1) = a(0)` the controller
+    /// dipole's length at positions `x0` (m), unless its type gives `tendon_position` y₀ and
+    /// `tendon_velocity` v₀: then `y(0) = a(0) + y₀`, `y(-1) = y(0) - v₀ dt`.
+    pub fn reset(&self, p: &[f64], x0: &[Vec3], state: &mut [f64]) {
+        for ((r, slots), &dt) in self.runs.iter().zip(&self.initial).zip(&self.dts) {
+            for m in r.start..r.end {
+                let s = &mut state[STATE_PER_CONTROLLED_TGR * m..][..STATE_PER_CONTROLLED_TGR];
+                let a = anchor(self.controllers[m], x0).1;
+                let (y, y_prev) = super::tgr::initial_tendon(p, *slots, dt, a);
+                s.copy_from_slice(&[y, y_prev, a]);
+            }
         }
     }
 

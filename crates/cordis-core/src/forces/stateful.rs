@@ -85,10 +85,10 @@ impl Stateful {
     /// the initial positions `x0` (m).
     pub fn reset(&self, p: &[f64], x0: &[Vec3], state: &mut [f64]) {
         let [tgr, quad, pos, controlled] = self.slices(state);
-        self.tgrs.reset(tgr);
+        self.tgrs.reset(p, tgr);
         self.quadripoles.reset(p, x0, quad);
         self.position_transmitters.reset(p, x0, pos);
-        self.controlled_tgrs.reset(x0, controlled);
+        self.controlled_tgrs.reset(p, x0, controlled);
     }
 
     /// Adds the stateful passes' forces at frame `n` (positions `x`, velocities `v`) to `f`

@@ -33,6 +33,9 @@ pub struct TgrPass {
     pub signals: Vec<usize>,
     /// Time step of each run's world, s (runs are grouped by type and world).
     pub dts: Vec<f64>,
+    /// Slots in `p` of each run's type's `tendon_position` (m) and `tendon_velocity` (m/s),
+    /// when it has them (see [`initial_tendon`]).
+    pub initial: Vec<[Option<usize>; 2]>,
     pub pairs: Vec<[u32; 2]>,
 }
 
@@ -52,9 +55,17 @@ impl TgrPass {
         STATE_PER_TGR * self.pairs.len()
     }
 
-    /// Tendons at rest at 0: `y(0) = y(-1) = 0`.
-    pub fn reset(&self, state: &mut [f64]) {
+    /// Tendons at frame 0: `y(0) = y₀`, `y(-1) = y₀ - v₀ dt` from each type's
+    /// `tendon_position` and `tendon_velocity`, at rest at 0 without them.
+    pub fn reset(&self, p: &[f64], state: &mut [f64]) {
         state.fill(0.0);
+        for ((r, slots), &dt) in self.runs.iter().zip(&self.initial).zip(&self.dts) {
+            let (y, y_prev) = initial_tendon(p, *slots, dt, 0.0);
+            for m in r.start..r.end {
+                state[2 * m] = y;
+                state[2 * m + 1] = y_prev;
+            }
+        }
     }
 
     /// Adds every TGR's link force at positions `x`, velocities `v` to `f`, and advances each
@@ -86,6 +97,21 @@ impl TgrPass {
             }
         }
     }
+}
+
+/// A tendon's `(y(0), y(-1))` (m) about its anchor `a` (m): `a + y₀` and `a + y₀ - v₀ dt`
+/// from the slots of `tendon_position` y₀ and `tendon_velocity` v₀ (absent: 0), so a type
+/// without them starts at rest on its anchor, bit for bit as before they existed.
+#[inline]
+pub(crate) fn initial_tendon(
+    p: &[f64],
+    [y0, v0]: [Option<usize>; 2],
+    dt: f64,
+    a: f64,
+) -> (f64, f64) {
+    let y = y0.map_or(a, |k| a + p[k]);
+    let y_prev = v0.map_or(y, |k| y - p[k] * dt);
+    (y, y_prev)
 }
 
 /// Adds the force of a TGR's link between `[i, j]` whose rest length is `l0 + y` (m) to `f`

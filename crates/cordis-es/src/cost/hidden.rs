@@ -17,7 +17,8 @@
 //!
 //! The observed velocity of frame 0 is taken as zero (a trajectory has no x(-1)); this only
 //! matters for a damped stateful pass (a TGR with `damping` ≠ 0) whose scene does not start at
-//! rest.
+//! rest. A tendon's start is the TGR type's `tendon_position` / `tendon_velocity` (default at
+//! rest), known or identified: what a take cropped mid-motion needs (docs/identification.md).
 
 use cordis_core::forces::stateful::Stateful;
 use cordis_core::Vec3;

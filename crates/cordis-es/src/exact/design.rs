@@ -28,7 +28,7 @@ use cordis_core::{LinkKind, Scene, Vec3};
 use nalgebra::DMatrix;
 
 use crate::cost::Objective;
-use crate::exact::tgr_cols::Tendon;
+use crate::exact::tgr_cols::{self, Tendon};
 use crate::exact::{self, Block, Col, System, Weighting};
 use crate::linalg::givens::Factor;
 
@@ -80,7 +80,9 @@ impl Design {
         let layout = scene.param_layout();
         let tgr_deps = |t: usize| {
             let o = layout.type_offsets[t];
-            vec![o, o + 3, o + 4, o + 5]
+            let mut d = vec![o, o + 3, o + 4, o + 5];
+            d.extend(tgr_cols::initial_slots(scene, t).into_iter().flatten());
+            d
         };
         let mut deps = Vec::with_capacity(cols.len());
         for c in cols {
@@ -220,7 +222,8 @@ impl Design {
                     }
                     for inst in self.tgrs.iter().filter(|g| g.type_index == t) {
                         let [i, j] = inst.pair;
-                        let mut tendon = Tendon::new(p[o], (p[o + 3], p[o + 4], p[o + 5]), dt);
+                        let mut tendon = Tendon::new(p[o], (p[o + 3], p[o + 4], p[o + 5]), dt)
+                            .starting_at(tgr_cols::initial_tendon(scene, t, p, dt));
                         for (fr, &(u, l, s, command)) in inst.frames.iter().enumerate() {
                             let tension = tendon.step(command, l, s);
                             if fr == 0 {

@@ -19,7 +19,7 @@
 //! three series directly (one pass per K instead of three). The series reproduce the cost's
 //! tendon to 1e-12 (tested below) and the two column builds agree (`design`'s test).
 
-use cordis_core::{LinkKind, Scene};
+use cordis_core::{LinkKind, OptionalParam, Scene};
 
 use crate::exact::Col;
 use crate::problem::space::Unknown;
@@ -44,6 +44,24 @@ pub(crate) fn is_nonlinear(scene: &Scene, u: &Unknown) -> bool {
     }
     let o = scene.param_layout().type_offsets[t];
     !LINEAR.contains(&(u.slot - o))
+}
+
+/// Slots in the parameter vector of TGR type `t`'s `tendon_position` and `tendon_velocity`,
+/// when it has them: they move the tendon's start, so `y₀`'s series depends on them.
+pub(crate) fn initial_slots(scene: &Scene, t: usize) -> [Option<usize>; 2] {
+    let o = scene.param_layout().type_offsets[t];
+    let ty = &scene.types[t];
+    [OptionalParam::TendonPosition, OptionalParam::TendonVelocity]
+        .map(|w| ty.optional_index(w).map(|k| o + k))
+}
+
+/// `(y(0), y(-1))` (m) of TGR type `t`'s tendons at `p`, time step `dt` (s): the start of
+/// `y₀`'s series, what the cost's reset gives (`cordis_core::forces::tgr`).
+pub(crate) fn initial_tendon(scene: &Scene, t: usize, p: &[f64], dt: f64) -> (f64, f64) {
+    let [y0, v0] = initial_slots(scene, t);
+    let y = y0.map_or(0.0, |k| 0.0 + p[k]);
+    let y_prev = v0.map_or(y, |k| y - p[k] * dt);
+    (y, y_prev)
 }
 
 /// One TGR instance's tendon as its three series `(y₀, y_l, y_Z)` (m, m per m of l0, m per
@@ -72,6 +90,14 @@ impl Tendon {
             y: [0.0; 3],
             prev: [0.0; 3],
         }
+    }
+
+    /// The same tendon starting at `(y(0), y(-1))` (m): the start belongs to `y₀`'s series
+    /// (the l0 and Z series start at 0: the recursion is affine).
+    pub fn starting_at(mut self, (y, y_prev): (f64, f64)) -> Self {
+        self.y[0] = y;
+        self.prev[0] = y_prev;
+        self
     }
 
     /// The three series at the current frame.
