@@ -699,6 +699,7 @@ def identify(
     descent_start: Optional[int] = None,
     descent_every: Optional[int] = None,
     crossover: Optional[str] = None,
+    local_cost: Optional[str] = None,
     plus: bool = False,
     correlated: bool = False,
     visible: Optional[Union[_ArrayLike, Sequence[_ArrayLike]]] = None,
@@ -727,7 +728,9 @@ def identify(
     ``Param.gene`` file (its ``damping`` only as 0); ``descent_start``/``descent_every`` set
     the thesis ES's Powell descent (None: 400 and 100) and ``crossover`` its crossover
     (``"mean"``: Annexe 1, the default; ``"n-parent"``, ``"mn-parent"``: §3.2), refused with a
-    strategy other than ``thesis``/``t2m``, as are ``param_gene``'s ``pcross``, ``pmut`` and
+    strategy other than ``thesis``/``t2m``, as are ``local_cost`` (``"positions"``, the
+    default, or ``"distances"``: eq 3.3 as printed, the error of the predicted distances to
+    linked particles; short cost, no executor) and ``param_gene``'s ``pcross``, ``pmut`` and
     ``reducer``; ``plus`` and ``correlated`` give ``self-adaptive``
     (μ+λ) selection and correlated mutations (refused with another strategy). ``threads`` beyond the machine's cores are capped, with a warning.
 

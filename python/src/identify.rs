@@ -11,6 +11,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Arc};
 use std::time::Duration;
 
+use cordis_es::cost::LocalCost;
 use cordis_es::executor::{HistoryRow, Observer, StopReason};
 use cordis_es::report::{Report, SolverReport};
 use cordis_es::session::{Generations, IdentifyRequest, Lock, Outcome, Session, Style};
@@ -299,6 +300,7 @@ struct PyArgs<'py> {
     descent_start: Option<i64>,
     descent_every: Option<i64>,
     crossover: Option<&'py str>,
+    local_cost: Option<&'py str>,
     plus: bool,
     correlated: bool,
     visible: Option<Bound<'py, PyAny>>,
@@ -379,6 +381,11 @@ fn request(
         .map(Crossover::parse)
         .transpose()
         .map_err(|e| bad("crossover", e))?;
+    r.local_cost = a
+        .local_cost
+        .map(LocalCost::parse)
+        .transpose()
+        .map_err(|e| bad("local_cost", e))?;
     r.plus = a.plus;
     r.correlated = a.correlated;
     r.truth = truth.map(|t| (*t.core()).clone());
@@ -465,8 +472,11 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
 ///   `Param.gene` file (`damping` only as 0; its `pcross`, `pmut`, `reducer` read by `thesis`
 ///   and `t2m` only); `descent_start`, `descent_every`: the thesis ES's Powell descent (None:
 ///   400 and 100); `crossover`: its crossover, `"mean"` (Annexe 1, None's), `"n-parent"` or
-///   `"mn-parent"` (§3.2) — these refused with another strategy; `plus`, `correlated`: `self-adaptive`'s (μ+λ) selection and
-///   correlated mutations (refused with another strategy).
+///   `"mn-parent"` (§3.2); `local_cost`: the local cost driving its local operators,
+///   `"positions"` (None's) or `"distances"` (eq 3.3 as printed: the error of the predicted
+///   distances to linked particles; short cost, no executor) — these refused with another
+///   strategy; `plus`, `correlated`: `self-adaptive`'s (μ+λ) selection and correlated
+///   mutations (refused with another strategy).
 /// - `executor`: where populations are evaluated: None or `"local"`, `"ray"` (a
 ///   `cordis.RayExecutor()`: `pip install cordis-anima[ray]`), or an executor object whose
 ///   `evaluator(scene_json, traj, cost)` returns a callable `(genomes, generation, local) ->
@@ -509,7 +519,7 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
     stable_horizon = None, stable_spread = cordis_es::stable::DEFAULT_SPREAD,
     executor = None, islands = None, migrate_every = 10, migrants = 2, total_mass = None,
     lock = None, param_gene = None, descent_start = None, descent_every = None,
-    crossover = None, plus = false, correlated = false, visible = None, markers = None, weights = None, loss = "squared"
+    crossover = None, local_cost = None, plus = false, correlated = false, visible = None, markers = None, weights = None, loss = "squared"
 ))]
 #[pyo3(
     text_signature = "(scene, traj, strategy='auto', generations=1000, population=None, \
@@ -517,7 +527,7 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
     max_evals=None, threads=None, truth=None, checkpoint=None, resume=None, dt=None, \
     stable_horizon=None, stable_spread=2.0, \
     executor=None, islands=None, migrate_every=10, migrants=2, total_mass=None, lock=None, \
-    param_gene=None, descent_start=None, descent_every=None, crossover=None, plus=False, \
+    param_gene=None, descent_start=None, descent_every=None, crossover=None, local_cost=None, plus=False, \
     correlated=False, visible=None, markers=None, weights=None, loss='squared')"
 )]
 #[allow(clippy::too_many_arguments)]
@@ -552,6 +562,7 @@ pub fn identify(
     descent_start: Option<i64>,
     descent_every: Option<i64>,
     crossover: Option<&str>,
+    local_cost: Option<&str>,
     plus: bool,
     correlated: bool,
     visible: Option<Bound<'_, PyAny>>,
@@ -584,6 +595,7 @@ pub fn identify(
         descent_start,
         descent_every,
         crossover,
+        local_cost,
         plus,
         correlated,
         visible,
@@ -592,6 +604,17 @@ pub fn identify(
         loss,
     };
     let req = request(&scene.core(), traj, truth, args)?;
+    let remote_asked = executor
+        .as_ref()
+        .is_some_and(|e| e.extract::<String>().map_or(true, |n| n != "local"));
+    if remote_asked && req.local_cost == Some(LocalCost::Distances) {
+        // An executor's workers compile the scene, data and cost kind only: they would send
+        // back the position-error local costs.
+        return Err(bad(
+            "local_cost",
+            "'distances' is computed in this process only: leave executor out (or None)",
+        ));
+    }
     let executor = executor_object(py, executor)?;
     if let Some(cb) = &callback {
         if !cb.is_callable() {

@@ -244,16 +244,25 @@ def test_thesis_options_are_read_by_the_thesis_es_and_refused_elsewhere(tmp_path
     plain = cordis.identify(scene, traj, **kw).cost
     # Read: each changes the t2m search.
     for opts in [dict(crossover="n-parent"), dict(descent_start=5, descent_every=5),
-                 dict(param_gene=es)]:
+                 dict(param_gene=es), dict(local_cost="distances")]:
         assert cordis.identify(scene, traj, **kw, **opts).cost != plain, opts
     assert cordis.identify(scene, traj, **kw, crossover="mean").cost == plain
+    assert cordis.identify(scene, traj, **kw, local_cost="positions").cost == plain
+    # Eq 3.3 is the short cost's, and computed in this process only.
+    with pytest.raises(ValueError, match=r"local_cost: distances \(eq 3.3\).*not the `long`"):
+        cordis.identify(scene, traj, **kw, cost="long", local_cost="distances")
+    with pytest.raises(ValueError, match="local_cost: 'distances' is computed in this process"):
+        cordis.identify(scene, traj, **kw, local_cost="distances", executor="ray")
+    with pytest.raises(ValueError, match="local_cost: unknown local cost `eq3.3`"):
+        cordis.identify(scene, traj, **kw, local_cost="eq3.3")
     # Ignored elsewhere: refused by name (`auto` picks least-squares on this linear chain).
     for strategy, opts, says in [
             ("cmaes", dict(crossover="mean"), "crossover: .*, not cmaes"),
             ("self-adaptive", dict(descent_start=5), "descent_start: .*, not self-adaptive"),
             ("hybrid", dict(descent_every=0), "descent_every: .*, not hybrid"),
             ("auto", dict(crossover="n-parent"), r"crossover: .*least-squares \(what auto picked"),
-            ("annealing", dict(param_gene=es), "param_gene .*es.gene: pcross, pmut configure")]:
+            ("annealing", dict(param_gene=es), "param_gene .*es.gene: pcross, pmut configure"),
+            ("parisian", dict(local_cost="distances"), "local_cost: .*, not parisian")]:
         with pytest.raises(ValueError, match=says) as e:
             cordis.identify(scene, traj, strategy=strategy, generations=2, **opts)
         assert "the thesis ES only (thesis, t2m)" in str(e.value)

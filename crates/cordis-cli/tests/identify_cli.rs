@@ -403,12 +403,15 @@ fn thesis_options_are_read_by_the_thesis_es_and_refused_by_other_strategies() {
     let n_parent = run("t2m", &["--crossover", "n-parent"]);
     let descents = run("t2m", &["--descent-start", "5", "--descent-every", "5"]);
     let gene = run("t2m", &["--param-gene", "es.gene"]);
+    let eq33 = run("t2m", &["--local-cost", "distances"]);
+    assert_ne!(plain, eq33);
     assert_ne!(plain, n_parent);
     assert_ne!(plain, descents);
     assert_ne!(plain, gene);
     assert_eq!(n_parent, run("t2m", &["--crossover", "n-parent"]));
     // The default given by hand is the default.
     assert_eq!(plain, run("t2m", &["--crossover", "mean"]));
+    assert_eq!(plain, run("t2m", &["--local-cost", "positions"]));
     // A Param.gene of population and generations only is read by every strategy.
     let mut args = base.to_vec();
     args.extend_from_slice(&["--strategy", "cmaes", "--param-gene", "size.gene"]);
@@ -434,6 +437,11 @@ fn thesis_options_are_read_by_the_thesis_es_and_refused_by_other_strategies() {
             "annealing",
             "pcross, pmut configure",
         ),
+        (
+            &["--local-cost", "distances"][..],
+            "parisian",
+            "--local-cost",
+        ),
     ] {
         let mut args = base.to_vec();
         args.extend_from_slice(&["--strategy", strategy]);
@@ -449,4 +457,23 @@ fn thesis_options_are_read_by_the_thesis_es_and_refused_by_other_strategies() {
             "{err}"
         );
     }
+    // Eq 3.3 is defined on the short cost's one-step predictions.
+    let mut args = base.to_vec();
+    args.extend_from_slice(&[
+        "--strategy",
+        "t2m",
+        "--cost",
+        "long",
+        "--local-cost",
+        "distances",
+    ]);
+    let out = cordis(d, &args);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.starts_with("error: --local-cost: distances (eq 3.3)")
+            && err.contains("not the `long` cost")
+            && err.lines().count() == 1,
+        "{err}"
+    );
 }

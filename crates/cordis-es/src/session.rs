@@ -21,7 +21,7 @@ use std::time::Duration;
 use cordis_core::thesis::GeneParams;
 use cordis_core::{Observations, Scene, Trajectory};
 
-use crate::cost::CostKind;
+use crate::cost::{CostKind, LocalCost};
 use crate::evaluator::Evaluator;
 use crate::executor::{self, Fingerprint, Observer, RunConfig, RunResult, StopRules};
 use crate::identify::{self, make_islands, make_strategy, StrategyName, StrategyOptions};
@@ -113,6 +113,10 @@ pub struct IdentifyRequest {
     /// `thesis` and `t2m`: the crossover (Annexe 1's mean, or §3.2's n- or m·n-parent;
     /// `None`: the mean; given with another strategy, refused by name).
     pub crossover: Option<Crossover>,
+    /// `thesis` and `t2m`: the local costs that drive their local operators, the position
+    /// error or eq 3.3's neighbour distances (`None`: positions; given with another strategy,
+    /// refused by name).
+    pub local_cost: Option<LocalCost>,
     /// `self-adaptive`: (μ+λ) selection (parents compete with their children) instead of (μ,λ).
     pub plus: bool,
     /// `self-adaptive`: correlated mutations (one rotation angle per pair of coordinates).
@@ -179,6 +183,7 @@ impl IdentifyRequest {
             descent_start: None,
             descent_every: None,
             crossover: None,
+            local_cost: None,
             plus: false,
             correlated: false,
             islands: None,
@@ -562,6 +567,14 @@ fn build_problem(req: &IdentifyRequest, data: &Trajectory) -> Result<Problem, Co
     if let Some(m) = req.total_mass {
         problem = problem.with_total_mass(m)?;
     }
+    if let Some(local) = req.local_cost {
+        problem = problem.with_local_cost(local).map_err(|e| match e {
+            CostError::Invalid { message, .. } => {
+                CostError::invalid(req.opt("local_cost"), message)
+            }
+            other => other,
+        })?;
+    }
     Ok(problem)
 }
 
@@ -718,6 +731,7 @@ fn check_thesis_options(
         ("crossover", req.crossover.is_some()),
         ("descent_start", req.descent_start.is_some()),
         ("descent_every", req.descent_every.is_some()),
+        ("local_cost", req.local_cost.is_some()),
     ];
     if let Some((name, _)) = asked.iter().find(|(_, given)| *given) {
         return Err(CostError::invalid(
@@ -991,6 +1005,9 @@ fn fingerprint(
     }
     if options.correlated {
         crossover.push_str(" correlated");
+    }
+    if req.local_cost == Some(LocalCost::Distances) {
+        crossover.push_str(" local-cost distances");
     }
     f.insert(
         "strategy options".into(),

@@ -5,7 +5,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::Result;
 use cordis_core::Scene;
-use cordis_es::cost::CostKind;
+use cordis_es::cost::{CostKind, LocalCost};
 use cordis_es::executor::{HistoryRow, Observer, StopReason};
 use cordis_es::identify::StrategyName;
 use cordis_es::session::{Generations, IdentifyRequest, Lock, Outcome, Session, Style};
@@ -104,6 +104,12 @@ pub struct Args {
     /// parameters, from one father). Default mean; refused with another strategy.
     #[arg(long)]
     crossover: Option<String>,
+    /// thesis and t2m: the local cost that drives their local operators: positions (default:
+    /// each particle's prediction error) or distances (thesis eq 3.3 as printed: the error of
+    /// the predicted distances to the particles it shares a link with; short cost only). The
+    /// global cost is the same. Refused with another strategy.
+    #[arg(long)]
+    local_cost: Option<String>,
     /// self-adaptive: (μ+λ) selection, parents competing with their children (default (μ,λ)).
     #[arg(long)]
     plus: bool,
@@ -274,6 +280,12 @@ fn request(a: &Args) -> Result<IdentifyRequest> {
         .map(Crossover::parse)
         .transpose()
         .map_err(|e| anyhow::anyhow!("--crossover: {e}"))?;
+    r.local_cost = a
+        .local_cost
+        .as_deref()
+        .map(LocalCost::parse)
+        .transpose()
+        .map_err(|e| anyhow::anyhow!("--local-cost: {e}"))?;
     r.plus = a.plus;
     r.correlated = a.correlated;
     r.islands = a.islands.map(|islands| IslandConfig {

@@ -6,6 +6,8 @@
 //! - [`Objective`]: a scene + trajectory + kind compiled once, evaluated on parameter vectors
 //!   ([`Objective::evaluate`] with local costs, [`Objective::total`],
 //!   [`Objective::evaluate_batch`] in parallel, [`Objective::report`]).
+//! - [`LocalCost`]: the local costs written per particle, the position error or eq 3.3's
+//!   neighbour distances.
 //! - [`LinearShortCost`]: the short cost of linear-in-parameter scenes precomputed as quadratic
 //!   forms; `Objective` uses it automatically.
 //!
@@ -33,6 +35,7 @@ pub mod hidden;
 pub(crate) mod kernels;
 mod kind;
 mod linear;
+mod local;
 mod objective;
 mod observed;
 mod rollout;
@@ -43,4 +46,5 @@ pub use hidden::HiddenState;
 pub use kernels::GEOMETRY_BUDGET_BYTES;
 pub use kind::{CostKind, DEFAULT_GENERATIONS_TO_FULL, DEFAULT_HARMONIC_EPS};
 pub use linear::{LinearShortCost, ThetaEntry};
+pub use local::LocalCost;
 pub use objective::{CostReport, CostScratch, Objective};

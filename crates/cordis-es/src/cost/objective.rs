@@ -23,9 +23,11 @@ use std::sync::OnceLock;
 ///   frames t-1 and t-2 (velocity `v = (x(t-1) - x(t-2)) / dt`, every link pass, gravity, then
 ///   Provot's pass on the predicted positions). On a trajectory simulated with the same
 ///   parameters it is exactly 0.
-/// - `e_i(t) = |x̂_i(t) - x_i(t)|²` (m²); the local cost of particle i is `c_i = Σ_t e_i(t)`
-///   and the global cost `C = Σ_i c_i`. The harmonic kind differs: see [`CostKind::Harmonic`]
-///   and [`Objective::evaluate`].
+/// - `e_i(t) = |x̂_i(t) - x_i(t)|²` (m²); the global cost is `C = Σ_i c_i` with the
+///   position-error local cost `c_i = Σ_t e_i(t)` (eq 3.1 split by particle, what §3.2.1's
+///   sentence describes; eq 3.3 as printed, the error of the distances to the neighbours, is
+///   [`super::LocalCost::Distances`], which changes the local costs written and not `C`). The
+///   harmonic kind differs: see [`CostKind::Harmonic`] and [`Objective::evaluate`].
 /// - `terms` counts (predicted frame, free particle) pairs — particles, not coordinates — so
 ///   `rmse = sqrt(C / terms)` is the root-mean-square prediction error of a particle, in m.
 /// - Never NaN: a prediction that is not finite (or, in a rollout, a coordinate beyond
@@ -54,6 +56,9 @@ pub struct Objective {
     pub(crate) geometry_budget: usize,
     /// The caller's generation counter (progressive horizon).
     pub(crate) generation: usize,
+    /// The linked pairs with a free end when the local costs are eq 3.3's distances
+    /// ([`super::LocalCost`]); `None`: the position error.
+    pub(crate) neighbour_pairs: Option<Vec<[u32; 2]>>,
     /// Stateful passes advanced along the observed frames (see [`HiddenState`]).
     pub(crate) hidden: Vec<Box<dyn HiddenState>>,
     /// The divergence guard of the observed motion ([`cordis_core::runaway`]), for the stable
@@ -70,12 +75,13 @@ pub struct CostScratch {
     pub(crate) core: Scratch,
     /// Predicted positions of a step, m.
     pub(crate) xhat: Vec<Vec3>,
-    /// Rollout state x(n), x(n-1), m.
+    /// Rollout state x(n), x(n-1), m (eq 3.3's path: the predicted positions of a frame).
     pub(crate) x: Vec<Vec3>,
     pub(crate) x_prev: Vec<Vec3>,
     /// Local costs of an evaluation whose caller wants only the total.
     pub(crate) per: Vec<f64>,
-    /// Harmonic sums `Σ_t 1/(e_i(t) + ε)` per particle.
+    /// Harmonic sums `Σ_t 1/(e_i(t) + ε)` per particle; eq 3.3's path keeps each particle's
+    /// position error here.
     pub(crate) inv: Vec<f64>,
     /// θ of the linear path.
     pub(crate) theta: Vec<f64>,
@@ -149,6 +155,7 @@ impl Objective {
             geometry,
             geometry_budget: GEOMETRY_BUDGET_BYTES,
             generation: 0,
+            neighbour_pairs: None,
             hidden,
             runaway,
             gravity: Vec3::from(scene.gravity),
@@ -334,6 +341,27 @@ impl Objective {
         Ok(self.evaluate_unchecked(p, scratch, per_particle))
     }
 
+    /// [`Objective::evaluate`] with the position-error local costs whatever
+    /// [`Objective::local_cost`] says: the same global cost, for a caller that needs no other
+    /// (a descent), without eq 3.3's generic path.
+    pub fn evaluate_positions_local(
+        &self,
+        p: &[f64],
+        scratch: &mut CostScratch,
+        per_particle: &mut [f64],
+    ) -> Result<f64, CostError> {
+        self.check_params(p)?;
+        if per_particle.len() != self.plan.n {
+            return Err(CostError::length(
+                "local cost buffer",
+                self.plan.n,
+                per_particle.len(),
+            ));
+        }
+        per_particle.fill(0.0);
+        Ok(self.evaluate_positions(p, scratch, per_particle))
+    }
+
     /// The global cost only (the linear path then costs O(θ²), independent of N and T).
     pub fn total(&self, p: &[f64], scratch: &mut CostScratch) -> Result<f64, CostError> {
         self.check_params(p)?;
@@ -347,14 +375,28 @@ impl Objective {
             s.plain = c;
             return c;
         }
+        // The global cost does not depend on the local cost chosen: the position-error path.
         let mut per = std::mem::take(&mut s.per);
-        let c = self.evaluate_unchecked(p, s, &mut per);
+        per.fill(0.0);
+        let c = self.evaluate_positions(p, s, &mut per);
         s.per = per;
         c
     }
 
     fn evaluate_unchecked(&self, p: &[f64], s: &mut CostScratch, per: &mut [f64]) -> f64 {
         per.fill(0.0);
+        match &self.neighbour_pairs {
+            // Eq 3.3 needs every prediction: the generic path.
+            Some(pairs) => match self.short_distances(p, pairs, s, per) {
+                c if c.is_nan() => f64::INFINITY,
+                c => c,
+            },
+            None => self.evaluate_positions(p, s, per),
+        }
+    }
+
+    /// The global cost, and the position-error local costs into `per` (zeroed by the caller).
+    fn evaluate_positions(&self, p: &[f64], s: &mut CostScratch, per: &mut [f64]) -> f64 {
         if let Some(lin) = self.linear_for(p) {
             lin.theta_into(p, &mut s.theta);
             let c = lin.local_unchecked(&s.theta, per);

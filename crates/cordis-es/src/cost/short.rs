@@ -116,21 +116,21 @@ impl Objective {
         s: &mut CostScratch,
         per: &mut [f64],
     ) -> f64 {
-        self.short_terms(clock, p, s, |i, xh, x0| per[i] += squared_error(xh, x0));
+        self.short_terms(clock, p, s, |_, i, xh, x0| per[i] += squared_error(xh, x0));
         s.plain = self.free.iter().map(|&i| per[i]).sum();
         s.plain
     }
 
     /// Every term of the short cost, in order (predicted frame t = 2 … T-1, then free particle
-    /// ascending): `term(i, x̂_i(t), x_i(t))`. The one loop behind the cost and its residuals,
-    /// so both see the same predictions bit for bit.
+    /// ascending): `term(t, i, x̂_i(t), x_i(t))`. The one loop behind the cost, its residuals
+    /// and eq 3.3's local costs, so all see the same predictions bit for bit.
     #[inline(always)]
-    fn short_terms<C: Clock>(
+    pub(crate) fn short_terms<C: Clock>(
         &self,
         clock: &C,
         p: &[f64],
         s: &mut CostScratch,
-        mut term: impl FnMut(usize, &Vec3, &Vec3),
+        mut term: impl FnMut(usize, usize, &Vec3, &Vec3),
     ) {
         let n = self.plan.n;
         let (m, _) = self.masses_gravity(p);
@@ -161,12 +161,12 @@ impl Objective {
                 }
                 self.plan.provot.apply(p, &mut s.xhat, &self.plan.free);
                 for &i in &self.free {
-                    term(i, &s.xhat[i], &x0[i]);
+                    term(t, i, &s.xhat[i], &x0[i]);
                 }
             } else {
                 for &i in &self.free {
                     let xh = (x1[i] * 2.0 - x2[i]) + clock.kick(i, f[i] / m[i]);
-                    term(i, &xh, &x0[i]);
+                    term(t, i, &xh, &x0[i]);
                 }
             }
         }
@@ -236,9 +236,15 @@ impl Objective {
         };
         let rest = self.kind == CostKind::Static;
         match (&self.plan.worlds, rest) {
-            (None, false) => self.short_terms(&OneClock::new(self.plan.dt, g), p, s, &mut write),
+            (None, false) => {
+                let mut write = |_, i, xh: &Vec3, x0: &Vec3| write(i, xh, x0);
+                self.short_terms(&OneClock::new(self.plan.dt, g), p, s, &mut write)
+            }
             (None, true) => self.static_terms(&OneClock::new(self.plan.dt, g), p, s, &mut write),
-            (Some(steps), false) => self.short_terms(&WorldClock { steps, g }, p, s, &mut write),
+            (Some(steps), false) => {
+                let mut write = |_, i, xh: &Vec3, x0: &Vec3| write(i, xh, x0);
+                self.short_terms(&WorldClock { steps, g }, p, s, &mut write)
+            }
             (Some(steps), true) => self.static_terms(&WorldClock { steps, g }, p, s, &mut write),
         }
         let c: f64 = self.free.iter().map(|&i| per[i]).sum();

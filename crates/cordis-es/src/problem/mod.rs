@@ -201,6 +201,15 @@ impl Problem {
         Ok(self)
     }
 
+    /// Writes `local` as the per-particle local costs ([`crate::cost::LocalCost`]: the
+    /// position error, or eq 3.3's neighbour distances); the global cost is unchanged. Errors
+    /// (place `local_cost`) when the cost kind is not `short` or a free particle has no linked
+    /// neighbour.
+    pub fn with_local_cost(mut self, local: crate::cost::LocalCost) -> Result<Self, CostError> {
+        self.objective.set_local_cost(local, &self.scene)?;
+        Ok(self)
+    }
+
     /// Rejects (`+inf` cost) every candidate whose stability bound exceeds 1 or whose free
     /// run from the observed start diverges within `horizon.frames` frames (see
     /// [`crate::problem::stable`]). The spread limit is fixed here from the observed trajectory.
@@ -266,6 +275,14 @@ impl Problem {
         self.evaluate_uncounted(genome, s, local)
     }
 
+    /// [`Problem::evaluate`] with the position-error local costs whatever the objective's
+    /// local cost ([`crate::cost::LocalCost`]): the same global cost, for a caller that reads
+    /// no local cost (the thesis ES's descents), without eq 3.3's generic path.
+    pub fn evaluate_global(&self, genome: &[f64], s: &mut EvalScratch, local: &mut [f64]) -> f64 {
+        self.evals.fetch_add(1, Ordering::Relaxed);
+        self.evaluate_with(genome, s, local, true)
+    }
+
     /// [`Problem::evaluate`] without counting the evaluation: for evaluators, whose batches
     /// [`Problem::evaluate_population`] counts.
     pub fn evaluate_uncounted(
@@ -273,6 +290,17 @@ impl Problem {
         genome: &[f64],
         s: &mut EvalScratch,
         local: &mut [f64],
+    ) -> f64 {
+        self.evaluate_with(genome, s, local, false)
+    }
+
+    /// One evaluation, with the objective's local costs or (`positions`) the position error's.
+    fn evaluate_with(
+        &self,
+        genome: &[f64],
+        s: &mut EvalScratch,
+        local: &mut [f64],
+        positions: bool,
     ) -> f64 {
         self.space.fill_params(genome, &mut s.params);
         if self.guard.is_some() && self.rejects_filled(s) {
@@ -286,7 +314,13 @@ impl Problem {
             }
             return f64::INFINITY;
         }
-        match self.objective.evaluate(&s.params, &mut s.cost, local) {
+        let c = match positions {
+            true => self
+                .objective
+                .evaluate_positions_local(&s.params, &mut s.cost, local),
+            false => self.objective.evaluate(&s.params, &mut s.cost, local),
+        };
+        match c {
             Ok(c) if !c.is_nan() => c,
             _ => f64::INFINITY,
         }

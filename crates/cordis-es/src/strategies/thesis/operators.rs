@@ -21,7 +21,7 @@ use crate::run::rng::{self, Rng};
 
 use super::config::{Crossover, ThesisConfig};
 use super::population::{cost_scale, fresh, heuristic_gene, heuristic_sigma, Individual};
-use super::population::{Layout, Op};
+use super::population::{local_share, Layout, Op};
 
 /// One operator application: what it does and the rank of the son it overwrites.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -188,11 +188,7 @@ fn local_mutation(parents: &Parents, child: &mut Individual, problem: &Problem, 
     let f = &parents.pop[parents.ranks.at_particle(p, rng)];
     let links = &parents.layout.particle_links[p];
     let g = links[rng::index(rng, links.len())];
-    let share = if f.cost > 0.0 && f.cost.is_finite() {
-        (f.local[p] / f.cost).clamp(0.0, 1.0)
-    } else {
-        1.0
-    };
+    let share = local_share(problem, f, p);
     for &k in &parents.layout.groups[g] {
         let u = &problem.space.unknowns[k];
         child.genes[k] = u.clamp_internal(f.genes[k] + f.sigma[k] * share * rng::normal(rng));

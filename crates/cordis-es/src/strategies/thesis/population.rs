@@ -18,7 +18,8 @@ pub(crate) struct Individual {
     pub sigma: Vec<f64>,
     #[serde(with = "lossless")]
     pub cost: f64,
-    /// Per-particle local costs (their sum is the global cost).
+    /// Per-particle local costs (m²): the position error, whose sum is the global cost, or
+    /// eq 3.3's neighbour distances ([`crate::cost::LocalCost`]).
     #[serde(with = "bits")]
     pub local: Vec<f64>,
 }
@@ -113,6 +114,21 @@ fn instances_at(problem: &Problem, t: usize, p: usize) -> usize {
 /// Heuristic value of gene k (Annexe 1 initialisation): a rest length (cosine) at its observed
 /// mean, otherwise around the unknown's `init`, log-normally around the box's centre for log
 /// coordinates, uniformly in the box otherwise.
+/// Particle `p`'s share of `f`'s cost, in [0, 1] (1 when the cost is 0 or not finite): its
+/// local cost over the global cost, or with eq 3.3's distances (which do not sum to the
+/// global cost) over their own sum.
+pub(crate) fn local_share(problem: &Problem, f: &Individual, p: usize) -> f64 {
+    let total = match problem.objective.local_cost() {
+        crate::cost::LocalCost::Positions => f.cost,
+        crate::cost::LocalCost::Distances => f.local.iter().sum(),
+    };
+    if total > 0.0 && total.is_finite() {
+        (f.local[p] / total).clamp(0.0, 1.0)
+    } else {
+        1.0
+    }
+}
+
 pub(crate) fn heuristic_gene(problem: &Problem, k: usize, rng: &mut Rng) -> f64 {
     let u = &problem.space.unknowns[k];
     if let Some(m) = problem.observed[k] {

@@ -23,7 +23,7 @@ use crate::run::rng::{self, Rng};
 
 use super::config::{Crossover, ThesisConfig};
 use super::population::{cost_scale, fresh, heuristic_gene, heuristic_sigma, Individual};
-use super::population::{Layout, Op};
+use super::population::{local_share, Layout, Op};
 
 /// Index (into the sorted population) of the better of `size` random individuals by their
 /// local cost at particle p.
@@ -111,11 +111,7 @@ pub(crate) fn child(
             let f = &pop[local_tournament(pop, p, rng, 3)];
             let gs = &layout.particle_groups[p];
             let g = gs[rng::index(rng, gs.len())];
-            let share = if f.cost > 0.0 && f.cost.is_finite() {
-                (f.local[p] / f.cost).clamp(0.0, 1.0)
-            } else {
-                1.0
-            };
+            let share = local_share(problem, f, p);
             for &k in &layout.groups[g] {
                 let u = &problem.space.unknowns[k];
                 child.genes[k] =
