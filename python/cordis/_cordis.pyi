@@ -819,6 +819,16 @@ class DiscoverResult:
     def undetermined(self) -> List[Dict[str, Any]]:
         """What the data cannot decide, by name: ``what`` (``masses``…), ``particles``,
         ``links``, ``why`` (each also raised with ``warnings.warn``)."""
+    @property
+    def identified(self) -> Optional[Scene]:
+        """With ``identify=True``: the identified scene (every value known, the estimated
+        initial state); else None."""
+    @property
+    def identification(self) -> Optional[Dict[str, Any]]:
+        """With ``identify=True``: ``params`` (each unknown's ``name``, ``discovered``,
+        ``value``, ``stderr``, ``low``, ``high``), ``end`` and ``converged`` (the estimator's
+        own status), ``sigma``, ``noise_level``, ``undetermined``, ``gravity_fitted``,
+        ``reference``, as ``cordis discover --identify``'s summary; else None."""
 
 def scene_from_markers(
     markers: _ArrayLike,
@@ -859,12 +869,15 @@ def discover(
     type_tolerance: float = 1e-3,
     gravity: Optional[Tuple[float, float, float]] = None,
     kinds: Optional[Sequence[str]] = None,
+    identify: bool = False,
 ) -> DiscoverResult:
     """Proposes a network of springs, anchors and dampers (links with their ``kind``, masses,
     gravity, types) from positions alone (GIL released). Give ``total_mass`` (kg, moving
     particles) or every particle's ``masses``. ``kinds``: the link kinds looked for, of
     ``"spring"``, ``"anchor"`` (to a fixed particle), ``"damper"`` (isotropic); default all three; an
-    unknown name raises ``ValueError``.
+    unknown name raises ``ValueError``. ``identify=True`` then fits the discovered network by
+    output-error on the same motion (``res.identified``, ``res.identification``; refused with
+    ``CordisError`` when the discovery names something as not determined).
 
     >>> res = cordis.discover(traj, truth.dt, total_mass=12.3)  # doctest: +SKIP
     """

@@ -2,6 +2,7 @@
 //! proposes a spring network — links, masses, gravity, a catalogue of types — from positions
 //! alone, with a score per link.
 
+use cordis_es::discover::identify::{identify_discovered, Identified};
 use cordis_es::discover::{discover as core_discover, DiscoverOptions, Discovery, Kinds};
 use pyo3::prelude::*;
 
@@ -50,6 +51,16 @@ pub struct DiscoverResult {
     /// `links`, `why` (also raised as warnings).
     #[pyo3(get)]
     undetermined: Py<PyAny>,
+    /// With `identify=True`: the identified scene (every value known, the estimated initial
+    /// state), else None.
+    #[pyo3(get)]
+    identified: Option<Py<Scene>>,
+    /// With `identify=True`: `params` (each unknown's `name`, `discovered`, `value`, `stderr`,
+    /// `low`, `high`), `end` and `converged` (the estimator's own status), `sigma`,
+    /// `noise_level`, `undetermined`, `gravity_fitted`, `reference`…, as the CLI's summary
+    /// `identify`; else None.
+    #[pyo3(get)]
+    identification: Option<Py<PyAny>>,
 }
 
 #[pymethods]
@@ -68,8 +79,23 @@ impl DiscoverResult {
     }
 }
 
-fn to_py(py: Python<'_>, d: Discovery) -> PyResult<DiscoverResult> {
+fn to_py(py: Python<'_>, d: Discovery, id: Option<Identified>) -> PyResult<DiscoverResult> {
     crate::identify::warn_all(py, &d.warnings())?;
+    if let Some(id) = &id {
+        let mut w: Vec<String> = id
+            .undetermined
+            .iter()
+            .map(|u| format!("not determined by the motion: {}", u.join(", ")))
+            .collect();
+        if !id.converged {
+            w.push(format!(
+                "the identification did not converge (end {}): its parameters are the best \
+                 point reached, not an estimate",
+                id.end
+            ));
+        }
+        crate::identify::warn_all(py, &w)?;
+    }
     let json =
         |v: serde_json::Value| -> PyResult<Py<PyAny>> { Ok(crate::json::to_py(py, &v)?.unbind()) };
     Ok(DiscoverResult {
@@ -85,6 +111,13 @@ fn to_py(py: Python<'_>, d: Discovery) -> PyResult<DiscoverResult> {
         noise_level: d.noise_level,
         noise_estimated: d.estimated_noise,
         notes: d.notes,
+        identification: id
+            .as_ref()
+            .map(|id| json(serde_json::to_value(id).unwrap_or_default()))
+            .transpose()?,
+        identified: id
+            .map(|id| Py::new(py, Scene::from_core(id.scene)))
+            .transpose()?,
     })
 }
 
@@ -98,14 +131,16 @@ fn to_py(py: Python<'_>, d: Discovery) -> PyResult<DiscoverResult> {
 /// tolerance under which two links are of one type; `gravity` (m/s², `[x, y, z]`) when known,
 /// else it is estimated; `kinds` (e.g. `["spring", "damper"]`) the link kinds looked for
 /// (`spring`, `anchor`: to a fixed particle, `damper`: isotropic; default all three; an unknown
-/// name is a `ValueError`). Each link's `kind` is in `res.links`. `res.undetermined` names what the data cannot decide (also raised as
+/// name is a `ValueError`). `identify=True` then fits the discovered network by output-error
+/// on the same motion (`cordis discover --identify`): `res.identified` (Scene) and
+/// `res.identification` (dict). Each link's `kind` is in `res.links`. `res.undetermined` names what the data cannot decide (also raised as
 /// warnings). See docs/discover.md.
 ///
 /// >>> truth = cordis.random_network(1, 12, 3)
 /// >>> traj = truth.simulate(300)
 /// >>> res = cordis.discover(traj, truth.dt, total_mass=12.3)   # doctest: +SKIP
 #[pyfunction]
-#[pyo3(signature = (traj, dt, total_mass = None, masses = None, max_range = None, noise_level = None, threshold_scale = 1.0, type_tolerance = 1e-3, gravity = None, kinds = None))]
+#[pyo3(signature = (traj, dt, total_mass = None, masses = None, max_range = None, noise_level = None, threshold_scale = 1.0, type_tolerance = 1e-3, gravity = None, kinds = None, identify = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn discover(
     py: Python<'_>,
@@ -119,6 +154,7 @@ pub fn discover(
     type_tolerance: f64,
     gravity: Option<[f64; 3]>,
     kinds: Option<Vec<String>>,
+    identify: bool,
 ) -> PyResult<DiscoverResult> {
     let dt = check_dt(dt, "dt")?;
     let traj = traj_from_py(traj, "traj")?;
@@ -136,10 +172,18 @@ pub fn discover(
         gravity,
         kinds,
     };
-    let d = py
-        .detach(|| core_discover(&traj, dt, &opt))
+    let (d, id) = py
+        .detach(|| {
+            let d = core_discover(&traj, dt, &opt)?;
+            let id = if identify {
+                Some(identify_discovered(&traj, &d, &opt)?)
+            } else {
+                None
+            };
+            Ok((d, id))
+        })
         .map_err(cost_to_py)?;
-    to_py(py, d)
+    to_py(py, d, id)
 }
 
 /// A seed-generated random spring network of `masses` particles and `types` spring types
