@@ -148,3 +148,22 @@ fn tendon_start_keys_round_trip_and_are_refused_off_a_tgr() {
     let err = Scene::from_json_value(&text).unwrap_err().to_string();
     assert!(err.contains("types.water"), "{err}");
 }
+
+/// `Scene::from_frame` refuses one signal read by TGRs in worlds of different time steps (no
+/// single phase fits both), naming the signal; one world's time step is used otherwise.
+#[test]
+fn from_frame_refuses_a_signal_read_on_two_clocks() {
+    use cordis_core::Particle;
+    let mut scene = tadpole();
+    let phase = scene.signals[0].phase;
+    let advanced = scene.from_frame(100).unwrap();
+    // 100 frames of 0.01 s on a 4 s period: a quarter period.
+    assert!((advanced.signals[0].phase - (phase + 0.25).fract()).abs() < 1e-12);
+    scene.add_world("mind", 0.02);
+    let a = scene.add_particle(Particle::new(1.0, [0.0, 5.0, 0.0]).in_world("mind"));
+    let b = scene.add_particle(Particle::new(1.0, [1.0, 5.0, 0.0]).in_world("mind"));
+    scene.add_coupling("muscle", &[a, b]);
+    scene.validate().unwrap();
+    let err = scene.from_frame(100).unwrap_err().to_string();
+    assert!(err.contains("signals.stroke"), "{err}");
+}

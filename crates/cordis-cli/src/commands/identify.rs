@@ -152,6 +152,13 @@ pub struct Args {
     /// Time step of the trajectory when its file does not give one (default: the scene's dt).
     #[arg(long)]
     dt: Option<f64>,
+    /// The take's frame 0 is this frame of the scene's motion (a take cropped mid-motion):
+    /// every signal's phase is advanced by `K dt / period` before anything else, so TGRs are
+    /// driven on the take's clock (the model written by --out keeps that clock). The tendons'
+    /// start is the TGR types' `tendon_position` / `tendon_velocity` (known, or boxes to
+    /// identify). Default 0.
+    #[arg(long, default_value_t = 0)]
+    first_frame: usize,
     #[command(flatten)]
     read: super::ReadArgs,
 }
@@ -253,6 +260,13 @@ fn checkpoint_history(checkpoint: &Path) -> PathBuf {
 /// The command line as a request: nothing is checked here, the session checks it all.
 fn request(a: &Args) -> Result<IdentifyRequest> {
     let scene = Scene::from_json_path(&a.scene)?;
+    let scene = if a.first_frame > 0 {
+        scene
+            .from_frame(a.first_frame)
+            .map_err(|e| anyhow::anyhow!("--first-frame: {e}"))?
+    } else {
+        scene
+    };
     let mut takes = Vec::with_capacity(a.trajectory.len());
     for path in &a.trajectory {
         let obs = cordis_core::io::read_observations_with(path, &a.read.options()?)?;
