@@ -402,6 +402,17 @@ class Scene:
 
         >>> guess = cordis.example("rigid").with_unknowns(width=4.0)
         """
+    def from_frame(self, k: int) -> "Scene":
+        """A copy on the clock of a take cropped to start at this scene's frame ``k``.
+
+        Every signal's phase is advanced by ``k dt / period`` (the dt of the world whose TGRs
+        read it), so the TGRs are driven by the same commands at the take's frames; the
+        tendons' start is the TGR types' ``tendon_position`` / ``tendon_velocity`` (scene
+        file keys). SceneError, naming the signal, when TGRs in worlds of different time
+        steps read one signal.
+
+        >>> take_scene = cordis.example("tadpole").from_frame(150)
+        """
     def copy(self) -> "Scene":
         """An independent copy (edits to one do not change the other)."""
     def __eq__(self, other: object, /) -> bool: ...

@@ -342,6 +342,20 @@ impl Scene {
             .map_err(crate::errors::to_py)
     }
 
+    /// A copy on the clock of a take cropped to start at this scene's frame `k`: every
+    /// signal's phase advanced by `k dt / period` (its TGRs' world's dt), so the TGRs are
+    /// driven by the same commands at the take's frames. The tendons' start is the TGR types'
+    /// `tendon_position` / `tendon_velocity`. SceneError (naming the signal) when TGRs in
+    /// worlds of different time steps read one signal.
+    ///
+    /// >>> take_scene = cordis.example("tadpole").from_frame(150)   # doctest: +SKIP
+    fn from_frame(&self, k: usize) -> PyResult<Scene> {
+        self.core()
+            .from_frame(k)
+            .map(Scene::from_core)
+            .map_err(crate::errors::to_py)
+    }
+
     /// A copy of the scene (edits to one do not change the other).
     fn copy(&self) -> Scene {
         Scene::from_core((*self.core()).clone())

@@ -259,6 +259,27 @@ def test_least_squares_solves_the_provot_cloth():
     assert r.param_error_pct < 1e-6
 
 
+def test_from_frame_puts_the_signals_on_a_cropped_takes_clock():
+    """Issue 19 item 8: the tadpole's motion from frame 150, noiseless. On the scene's clock
+    the truth's short cost is far from 0 (the signal's phase and the tendon's start are wrong);
+    `from_frame(150)` fixes the phase, and the tendon's start as scene-file keys the rest (the
+    Rust twin, `tests/cropped_take.rs`: 7.7e-5, 8.2e-7, exactly 0)."""
+    import json
+
+    truth = cordis.example("tadpole")
+    take = truth.simulate(350)[150:]
+    on_scene_clock = cordis.cost(truth, take).total
+    clocked = truth.from_frame(150)
+    on_take_clock = cordis.cost(clocked, take).total
+    assert on_scene_clock > 1e-5 and 1e-7 < on_take_clock < on_scene_clock / 10
+    # The tendon at frame 150 (y, (y - y_prev)/dt) from the Rust test's measurement.
+    text = json.loads(clocked.to_json())
+    text["types"]["muscle"]["tendon_position"] = -1.738951924111e-1
+    text["types"]["muscle"]["tendon_velocity"] = 3.578330468863e-1
+    assert cordis.cost(cordis.Scene.from_json(json.dumps(text)), take).total < 1e-20
+    assert cordis.cost(truth.from_frame(0), truth.simulate(100)).total == 0.0
+
+
 def test_hybrid_solves_the_tadpole_through_its_tgr():
     """Table 6.1 from the tadpole's first 100 frames: `auto` picks `hybrid`, which searches the
     TGR's stiffness (1-D profile search) and the medium's v_max (observed intervals) and solves
