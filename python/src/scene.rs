@@ -349,6 +349,8 @@ impl Scene {
     /// worlds of different time steps read one signal.
     ///
     /// >>> take_scene = cordis.example("tadpole").from_frame(150)   # doctest: +SKIP
+    // Named as the Rust `Scene::from_frame` it wraps: "the scene as seen from frame k".
+    #[allow(clippy::wrong_self_convention)]
     fn from_frame(&self, k: usize) -> PyResult<Scene> {
         self.core()
             .from_frame(k)
