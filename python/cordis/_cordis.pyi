@@ -837,7 +837,7 @@ class DiscoverResult:
     @property
     def identification(self) -> Optional[Dict[str, Any]]:
         """With ``identify=True``: ``params`` (each unknown's ``name``, ``discovered``,
-        ``value``, ``stderr``, ``low``, ``high``), ``end`` and ``converged`` (the estimator's
+        ``value``, ``stderr``, ``low``, ``high``, ``at_bound``), ``end`` and ``converged`` (the estimator's
         own status), ``sigma``, ``noise_level``, ``undetermined``, ``gravity_fitted``,
         ``reference``, as ``cordis discover --identify``'s summary; else None."""
 

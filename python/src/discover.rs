@@ -56,7 +56,7 @@ pub struct DiscoverResult {
     #[pyo3(get)]
     identified: Option<Py<Scene>>,
     /// With `identify=True`: `params` (each unknown's `name`, `discovered`, `value`, `stderr`,
-    /// `low`, `high`), `end` and `converged` (the estimator's own status), `sigma`,
+    /// `low`, `high`, `at_bound`), `end` and `converged` (the estimator's own status), `sigma`,
     /// `noise_level`, `undetermined`, `gravity_fitted`, `reference`…, as the CLI's summary
     /// `identify`; else None.
     #[pyo3(get)]

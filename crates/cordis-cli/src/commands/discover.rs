@@ -219,8 +219,26 @@ fn report_identified(id: &Identified, path: &std::path::Path, seconds: f64) {
     );
     for p in &id.params {
         eprintln!(
-            "  {}: {:.6e} (discovered {:.6e}), 95 % [{:.6e}, {:.6e}]",
-            p.name, p.value, p.discovered, p.low, p.high
+            "  {}: {:.6e} (discovered {:.6e}), 95 % [{:.6e}, {:.6e}]{}",
+            p.name,
+            p.value,
+            p.discovered,
+            p.low,
+            p.high,
+            if p.at_bound { " at its box's edge" } else { "" }
+        );
+    }
+    let edge: Vec<&str> = id
+        .params
+        .iter()
+        .filter(|p| p.at_bound)
+        .map(|p| p.name.as_str())
+        .collect();
+    if !edge.is_empty() {
+        eprintln!(
+            "warning: ended on the edge of its box (the discovered value was off by 2x or \
+             more, or the graph is wrong): {}",
+            edge.join(", ")
         );
     }
     if let Some(r) = id.reference {

@@ -63,6 +63,9 @@ pub struct IdentifiedParam {
     pub stderr: f64,
     pub low: f64,
     pub high: f64,
+    /// The fit ended on the edge of this unknown's box (a damping's floor 0 excepted): the
+    /// box, not the data, stopped it (the interval says nothing about the values beyond).
+    pub at_bound: bool,
 }
 
 /// What [`identify_discovered`] found.
@@ -135,7 +138,14 @@ pub fn identify_discovered(
         .unknowns
         .iter()
         .enumerate()
-        .map(|(a, u)| row(&u.name, discovered[u.slot], params[u.slot], cov[(a, a)]))
+        .map(|(a, u)| {
+            let mut r = row(&u.name, discovered[u.slot], params[u.slot], cov[(a, a)]);
+            let v = e.params[u.slot];
+            let tol = 1e-9 * (u.max - u.min);
+            // A damping's floor 0 is physics, not the box: ending there is an answer.
+            r.at_bound = v >= u.max - tol || (u.min != 0.0 && v <= u.min + tol);
+            r
+        })
         .collect();
     if let Some(r) = reference {
         let slot = scene.param_layout().mass_offset + r;
@@ -205,6 +215,7 @@ fn row(name: &str, discovered: f64, value: f64, var: f64) -> IdentifiedParam {
         stderr: se,
         low: value - 1.96 * se,
         high: value + 1.96 * se,
+        at_bound: false,
     }
 }
 
