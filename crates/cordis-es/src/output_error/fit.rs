@@ -261,6 +261,40 @@ impl Fitter<'_> {
         }
     }
 
+    /// The largest fraction f ≤ 1 of the step `delta` from `q` that keeps every θ coordinate
+    /// in its box (1 when the whole step does).
+    pub(crate) fn fraction_to_bounds(&self, q: &[f64], delta: &[f64]) -> f64 {
+        let mut f: f64 = 1.0;
+        for (k, u) in self.unknowns.iter().enumerate() {
+            let (lo, hi) = u.internal_bounds();
+            let room = if delta[k] > 0.0 {
+                hi - q[k]
+            } else if delta[k] < 0.0 {
+                lo - q[k]
+            } else {
+                continue;
+            };
+            f = f.min((room / delta[k]).max(0.0));
+        }
+        f
+    }
+
+    /// The θ coordinates, not already held, that sit on a bound with the step `delta`
+    /// pointing out of the box.
+    pub(crate) fn pushed_out(&self, q: &[f64], delta: &[f64], held: &[bool]) -> Vec<usize> {
+        let mut out = Vec::new();
+        for (k, u) in self.unknowns.iter().enumerate() {
+            let (lo, hi) = u.internal_bounds();
+            let eps = 1e-12 * (hi - lo).abs().max(1e-300);
+            let at_lo = q[k] <= lo + eps && delta[k] < 0.0;
+            let at_hi = q[k] >= hi - eps && delta[k] > 0.0;
+            if !held[k] && (at_lo || at_hi) {
+                out.push(k);
+            }
+        }
+        out
+    }
+
     /// Which θ coordinates sit on a bound with the descent direction (-g) pointing out.
     pub(crate) fn held(&self, q: &[f64], g: &DVector<f64>) -> Vec<bool> {
         let mut held = vec![false; self.len()];
