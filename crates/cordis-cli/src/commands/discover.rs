@@ -241,6 +241,13 @@ fn report_identified(id: &Identified, path: &std::path::Path, seconds: f64) {
             edge.join(", ")
         );
     }
+    if !id.gravity_fitted {
+        eprintln!(
+            "note: gravity held at {:?} m/s² (given, none found, or a fit too large for gravity's \
+             dense sensitivities)",
+            id.scene.gravity
+        );
+    }
     if let Some(r) = id.reference {
         eprintln!(
             "note: masses fitted with particles[{r}].mass held, then every mass, stiffness and \
