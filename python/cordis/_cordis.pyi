@@ -711,6 +711,7 @@ def identify(
     descent_every: Optional[int] = None,
     crossover: Optional[str] = None,
     local_cost: Optional[str] = None,
+    restarts: Optional[str] = None,
     plus: bool = False,
     correlated: bool = False,
     visible: Optional[Union[_ArrayLike, Sequence[_ArrayLike]]] = None,
@@ -742,7 +743,8 @@ def identify(
     strategy other than ``thesis``/``t2m``, as are ``local_cost`` (``"positions"``, the
     default, or ``"distances"``: eq 3.3 as printed, the error of the predicted distances to
     linked particles; short cost, no executor) and ``param_gene``'s ``pcross``, ``pmut`` and
-    ``reducer``; ``plus`` and ``correlated`` give ``self-adaptive``
+    ``reducer``; ``restarts`` gives ``cmaes`` ``"ipop"`` (the default) or ``"bipop"``
+    restarts (Hansen 2009; refused with another strategy); ``plus`` and ``correlated`` give ``self-adaptive``
     (μ+λ) selection and correlated mutations (refused with another strategy). ``threads`` beyond the machine's cores are capped, with a warning.
 
     A strategy that cannot run on the problem is refused before any work (``RefusedError``, a

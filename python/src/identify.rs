@@ -16,6 +16,7 @@ use cordis_es::executor::{HistoryRow, Observer, StopReason};
 use cordis_es::report::{Report, SolverReport};
 use cordis_es::session::{Generations, IdentifyRequest, Lock, Outcome, Session, Style};
 use cordis_es::space::ParameterSpace;
+use cordis_es::strategies::cmaes::Restarts;
 use cordis_es::strategies::islands::IslandConfig;
 use cordis_es::strategies::thesis::Crossover;
 use cordis_es::CostError;
@@ -301,6 +302,7 @@ struct PyArgs<'py> {
     descent_every: Option<i64>,
     crossover: Option<&'py str>,
     local_cost: Option<&'py str>,
+    restarts: Option<&'py str>,
     plus: bool,
     correlated: bool,
     visible: Option<Bound<'py, PyAny>>,
@@ -386,6 +388,11 @@ fn request(
         .map(LocalCost::parse)
         .transpose()
         .map_err(|e| bad("local_cost", e))?;
+    r.restarts = a
+        .restarts
+        .map(Restarts::parse)
+        .transpose()
+        .map_err(|e| bad("restarts", e))?;
     r.plus = a.plus;
     r.correlated = a.correlated;
     r.truth = truth.map(|t| (*t.core()).clone());
@@ -475,8 +482,9 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
 ///   `"mn-parent"` (§3.2); `local_cost`: the local cost driving its local operators,
 ///   `"positions"` (None's) or `"distances"` (eq 3.3 as printed: the error of the predicted
 ///   distances to linked particles; short cost, no executor) — these refused with another
-///   strategy; `plus`, `correlated`: `self-adaptive`'s (μ+λ) selection and correlated
-///   mutations (refused with another strategy).
+///   strategy; `restarts`: `cmaes`'s, `"ipop"` (None's) or `"bipop"` (Hansen 2009); `plus`,
+///   `correlated`: `self-adaptive`'s (μ+λ) selection and correlated mutations (refused with
+///   another strategy).
 /// - `executor`: where populations are evaluated: None or `"local"`, `"ray"` (a
 ///   `cordis.RayExecutor()`: `pip install cordis-anima[ray]`), or an executor object whose
 ///   `evaluator(scene_json, traj, cost)` returns a callable `(genomes, generation, local) ->
@@ -519,7 +527,7 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
     stable_horizon = None, stable_spread = cordis_es::stable::DEFAULT_SPREAD,
     executor = None, islands = None, migrate_every = 10, migrants = 2, total_mass = None,
     lock = None, param_gene = None, descent_start = None, descent_every = None,
-    crossover = None, local_cost = None, plus = false, correlated = false, visible = None, markers = None, weights = None, loss = "squared"
+    crossover = None, local_cost = None, restarts = None, plus = false, correlated = false, visible = None, markers = None, weights = None, loss = "squared"
 ))]
 #[pyo3(
     text_signature = "(scene, traj, strategy='auto', generations=1000, population=None, \
@@ -527,7 +535,7 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
     max_evals=None, threads=None, truth=None, checkpoint=None, resume=None, dt=None, \
     stable_horizon=None, stable_spread=2.0, \
     executor=None, islands=None, migrate_every=10, migrants=2, total_mass=None, lock=None, \
-    param_gene=None, descent_start=None, descent_every=None, crossover=None, local_cost=None, plus=False, \
+    param_gene=None, descent_start=None, descent_every=None, crossover=None, local_cost=None, restarts=None, plus=False, \
     correlated=False, visible=None, markers=None, weights=None, loss='squared')"
 )]
 #[allow(clippy::too_many_arguments)]
@@ -563,6 +571,7 @@ pub fn identify(
     descent_every: Option<i64>,
     crossover: Option<&str>,
     local_cost: Option<&str>,
+    restarts: Option<&str>,
     plus: bool,
     correlated: bool,
     visible: Option<Bound<'_, PyAny>>,
@@ -596,6 +605,7 @@ pub fn identify(
         descent_every,
         crossover,
         local_cost,
+        restarts,
         plus,
         correlated,
         visible,

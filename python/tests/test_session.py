@@ -234,6 +234,24 @@ def test_self_adaptive_plus_and_correlated_are_read_and_refused_elsewhere():
             cordis.identify(scene, traj, strategy="cmaes", generations=2, **{key: True})
 
 
+def test_cmaes_bipop_restarts_are_read_and_refused_elsewhere():
+    traj = falling_chain(dict(stiffness=50, rest_length=0.15, damping=0.5)).simulate(60)
+    scene = falling_chain(dict(stiffness={"min": 5, "max": 500},
+                               rest_length={"min": 0.05, "max": 0.5}, damping=0.5))
+    kw = dict(strategy="cmaes", generations=300, population=6, seed=3)
+    ipop = cordis.identify(scene, traj, **kw)
+    bipop = cordis.identify(scene, traj, **kw, restarts="bipop")
+    # After the first run ends BIPOP runs a small population where IPOP doubles it.
+    assert ipop.evals != bipop.evals
+    assert cordis.identify(scene, traj, **kw, restarts="ipop").evals == ipop.evals
+    again = cordis.identify(scene, traj, **kw, restarts="bipop")
+    assert (again.evals, again.cost) == (bipop.evals, bipop.cost)
+    with pytest.raises(ValueError, match="restarts: configures the cmaes strategy only, not t2m"):
+        cordis.identify(scene, traj, strategy="t2m", generations=2, restarts="bipop")
+    with pytest.raises(ValueError, match="restarts: unknown restarts `nbipop`"):
+        cordis.identify(scene, traj, **kw, restarts="nbipop")
+
+
 def test_thesis_options_are_read_by_the_thesis_es_and_refused_elsewhere(tmp_path):
     traj = falling_chain(dict(stiffness=50, rest_length=0.15, damping=0.5)).simulate(60)
     scene = falling_chain(dict(stiffness={"min": 5, "max": 500},

@@ -526,3 +526,65 @@ fn first_frame_puts_the_signals_on_a_cropped_takes_clock() {
     assert_eq!(take_clock["strategy"], "hybrid");
     assert!(a > 1e-6 && b < 1e-18, "scene clock {a}, take clock {b}");
 }
+
+/// `--restarts bipop` (Hansen 2009) reaches cmaes: once a run ends, BIPOP's next run is a
+/// small-population one (λ_def, where IPOP doubles λ), so the same generations cost other
+/// evaluations; a seed fixes the run; another strategy refuses the option by name.
+#[test]
+fn cmaes_takes_bipop_restarts_and_other_strategies_refuse_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let truth = chain_json(
+        1.0,
+        r#""stiffness": 50, "rest_length": 0.15, "damping": 0.5"#,
+    );
+    std::fs::write(d.join("truth.json"), truth).unwrap();
+    let boxes = r#""stiffness": {"min": 5, "max": 500}, "rest_length": {"min": 0.05, "max": 0.5},
+        "damping": 0.5"#;
+    std::fs::write(d.join("u.json"), chain_json(1.0, boxes)).unwrap();
+    let sim = ["simulate", "truth.json", "--frames", "60", "--out", "t.csv"];
+    assert!(cordis(d, &sim).status.success());
+    let base = [
+        "identify",
+        "u.json",
+        "--trajectory",
+        "t.csv",
+        "-q",
+        "--seed",
+        "3",
+    ];
+    let run = |extra: &[&str]| {
+        let mut args = base.to_vec();
+        args.extend_from_slice(&["--strategy", "cmaes", "-g", "300", "-p", "6"]);
+        args.extend_from_slice(extra);
+        let s = summary(&cordis(d, &args));
+        assert_eq!(s["strategy"], "cmaes", "{s}");
+        (s["evals"].as_u64().unwrap(), s["cost"].as_f64().unwrap())
+    };
+    let ipop = run(&[]);
+    let bipop = run(&["--restarts", "bipop"]);
+    eprintln!("ipop {ipop:?}, bipop {bipop:?}");
+    assert_ne!(ipop.0, bipop.0, "no restart, or bipop ignored");
+    assert_eq!(ipop, run(&["--restarts", "ipop"]));
+    assert_eq!(bipop, run(&["--restarts", "bipop"]));
+    for strategy in ["thesis", "self-adaptive"] {
+        let mut args = base.to_vec();
+        args.extend_from_slice(&["--strategy", strategy, "--restarts", "bipop"]);
+        let out = cordis(d, &args);
+        assert_eq!(out.status.code(), Some(2), "{strategy}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.starts_with("error: --restarts: configures the cmaes strategy only")
+                && err.contains(strategy)
+                && err.lines().count() == 1,
+            "{err}"
+        );
+    }
+    let mut args = base.to_vec();
+    args.extend_from_slice(&["--strategy", "cmaes", "--restarts", "nbipop"]);
+    let err = String::from_utf8_lossy(&cordis(d, &args).stderr).to_string();
+    assert!(
+        err.contains("--restarts: unknown restarts `nbipop`"),
+        "{err}"
+    );
+}

@@ -11,7 +11,7 @@ use crate::problem::Problem;
 use crate::run::rng;
 use crate::run::strategy::Strategy;
 use crate::strategies::annealing::{Annealing, AnnealingConfig};
-use crate::strategies::cmaes::{Cmaes, CmaesConfig};
+use crate::strategies::cmaes::{Cmaes, CmaesConfig, Restarts};
 use crate::strategies::exact;
 use crate::strategies::islands::{IslandConfig, Islands};
 use crate::strategies::levenberg_marquardt::{self, LevenbergMarquardt, LmConfig};
@@ -40,6 +40,8 @@ pub struct StrategyOptions {
     pub plus: bool,
     /// `self-adaptive`: correlated mutations (rotation angles, Schwefel).
     pub correlated: bool,
+    /// `cmaes`: IPOP or BIPOP restarts.
+    pub restarts: Restarts,
 }
 
 impl Default for StrategyOptions {
@@ -54,6 +56,7 @@ impl Default for StrategyOptions {
             loss: output_error::Loss::Squared,
             plus: false,
             correlated: false,
+            restarts: Restarts::Ipop,
         }
     }
 }
@@ -116,6 +119,7 @@ pub fn make_strategy(
         StrategyName::Cmaes => {
             let c = CmaesConfig {
                 population: Some(options.population),
+                restarts: options.restarts,
                 ..CmaesConfig::default()
             };
             (Box::new(Cmaes::new(c)), name.name())

@@ -29,6 +29,7 @@ use crate::output_error::Take;
 use crate::problem::Problem;
 use crate::report::Report;
 use crate::stable::StableHorizon;
+use crate::strategies::cmaes::Restarts;
 use crate::strategies::exact;
 use crate::strategies::islands::IslandConfig;
 use crate::strategies::thesis::Crossover;
@@ -117,6 +118,9 @@ pub struct IdentifyRequest {
     /// error or eq 3.3's neighbour distances (`None`: positions; given with another strategy,
     /// refused by name).
     pub local_cost: Option<LocalCost>,
+    /// `cmaes`: IPOP or BIPOP restarts (`None`: IPOP; given with another strategy, refused by
+    /// name).
+    pub restarts: Option<Restarts>,
     /// `self-adaptive`: (μ+λ) selection (parents compete with their children) instead of (μ,λ).
     pub plus: bool,
     /// `self-adaptive`: correlated mutations (one rotation angle per pair of coordinates).
@@ -184,6 +188,7 @@ impl IdentifyRequest {
             descent_every: None,
             crossover: None,
             local_cost: None,
+            restarts: None,
             plus: false,
             correlated: false,
             islands: None,
@@ -274,6 +279,7 @@ impl Session {
             loss: req.loss,
             plus: req.plus,
             correlated: req.correlated,
+            restarts: req.restarts.unwrap_or_default(),
         };
         check_self_adaptive_options(&req)?;
         check_islands(&req, options.population)?;
@@ -293,6 +299,7 @@ impl Session {
             None => make_strategy(req.strategy, &problem, &options),
         };
         check_thesis_options(&req, ran, gene.as_ref())?;
+        check_cmaes_options(&req, ran)?;
         check(&req, ran, &problem)?;
         // Only a checkpoint reads it; hashing the data costs a pass over it.
         let fingerprint = (req.checkpoint.is_some() || req.resume.is_some())
@@ -766,6 +773,22 @@ fn check_thesis_options(
     ))
 }
 
+/// `restarts` configures `cmaes` only (`ran`: what runs, `auto` resolved): asked of another
+/// strategy, refused by name rather than ignored.
+fn check_cmaes_options(req: &IdentifyRequest, ran: &str) -> Result<(), CostError> {
+    if req.restarts.is_none() || ran == "cmaes" {
+        return Ok(());
+    }
+    let which = match req.strategy {
+        StrategyName::Auto => format!("{ran} (what auto picked here)"),
+        _ => ran.to_string(),
+    };
+    Err(CostError::invalid(
+        req.opt("restarts"),
+        format!("configures the cmaes strategy only, not {which}"),
+    ))
+}
+
 /// An island model's layout, each value under its own option's name: 2 or more islands,
 /// migrations at least a generation apart, and no more migrants than an island holds
 /// (`migrants` above the population used to be accepted and silently cut).
@@ -1008,6 +1031,9 @@ fn fingerprint(
     }
     if req.local_cost == Some(LocalCost::Distances) {
         crossover.push_str(" local-cost distances");
+    }
+    if options.restarts == Restarts::Bipop {
+        crossover.push_str(" bipop");
     }
     f.insert(
         "strategy options".into(),

@@ -220,3 +220,82 @@ fn parisian_splits_by_link_type_and_keeps_the_total_mass() {
         "Σm = {sum}, M = {total}"
     );
 }
+
+/// BIPOP's restart state (the regimes' budgets, the current regime, λ_l) lives in the
+/// checkpoint: runs that end after a few generations (TolX at half of σ0) restart on both sides
+/// of the checkpoint, and the resumed run ends where the uninterrupted one does. A seed fixes
+/// the run on 1 and 2 threads; an IPOP checkpoint holds no BIPOP state.
+#[test]
+fn bipop_restarts_resume_from_a_checkpoint_and_a_seed_fixes_them() {
+    use cordis_es::strategies::cmaes::Restarts;
+    let mut problem = rigid_problem();
+    let dir = std::env::temp_dir().join(format!("cordis-es-bipop-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let config = |restarts| CmaesConfig {
+        tol_x: 0.5,
+        restarts,
+        ..CmaesConfig::default()
+    };
+    let mut go = |restarts, run: &RunConfig, threads: usize| {
+        if run.resume.is_none() {
+            problem.set_evals(0);
+        }
+        let mut s = Cmaes::new(config(restarts));
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool");
+        pool.install(|| executor::run(&mut problem, &mut s, run, &mut [], None))
+            .expect("run")
+    };
+    let k = 40;
+    let whole = go(Restarts::Bipop, &generations(5, 2 * k), 2);
+    assert_eq!(
+        bits(&whole.genome),
+        bits(&go(Restarts::Bipop, &generations(5, 2 * k), 1).genome)
+    );
+    let path = dir.join("bipop.json");
+    let first = RunConfig {
+        checkpoint: Some(path.clone()),
+        checkpoint_every: k,
+        ..generations(5, k)
+    };
+    go(Restarts::Bipop, &first, 2);
+    let saved: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).expect("checkpoint")).unwrap();
+    let text = saved.to_string();
+    let before = restarts(&saved).expect("the restart count in the checkpoint");
+    assert!(before >= 2, "{before} restarts before the checkpoint");
+    assert!(text.contains("large_evals") && text.contains("lambda_large"));
+    let second = RunConfig {
+        resume: Some(path.clone()),
+        ..generations(5, 2 * k)
+    };
+    let resumed = go(Restarts::Bipop, &second, 2);
+    assert_eq!(bits(&whole.genome), bits(&resumed.genome));
+    assert_eq!(whole.cost.to_bits(), resumed.cost.to_bits());
+    assert_eq!(whole.evals, resumed.evals);
+    // IPOP's checkpoints are as before: no BIPOP state, and another run.
+    let ipop = RunConfig {
+        checkpoint: Some(dir.join("ipop.json")),
+        checkpoint_every: k,
+        ..generations(5, k)
+    };
+    let i = go(Restarts::Ipop, &ipop, 2);
+    let text = std::fs::read_to_string(dir.join("ipop.json")).expect("checkpoint");
+    assert!(!text.contains("large_evals"));
+    assert_ne!(i.history.len(), 0);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The first `restarts` count anywhere in a checkpoint's JSON.
+fn restarts(v: &serde_json::Value) -> Option<u64> {
+    match v {
+        serde_json::Value::Object(m) => m
+            .get("restarts")
+            .and_then(|r| r.as_u64())
+            .or_else(|| m.values().find_map(restarts)),
+        serde_json::Value::Array(a) => a.iter().find_map(restarts),
+        _ => None,
+    }
+}

@@ -9,6 +9,7 @@ use cordis_es::cost::{CostKind, LocalCost};
 use cordis_es::executor::{HistoryRow, Observer, StopReason};
 use cordis_es::identify::StrategyName;
 use cordis_es::session::{Generations, IdentifyRequest, Lock, Outcome, Session, Style};
+use cordis_es::strategies::cmaes::Restarts;
 use cordis_es::strategies::islands::IslandConfig;
 use cordis_es::strategies::thesis::Crossover;
 
@@ -110,6 +111,11 @@ pub struct Args {
     /// global cost is the same. Refused with another strategy.
     #[arg(long)]
     local_cost: Option<String>,
+    /// cmaes: how a run that ends restarts: ipop (default: λ doubled) or bipop (Hansen 2009:
+    /// large-population IPOP runs interlaced, by budget, with small-population, small-step
+    /// ones). Refused with another strategy.
+    #[arg(long)]
+    restarts: Option<String>,
     /// self-adaptive: (μ+λ) selection, parents competing with their children (default (μ,λ)).
     #[arg(long)]
     plus: bool,
@@ -300,6 +306,12 @@ fn request(a: &Args) -> Result<IdentifyRequest> {
         .map(LocalCost::parse)
         .transpose()
         .map_err(|e| anyhow::anyhow!("--local-cost: {e}"))?;
+    r.restarts = a
+        .restarts
+        .as_deref()
+        .map(Restarts::parse)
+        .transpose()
+        .map_err(|e| anyhow::anyhow!("--restarts: {e}"))?;
     r.plus = a.plus;
     r.correlated = a.correlated;
     r.islands = a.islands.map(|islands| IslandConfig {

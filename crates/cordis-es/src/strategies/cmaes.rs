@@ -1,6 +1,7 @@
 //! `cmaes`: CMA-ES (Hansen, *The CMA Evolution Strategy: A Tutorial*, 2016) with IPOP
-//! restarts (Auger & Hansen, CEC 2005) — the modern reference point the thesis' ES is compared
-//! with.
+//! restarts (Auger & Hansen, CEC 2005) or BIPOP restarts (Hansen, *Benchmarking a
+//! BI-Population CMA-ES on the BBOB-2009 Function Testbed*, GECCO 2009) — the modern reference
+//! point the thesis' ES is compared with.
 //!
 //! One run is [`CmaEs`]: weighted recombination of the best μ = ⌊λ/2⌋ (positive weights only,
 //! no active update), cumulative step-size adaptation, rank-one + rank-μ covariance update, and
@@ -9,6 +10,15 @@
 //! of C above 1e14, no improvement of its best over 10 + ⌈30 n / λ⌉ generations, or a
 //! non-finite state; [`Ipop`] then restarts it from a uniform random mean with λ doubled,
 //! keeping the best point ever seen.
+//!
+//! **BIPOP** (`--restarts bipop`, [`Restarts::Bipop`]): two interlaced restart regimes, each
+//! run from a uniform random mean. The first run (λ_def, σ0_def) counts to the *large* regime;
+//! after every run the regime whose budget so far (evaluations, λ × generations of its runs) is
+//! smaller runs next ([`next_regime`]). Large: IPOP, λ_l doubled at each of its restarts,
+//! σ0 = σ0_def. Small: λ_s = ⌊λ_def (½ λ_l / λ_def)^(U[0,1]²)⌋ and σ0 = σ0_def · 10^(−2 U[0,1])
+//! with two independent uniforms ([`small_run`]), λ_l the large regime's next population (2×
+//! its last), so λ_def ≤ λ_s ≤ λ_l / 2. A small run ends on the same criteria as any other
+//! (no budget cap of its own); the cap on λ (`max_population_factor`) holds in both regimes.
 //!
 //! **Bounds.** The search runs in the unit box: each unknown's internal box (see
 //! [`crate::problem::space`]) maps to [0, 1]. The distribution itself is unbounded; a candidate is
@@ -19,8 +29,9 @@
 //! away along a flat direction.
 //!
 //! **Determinism.** Candidate k of generation g draws its normal vector from
-//! [`crate::run::rng::stream`]`(seed, g, k + 1)`; a restart draws its mean from stream 0. The whole
-//! state (mean, σ, C, B, D, paths, histories) is saved as exact bit patterns.
+//! [`crate::run::rng::stream`]`(seed, g, k + 1)`; a restart draws its mean from stream 0 (and,
+//! for a small BIPOP run, its two uniforms after the mean). The whole state (mean, σ, C, B, D,
+//! paths, histories, and BIPOP's budgets and λ_l) is saved as exact bit patterns.
 
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 use serde::{Deserialize, Serialize};
@@ -49,8 +60,90 @@ pub struct CmaesConfig {
     /// TolFun relative to the generation's best cost: stops a run stalled above 0.
     pub tol_fun_rel: f64,
     pub max_condition: f64,
-    /// IPOP doubles λ at each restart up to this many times the initial λ.
+    /// IPOP doubles λ at each restart up to this many times the initial λ (BIPOP: its large
+    /// regime, and so its small one).
     pub max_population_factor: usize,
+    /// How a run that ends is restarted.
+    pub restarts: Restarts,
+}
+
+/// How `cmaes` restarts a run that ends.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Restarts {
+    /// λ doubled at every restart (Auger & Hansen 2005).
+    #[default]
+    Ipop,
+    /// Large (IPOP) and small-population regimes interlaced by budget (Hansen 2009).
+    Bipop,
+}
+
+impl Restarts {
+    /// The `--restarts` names.
+    pub const NAMES: [(Restarts, &'static str); 2] =
+        [(Restarts::Ipop, "ipop"), (Restarts::Bipop, "bipop")];
+
+    pub fn name(self) -> &'static str {
+        Self::NAMES
+            .iter()
+            .find(|(r, _)| *r == self)
+            .map_or("ipop", |(_, n)| n)
+    }
+
+    /// The restarts named `s`, or a line listing the names.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        Self::NAMES
+            .iter()
+            .find(|(_, n)| *n == s)
+            .map(|(r, _)| *r)
+            .ok_or_else(|| format!("unknown restarts `{s}` (expected one of: ipop, bipop)"))
+    }
+}
+
+/// A BIPOP regime.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Regime {
+    Large,
+    Small,
+}
+
+/// The regime of the next run: the one that has used fewer evaluations so far (ties: large,
+/// as after the first run, whose budget counts to the large regime).
+pub fn next_regime(large_evals: u64, small_evals: u64) -> Regime {
+    if small_evals < large_evals {
+        Regime::Small
+    } else {
+        Regime::Large
+    }
+}
+
+/// A small-regime run's λ and σ0 from two uniforms in [0, 1): λ_s = ⌊λ_def (½ λ_l /
+/// λ_def)^(u²)⌋ (at least 2) and σ0 = σ0_def · 10^(−2v) (Hansen 2009).
+pub fn small_run(
+    lambda_def: usize,
+    lambda_large: usize,
+    sigma0: f64,
+    u: f64,
+    v: f64,
+) -> (usize, f64) {
+    let ratio = 0.5 * lambda_large as f64 / lambda_def as f64;
+    let lambda = (lambda_def as f64 * ratio.powf(u * u)).floor() as usize;
+    (lambda.max(2), sigma0 * 10f64.powf(-2.0 * v))
+}
+
+/// BIPOP's bookkeeping between runs (absent for IPOP).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Bipop {
+    /// Evaluations of the finished runs of each regime (the first run counts as large).
+    pub large_evals: u64,
+    pub small_evals: u64,
+    /// Evaluations of the current run so far.
+    pub run_evals: u64,
+    /// The current run's regime.
+    pub regime: Regime,
+    /// λ of the large regime's last run.
+    pub lambda_large: usize,
 }
 
 impl Default for CmaesConfig {
@@ -63,6 +156,7 @@ impl Default for CmaesConfig {
             tol_fun_rel: 1e-12,
             max_condition: 1e14,
             max_population_factor: 512,
+            restarts: Restarts::Ipop,
         }
     }
 }
@@ -358,8 +452,9 @@ impl CmaEs {
     }
 }
 
-/// CMA-ES with IPOP restarts in the unit box: runs [`CmaEs`] and, whenever a run ends,
-/// restarts it from a uniform random mean with λ doubled (up to a cap), keeping the best point.
+/// CMA-ES with IPOP (or BIPOP) restarts in the unit box: runs [`CmaEs`] and, whenever a run
+/// ends, restarts it from a uniform random mean with λ doubled (up to a cap) — or, BIPOP, in
+/// the regime with the smaller budget (module docs) — keeping the best point.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Ipop {
     run: CmaEs,
@@ -381,6 +476,9 @@ pub struct Ipop {
     #[serde(with = "lossless")]
     best_f: f64,
     last_end: Option<Termination>,
+    /// BIPOP's budgets; absent (and not written: IPOP checkpoints as before) for IPOP.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    bipop: Option<Bipop>,
 }
 
 impl Ipop {
@@ -400,6 +498,13 @@ impl Ipop {
             best_x: x0,
             best_f: f64::INFINITY,
             last_end: None,
+            bipop: (config.restarts == Restarts::Bipop).then_some(Bipop {
+                large_evals: 0,
+                small_evals: 0,
+                run_evals: 0,
+                regime: Regime::Large,
+                lambda_large: lambda0,
+            }),
         }
     }
 
@@ -428,11 +533,54 @@ impl Ipop {
         {
             self.last_end = Some(end);
             self.restarts += 1;
-            let lambda = (2 * self.run.lambda).min(self.max_lambda.max(self.run.lambda));
             let mut r = rng::stream(seed, generation, 0);
             let mean = (0..self.run.n).map(|_| rng::uniform(&mut r)).collect();
-            self.run = CmaEs::new(mean, self.sigma0, lambda);
+            let (lambda, sigma) = match self.bipop.is_some() {
+                true => self.bipop_restart(xs.len() as u64, &mut r),
+                false => (self.doubled(self.run.lambda), self.sigma0),
+            };
+            self.run = CmaEs::new(mean, sigma, lambda);
+        } else if let Some(b) = self.bipop.as_mut() {
+            b.run_evals += xs.len() as u64;
         }
+    }
+
+    /// `lambda` doubled, within the cap.
+    fn doubled(&self, lambda: usize) -> usize {
+        (2 * lambda).min(self.max_lambda.max(lambda))
+    }
+
+    /// BIPOP: the ended run's evaluations (`last` of them this generation) to its regime's
+    /// budget, then the next run's regime, λ and σ0 (a small run's uniforms from `r`).
+    fn bipop_restart(&mut self, last: u64, r: &mut rng::Rng) -> (usize, f64) {
+        let (lambda0, sigma0) = (self.lambda0, self.sigma0);
+        let next_large = {
+            let b = self.bipop.as_ref().expect("a BIPOP state");
+            self.doubled(b.lambda_large)
+        };
+        let b = self.bipop.as_mut().expect("a BIPOP state");
+        let used = b.run_evals + last;
+        match b.regime {
+            Regime::Large => b.large_evals += used,
+            Regime::Small => b.small_evals += used,
+        }
+        b.run_evals = 0;
+        b.regime = next_regime(b.large_evals, b.small_evals);
+        match b.regime {
+            Regime::Large => {
+                b.lambda_large = next_large;
+                (next_large, sigma0)
+            }
+            Regime::Small => {
+                let (u, v) = (rng::uniform(r), rng::uniform(r));
+                small_run(lambda0, next_large, sigma0, u, v)
+            }
+        }
+    }
+
+    /// BIPOP's budgets and regime (`None` for IPOP).
+    pub fn bipop(&self) -> Option<&Bipop> {
+        self.bipop.as_ref()
     }
 
     /// The best point ever told (as told: not reflected) and its cost.
@@ -588,6 +736,7 @@ impl Strategy for Cmaes {
                 && r.cov.len() == n * n
                 && r.basis.len() == n * n
                 && r.lambda >= 2
+                && st.ipop.bipop.as_ref().is_none_or(|b| b.lambda_large >= 2)
         })?;
         Ok(())
     }
@@ -609,9 +758,24 @@ mod tests {
         budget: usize,
         seed: u64,
     ) -> (Option<usize>, f64) {
+        minimize_with(Restarts::Ipop, f, n, (lo, hi), x0, target, budget, seed)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn minimize_with(
+        restarts: Restarts,
+        f: &dyn Fn(&[f64]) -> f64,
+        n: usize,
+        (lo, hi): (f64, f64),
+        x0: Vec<f64>,
+        target: f64,
+        budget: usize,
+        seed: u64,
+    ) -> (Option<usize>, f64) {
         // Hansen's absolute TolFun for test functions.
         let config = CmaesConfig {
             tol_fun: 1e-12,
+            restarts,
             ..CmaesConfig::default()
         };
         let mut es = Ipop::new(x0, default_lambda(n), &config);
@@ -756,5 +920,110 @@ mod tests {
         // tol_fun 1e-3 on a sphere lifted to 1 stops runs early: IPOP must have restarted.
         assert!(a.restarts() >= 1);
         assert_eq!(a.run().lambda(), 6 << a.restarts());
+    }
+
+    #[test]
+    fn bipop_small_runs_span_the_default_to_half_the_large_population() {
+        // U = 0: λ_def and σ0_def; U = 1: ½ λ_l and σ0_def / 100; between, the paper's powers.
+        assert_eq!(small_run(10, 80, 0.3, 0.0, 0.0), (10, 0.3));
+        let (l, s) = small_run(10, 80, 0.3, 1.0 - 1e-15, 1.0);
+        assert_eq!(l, 39, "⌊10 · 4^(1−ε)⌋");
+        assert!((s - 0.003).abs() < 1e-15);
+        let (l, s) = small_run(10, 80, 0.3, 0.5, 0.5);
+        assert_eq!(l, (10.0 * 4f64.powf(0.25)).floor() as usize);
+        assert!((s - 0.03).abs() < 1e-15);
+        // Never below 2, whatever λ_def.
+        assert_eq!(small_run(2, 2, 1.0, 0.9, 0.0).0, 2);
+        assert_eq!(next_regime(100, 50), Regime::Small);
+        assert_eq!(next_regime(50, 100), Regime::Large);
+        assert_eq!(next_regime(0, 0), Regime::Large);
+        assert_eq!(Restarts::parse("bipop"), Ok(Restarts::Bipop));
+        assert!(Restarts::parse("ipop2")
+            .unwrap_err()
+            .contains("ipop, bipop"));
+    }
+
+    /// Runs end often on a sphere lifted to 1 with TolFun 1e-3: after every restart the regime
+    /// is the one whose finished runs had used fewer evaluations, the budgets account for every
+    /// evaluation told, a large run's λ is λ_def doubled once per large restart, a small run's
+    /// within [λ_def, λ_l / 2] with σ0 at most σ0_def.
+    #[test]
+    fn bipop_runs_the_regime_with_the_smaller_budget() {
+        let config = CmaesConfig {
+            tol_fun: 1e-3,
+            restarts: Restarts::Bipop,
+            ..CmaesConfig::default()
+        };
+        let lambda0 = 6;
+        let mut es = Ipop::new(vec![0.5; 4], lambda0, &config);
+        let (mut told, mut larges, mut smalls) = (0u64, 0u32, 0u32);
+        let mut before = es.bipop().cloned().expect("a BIPOP state");
+        assert_eq!(before.regime, Regime::Large);
+        for gen in 0..1500 {
+            let xs = es.ask(2, gen);
+            let costs: Vec<f64> = xs.iter().map(|y| sphere(y) + 1.0).collect();
+            told += xs.len() as u64;
+            let restarts = es.restarts();
+            es.tell(&xs, &costs, 2, gen);
+            let b = es.bipop().cloned().expect("a BIPOP state");
+            assert_eq!(b.large_evals + b.small_evals + b.run_evals, told);
+            if es.restarts() == restarts {
+                before = b;
+                continue;
+            }
+            let expected = next_regime(b.large_evals, b.small_evals);
+            assert_eq!(b.regime, expected, "{b:?}");
+            let lambda = es.run().lambda();
+            match b.regime {
+                Regime::Large => {
+                    larges += 1;
+                    assert_eq!(lambda, (lambda0 << larges).min(lambda0 * 512));
+                    assert_eq!(b.lambda_large, lambda);
+                    assert_eq!(es.run().sigma(), config.sigma0);
+                }
+                Regime::Small => {
+                    smalls += 1;
+                    assert_eq!(b.lambda_large, before.lambda_large);
+                    assert!(
+                        lambda >= lambda0 && lambda <= b.lambda_large,
+                        "{lambda} {b:?}"
+                    );
+                    assert!(es.run().sigma() <= config.sigma0);
+                    assert!(es.run().sigma() > config.sigma0 / 100.0);
+                }
+            }
+            before = b;
+        }
+        eprintln!("bipop: {larges} large and {smalls} small restarts");
+        assert!(larges >= 2 && smalls >= 2, "{larges} large, {smalls} small");
+    }
+
+    #[test]
+    fn bipop_finds_rastrigin_5d_global_optimum_and_a_seed_fixes_it() {
+        let mut found = 0;
+        let seeds = 10;
+        let run = |seed: u64| {
+            let mut r = rng::stream(seed, 99, 0);
+            let start: Vec<f64> = (0..5).map(|_| rng::uniform(&mut r)).collect();
+            let f = &rastrigin;
+            minimize_with(
+                Restarts::Bipop,
+                f,
+                5,
+                (-5.12, 5.12),
+                start,
+                1e-8,
+                120_000,
+                seed,
+            )
+        };
+        for seed in 0..seeds {
+            found += usize::from(run(seed).0.is_some());
+        }
+        eprintln!("bipop rastrigin 5-D: global optimum in {found}/{seeds} runs");
+        assert!(found >= 7, "global optimum found in {found}/{seeds} runs");
+        let (a, b) = (run(3), run(3));
+        assert_eq!(a.0, b.0);
+        assert_eq!(a.1.to_bits(), b.1.to_bits());
     }
 }
