@@ -84,7 +84,12 @@ fn main() {
         }
         let t0 = Instant::now();
         let c0 = cpu_seconds();
-        let e = estimate(&guess, &space, &[take], &Config::default()).unwrap();
+        // In a pool, as `cordis identify` and the Python session run a strategy: the
+        // matrix-free passes split their steps over its threads (RAYON_NUM_THREADS sets them).
+        let pool = rayon::ThreadPoolBuilder::new().build().unwrap();
+        let e = pool
+            .install(|| estimate(&guess, &space, &[take], &Config::default()))
+            .unwrap();
         println!("  cost {:.6e}", e.cost);
         let secs = t0.elapsed().as_secs_f64();
         let cpu = cpu_seconds() - c0;
