@@ -44,9 +44,17 @@
 //!   `Kᵀ` uses `Aᵀ` per link: A is *not* symmetric when the spring is damped (its last term
 //!   `(Z/l) u ((I - u uᵀ) w)ᵀ`), so the transpose is applied explicitly.
 //!
-//! The linearisation (A, u, l - l0 and w·u per link, v and F per particle, every step) is stored once
-//! per iterate by the nonlinear rollout ([`Lin`]): forward and adjoint then read the same
+//! The linearisation (A by its factors `α u uᵀ + β I + u qᵀ`, l - l0, w·u and Z' per link —
+//! [`super::tangent::spring::LINK`] — v and F per particle, every step) is stored once per
+//! iterate by the nonlinear rollout ([`Lin`]): forward and adjoint then read the same
 //! numbers, and `⟨J v, u⟩ = ⟨v, Jᵀ u⟩` holds to rounding (tested).
+//!
+//! # Threads
+//!
+//! A CG iteration is one forward and one adjoint pass with a single direction: there is no
+//! population to spread over threads. From [`SPLIT_MIN_SPRINGS`] springs each step splits its
+//! springs in two halves, the second on the pool's other thread, summed into separate buffers
+//! and added in a fixed order, so the fit does not depend on the thread count.
 //!
 //! # The preconditioner
 //!
