@@ -13,6 +13,7 @@ pub mod error;
 pub mod exact;
 pub mod identify;
 pub mod linalg;
+mod named;
 pub mod output_error;
 pub mod problem;
 pub mod report;

@@ -667,19 +667,16 @@ impl<'a, 'b> Mf<'a, 'b> {
         }
     }
 
-    /// The springs' and anchors' share of one forward step (`df += ∂f/∂x s + ∂f/∂v ṡ + ∂f/∂θ
-    /// dθ`), inlined so that a constant `w` specialises it.
+    /// Calls `f(K, columns of (K, l0, Z, Z₂), ends, record)` for the springs in `springs`
+    /// (indices into the pass) and, if `anchors`, every anchor (`j = None`) at step t: the
+    /// walk the forward and adjoint passes share, inlined into each.
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn links_forward(
+    fn each_link(
         &self,
         lin: &Lin,
         t: usize,
-        w: usize,
         (springs, anchors): (Range<usize>, bool),
-        sv: (&[f64], &[f64]),
-        df: &mut [f64],
-        dth: &[f64],
+        mut f: impl FnMut(f64, &[usize; 4], (usize, Option<usize>), &[f64]),
     ) {
         let plan = &self.fit.tangent.plan;
         let (of_slot, p) = (&self.fit.cols.of_slot, &self.p);
@@ -689,19 +686,16 @@ impl<'a, 'b> Mf<'a, 'b> {
             if a >= b {
                 continue;
             }
-            let k = p[r.param];
             let slots = spring::slots(&plan.springs, ri, r.param, of_slot);
             let recs = &lin.springs[(t * nsp + a) * LINK..(t * nsp + b) * LINK];
             for (&[i, j], d) in plan.springs.pairs[a..b].iter().zip(recs.chunks_exact(LINK)) {
-                let ends = (i as usize, Some(j as usize));
-                spring::forward(d, k, &slots, ends, w, sv, df, dth);
+                f(p[r.param], &slots, (i as usize, Some(j as usize)), d);
             }
         }
         if !anchors {
             return;
         }
         for r in &plan.anchors.runs {
-            let k = p[r.param];
             let slots = [r.param, r.param + 1, r.param + 2].map(|q| of_slot[q]);
             let slots = [slots[0], slots[1], slots[2], NONE];
             let recs = &lin.anchors[(t * nan + r.start) * LINK..(t * nan + r.end) * LINK];
@@ -709,55 +703,7 @@ impl<'a, 'b> Mf<'a, 'b> {
                 .iter()
                 .zip(recs.chunks_exact(LINK))
             {
-                spring::forward(d, k, &slots, (i as usize, None), w, sv, df, dth);
-            }
-        }
-    }
-
-    /// The springs' and anchors' share of one adjoint step (`na += Aᵀ φ`, `psi += Bᵀ φ`,
-    /// `grad += (∂f/∂θ)ᵀ φ`), inlined so that a constant `w` specialises it.
-    #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn links_adjoint(
-        &self,
-        lin: &Lin,
-        t: usize,
-        w: usize,
-        (springs, anchors): (Range<usize>, bool),
-        phi: &[f64],
-        (na, psi): (&mut [f64], &mut [f64]),
-        grad: &mut [f64],
-    ) {
-        let plan = &self.fit.tangent.plan;
-        let (of_slot, p) = (&self.fit.cols.of_slot, &self.p);
-        let (nsp, nan) = (plan.springs.pairs.len(), plan.anchors.particles.len());
-        for (ri, r) in plan.springs.runs.iter().enumerate() {
-            let (a, b) = (r.start.max(springs.start), r.end.min(springs.end));
-            if a >= b {
-                continue;
-            }
-            let k = p[r.param];
-            let slots = spring::slots(&plan.springs, ri, r.param, of_slot);
-            let recs = &lin.springs[(t * nsp + a) * LINK..(t * nsp + b) * LINK];
-            for (&[i, j], d) in plan.springs.pairs[a..b].iter().zip(recs.chunks_exact(LINK)) {
-                let ends = (i as usize, Some(j as usize));
-                spring::adjoint(d, k, &slots, ends, w, phi, (&mut *na, &mut *psi), grad);
-            }
-        }
-        if !anchors {
-            return;
-        }
-        for r in &plan.anchors.runs {
-            let k = p[r.param];
-            let slots = [r.param, r.param + 1, r.param + 2].map(|q| of_slot[q]);
-            let slots = [slots[0], slots[1], slots[2], NONE];
-            let recs = &lin.anchors[(t * nan + r.start) * LINK..(t * nan + r.end) * LINK];
-            for (&i, d) in plan.anchors.particles[r.start..r.end]
-                .iter()
-                .zip(recs.chunks_exact(LINK))
-            {
-                let ends = (i as usize, None);
-                spring::adjoint(d, k, &slots, ends, w, phi, (&mut *na, &mut *psi), grad);
+                f(p[r.param], &slots, (i as usize, None), d);
             }
         }
     }
@@ -780,9 +726,13 @@ impl<'a, 'b> Mf<'a, 'b> {
         // width a constant (BENCHMARKS, "Large scenes").
         let run = |springs: (Range<usize>, bool), df: &mut [f64]| {
             if w == 1 {
-                self.links_forward(lin, t, 1, springs, sv, df, dth);
+                self.each_link(lin, t, springs, |k, slots, ends, d| {
+                    spring::forward(d, k, slots, ends, 1, sv, df, dth)
+                });
             } else {
-                self.links_forward(lin, t, w, springs, sv, df, dth);
+                self.each_link(lin, t, springs, |k, slots, ends, d| {
+                    spring::forward(d, k, slots, ends, w, sv, df, dth)
+                });
             }
         };
         if nsp < self.split_min_springs {
@@ -822,13 +772,18 @@ impl<'a, 'b> Mf<'a, 'b> {
         half: &mut Half,
     ) {
         let nsp = self.fit.tangent.plan.springs.pairs.len();
-        let run = |springs: (Range<usize>, bool), nps: (&mut [f64], &mut [f64]), g: &mut [f64]| {
-            if w == 1 {
-                self.links_adjoint(lin, t, 1, springs, phi, nps, g);
-            } else {
-                self.links_adjoint(lin, t, w, springs, phi, nps, g);
-            }
-        };
+        let run =
+            |springs: (Range<usize>, bool), (na, psi): (&mut [f64], &mut [f64]), g: &mut [f64]| {
+                if w == 1 {
+                    self.each_link(lin, t, springs, |k, slots, ends, d| {
+                        spring::adjoint(d, k, slots, ends, 1, phi, (&mut *na, &mut *psi), g)
+                    });
+                } else {
+                    self.each_link(lin, t, springs, |k, slots, ends, d| {
+                        spring::adjoint(d, k, slots, ends, w, phi, (&mut *na, &mut *psi), g)
+                    });
+                }
+            };
         if nsp < self.split_min_springs {
             run((0..nsp, true), (na, psi), grad);
             return;

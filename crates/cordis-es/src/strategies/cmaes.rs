@@ -84,19 +84,12 @@ impl Restarts {
         [(Restarts::Ipop, "ipop"), (Restarts::Bipop, "bipop")];
 
     pub fn name(self) -> &'static str {
-        Self::NAMES
-            .iter()
-            .find(|(r, _)| *r == self)
-            .map_or("ipop", |(_, n)| n)
+        crate::named::name_of(&Self::NAMES, self)
     }
 
     /// The restarts named `s`, or a line listing the names.
     pub fn parse(s: &str) -> Result<Self, String> {
-        Self::NAMES
-            .iter()
-            .find(|(_, n)| *n == s)
-            .map(|(r, _)| *r)
-            .ok_or_else(|| format!("unknown restarts `{s}` (expected one of: ipop, bipop)"))
+        crate::named::parse_name(&Self::NAMES, "restarts", s)
     }
 }
 

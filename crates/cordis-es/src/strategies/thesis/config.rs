@@ -60,25 +60,12 @@ impl Crossover {
     ];
 
     pub fn name(self) -> &'static str {
-        Self::NAMES
-            .iter()
-            .find(|(c, _)| *c == self)
-            .map_or("mean", |(_, n)| n)
+        crate::named::name_of(&Self::NAMES, self)
     }
 
     /// The crossover named `s`, or a line listing the names.
     pub fn parse(s: &str) -> Result<Self, String> {
-        Self::NAMES
-            .iter()
-            .find(|(_, n)| *n == s)
-            .map(|(c, _)| *c)
-            .ok_or_else(|| {
-                let names: Vec<&str> = Self::NAMES.iter().map(|(_, n)| *n).collect();
-                format!(
-                    "unknown crossover `{s}` (expected one of: {})",
-                    names.join(", ")
-                )
-            })
+        crate::named::parse_name(&Self::NAMES, "crossover", s)
     }
 }
 
