@@ -1,8 +1,10 @@
 //! Dense linear algebra of the solvers, one method per file: the Givens factor of a stream of
 //! rows ([`givens`]), the column-equilibrated SVD least squares ([`equilibrated`]), Brent's
-//! bounded line search ([`line_search`]) and Powell's conjugate-direction descent built on it
-//! ([`powell`]).
+//! bounded line search ([`line_search`]), Powell's conjugate-direction descent built on it
+//! ([`powell`]) and the deflation of a conjugate-gradient solve by a recycled subspace
+//! ([`deflation`]).
 
+pub mod deflation;
 pub mod equilibrated;
 pub mod givens;
 pub mod line_search;

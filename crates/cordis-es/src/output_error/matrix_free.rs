@@ -76,6 +76,12 @@
 //! - **inexact steps**: the CG solve stops at a relative residual `0.5 √(‖g‖/‖g₀‖)` clamped
 //!   to [[`STEP_CG_TOL`], [`STEP_CG_TOL_MAX`]], or after [`STEP_CG_ITERATIONS`] (a truncated
 //!   CG iterate still descends the model);
+//! - **recycled directions**: each solve is deflated ([`crate::linalg::deflation`]) by the
+//!   window's last [`DEFLATE_STEPS`] accepted steps: exact on their span from the start, CG
+//!   spends its iterations on the rest. Near the optimum the steps line up along the few
+//!   poorly determined directions (the cloth's structural/bending valley) that truncated
+//!   solves resolve worst; one product as wide as the subspace per solve (BENCHMARKS,
+//!   "Large scenes");
 //! - **halving before re-solving**: a step that raises the cost is tried at ½ and ¼ (one
 //!   simulation each) before a new solve at a larger λ;
 //! - **statistical stopping**: a window stops when a step lowers the cost by less than
@@ -106,6 +112,7 @@ use std::ops::Range;
 use super::fit::{Counts, Fitter, LmSettings, StageEnd};
 use super::tangent::spring::{self, LINK};
 use super::tangent::{angle, conditional, plane, provot, spring_link, NONE};
+use crate::linalg::deflation::Deflation;
 
 /// The dense path is used up to this many local columns (θ plus one take's initial state).
 /// Measured on the cloth without its Provot limit, 100 frames, σ = 1e-3 of its size, on the
@@ -193,6 +200,8 @@ pub const WINDOW_FTOL: f64 = 1e-4;
 pub const STEP_CG_ITERATIONS: usize = 80;
 /// Accepted steps between refreshes of the preconditioner's θ columns.
 pub const COLUMNS_EVERY: usize = 3;
+/// Accepted steps of a window kept to deflate the next solves ([`crate::linalg::deflation`]).
+pub const DEFLATE_STEPS: usize = 4;
 
 /// Settings of the inner conjugate-gradient solves.
 #[derive(Clone, Copy, Debug)]
@@ -1310,6 +1319,7 @@ pub(crate) fn pcg(
     rhs: &[f64],
     x: &mut [f64],
     set: CgSettings,
+    deflation: Option<&Deflation>,
     cg: &mut CgWork,
     work: &mut Work,
 ) -> (usize, bool) {
@@ -1327,7 +1337,16 @@ pub(crate) fn pcg(
     if bnorm == 0.0 {
         return (0, true);
     }
+    if let Some(d) = deflation {
+        d.start(x, r);
+        if dot(r, r).sqrt() <= set.tol * bnorm {
+            return (0, true);
+        }
+    }
     pre.apply(r, z);
+    if let Some(d) = deflation {
+        d.project(z);
+    }
     p.copy_from_slice(z);
     let mut rz = dot(r, z);
     for it in 1..=set.max_iterations {
@@ -1356,6 +1375,9 @@ pub(crate) fn pcg(
         let rz_new = dot(r, z);
         let beta = rz_new / rz;
         rz = rz_new;
+        if let Some(d) = deflation {
+            d.project(z);
+        }
         for a in 0..len {
             p[a] = z[a] + beta * p[a];
         }
@@ -1365,6 +1387,37 @@ pub(crate) fn pcg(
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// The deflation subspace of a step's solve: the window's last accepted steps ([`DEFLATE_STEPS`]),
+/// zero on the held coordinates, under the solve's own operator `H + λ diag(scale)` (one
+/// product as wide as the subspace).
+fn step_deflation(
+    mf: &Mf<'_, '_>,
+    recent: &std::collections::VecDeque<Vec<f64>>,
+    scale: &[f64],
+    held: &[bool],
+    lambda: f64,
+    work: &mut Work,
+) -> Option<Deflation> {
+    let vectors: Vec<Vec<f64>> = recent
+        .iter()
+        .map(|v| {
+            v.iter()
+                .zip(held)
+                .map(|(x, &h)| if h { 0.0 } else { *x })
+                .collect()
+        })
+        .collect();
+    Deflation::new(&vectors, |w, k, out| {
+        mf.hv(w, k, out, work);
+        for (a, row) in out.chunks_mut(k).enumerate() {
+            let s = if scale[a] > 0.0 { scale[a] } else { 1.0 };
+            for (o, v) in row.iter_mut().zip(&w[a * k..(a + 1) * k]) {
+                *o = if held[a] { 0.0 } else { *o + lambda * s * v };
+            }
+        }
+    })
 }
 
 /// Diagonal of the preconditioner's H (exact for θ, the local blocks for states): the
@@ -1426,6 +1479,7 @@ pub(crate) fn lm_stage(
     let mut sens = super::tangent::Sens::default();
     let mut g0norm: Option<f64> = None;
     let mut accepted = 0usize;
+    let mut recent: std::collections::VecDeque<Vec<f64>> = Default::default();
     for _ in 0..set.max_iterations {
         if halt() {
             return StageEnd::Interrupted;
@@ -1460,8 +1514,19 @@ pub(crate) fn lm_stage(
         let mut ok = false;
         for _ in 0..2 {
             let pre = Pre::new(mf, &cols, &scale, &held, lambda);
+            let deflation = step_deflation(mf, &recent, &scale, &held, lambda, work);
             let (its, conv) = pcg(
-                mf, &pre, &scale, &held, lambda, &rhs, &mut delta, forcing, &mut cg, work,
+                mf,
+                &pre,
+                &scale,
+                &held,
+                lambda,
+                &rhs,
+                &mut delta,
+                forcing,
+                deflation.as_ref(),
+                &mut cg,
+                work,
             );
             cgc.solves += 1;
             cgc.iterations += its;
@@ -1547,6 +1612,10 @@ pub(crate) fn lm_stage(
             let small_gain =
                 small_gain || (reduction <= window_ftol * cost && predicted <= window_ftol * cost);
             q.copy_from_slice(&trial);
+            if recent.len() == DEFLATE_STEPS {
+                recent.pop_front();
+            }
+            recent.push_back(step.clone());
             counts.evaluations += 1;
             if !mf.linearise(q, window, work) {
                 return StageEnd::Diverged;
@@ -1577,6 +1646,7 @@ pub(crate) fn lm_stage(
                 let held = fit.held(q, &DVector::from_column_slice(&g));
                 let pre = Pre::new(mf, &cols, &scale, &held, NEWTON_LAMBDA);
                 let rhs: Vec<f64> = g.iter().map(|x| -x).collect();
+                let deflation = step_deflation(mf, &recent, &scale, &held, NEWTON_LAMBDA, work);
                 let (its, ok) = pcg(
                     mf,
                     &pre,
@@ -1586,6 +1656,7 @@ pub(crate) fn lm_stage(
                     &rhs,
                     &mut delta,
                     NEWTON_CG,
+                    deflation.as_ref(),
                     &mut cg,
                     work,
                 );
@@ -2210,6 +2281,70 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn a_solve_deflated_by_earlier_steps_reaches_the_same_step_in_fewer_iterations() {
+        let s = setup(1e-3);
+        let fit = fitter(&s);
+        let frames = 40;
+        let mut mf = Mf::new(&fit);
+        let mut work = Work::default();
+        assert!(mf.linearise(&s.q, frames, &mut work));
+        let len = fit.len();
+        let mut g = vec![0.0; len];
+        mf.gradient(&mut g, &mut work);
+        let rhs: Vec<f64> = g.iter().map(|x| -x).collect();
+        let cols = mf.theta_columns(&mut work);
+        let scale = approx_diag(&mf, &cols);
+        let held = vec![false; len];
+        let lambda = 1e-6;
+        let pre = Pre::new(&mf, &cols, &scale, &held, lambda);
+        let set = CgSettings {
+            tol: 1e-10,
+            max_iterations: 2000,
+        };
+        let mut cg = CgWork::default();
+        let mut plain = vec![0.0; len];
+        let (its_plain, ok) = pcg(
+            &mf, &pre, &scale, &held, lambda, &rhs, &mut plain, set, None, &mut cg, &mut work,
+        );
+        assert!(ok);
+        // Earlier "steps": the solution seen through two perturbed copies, as the last steps
+        // of a window approximate the next one.
+        let recent: std::collections::VecDeque<Vec<f64>> = [3, 5]
+            .iter()
+            .map(|&salt| {
+                (0..len)
+                    .map(|a| plain[a] * (1.0 + 0.3 * noise(a, salt)))
+                    .collect()
+            })
+            .collect();
+        let d = step_deflation(&mf, &recent, &scale, &held, lambda, &mut work).unwrap();
+        assert_eq!(d.dim(), 2);
+        let mut deflated = vec![0.0; len];
+        let (its_deflated, ok) = pcg(
+            &mf,
+            &pre,
+            &scale,
+            &held,
+            lambda,
+            &rhs,
+            &mut deflated,
+            set,
+            Some(&d),
+            &mut cg,
+            &mut work,
+        );
+        assert!(ok);
+        let scale_x = plain.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for a in 0..len {
+            assert!((plain[a] - deflated[a]).abs() <= 1e-6 * scale_x, "x[{a}]");
+        }
+        assert!(
+            its_deflated < its_plain,
+            "deflated {its_deflated} against plain {its_plain} iterations"
+        );
     }
 
     #[test]
