@@ -114,7 +114,8 @@ fn noisy_networks_keep_most_links_and_few_extras() {
         let truth = random_network(seed, masses, types);
         let traj = truth.simulate(FRAMES).unwrap();
         let sigma = 1e-4 * traj.scale();
-        let d = run(&truth, &add_noise(&traj, sigma, seed), sigma);
+        let obs = add_noise(&traj, sigma, seed);
+        let d = run(&truth, &obs, sigma);
         let (want, got) = (link_set(&truth), link_set(&d.scene));
         let found = want.intersection(&got).count() as f64 / want.len() as f64;
         let extra = got.difference(&want).count() as f64 / want.len() as f64;
@@ -122,6 +123,21 @@ fn noisy_networks_keep_most_links_and_few_extras() {
             found >= 0.95 && extra <= 0.05,
             "seed {seed}: found {found}, extra {extra}"
         );
+        // A fixed particle at the mean of its noisy frames (issue 20): within 4 σ/√F of the
+        // truth per axis, not frame 0's σ.
+        let bound = 4.0 * sigma / (obs.frames() as f64).sqrt();
+        for (i, (p, q)) in truth.particles.iter().zip(&d.scene.particles).enumerate() {
+            if p.fixed && q.fixed {
+                for c in 0..3 {
+                    assert!(
+                        (q.pos[c] - p.pos[c]).abs() <= bound,
+                        "seed {seed}: fixed particle {i} axis {c}: {} vs {}",
+                        q.pos[c],
+                        p.pos[c]
+                    );
+                }
+            }
+        }
         assert!(d.links.iter().all(|l| l.score >= l.threshold));
     }
 }
