@@ -4,6 +4,11 @@
 //! ([`powell`]) and the deflation of a conjugate-gradient solve by a recycled subspace
 //! ([`deflation`]).
 
+/// `aᵀ b` of two slices (the first `min(len)` entries), summed in order.
+pub fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
 pub mod deflation;
 pub mod equilibrated;
 pub mod givens;

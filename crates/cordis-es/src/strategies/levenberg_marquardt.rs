@@ -53,6 +53,7 @@ use serde::{Deserialize, Serialize};
 
 use super::common::{load_checked, start_genome, NO_STATS};
 use crate::error::CostError;
+use crate::linalg::dot;
 use crate::problem::Problem;
 use crate::run::float_json::{bits, lossless};
 use crate::run::rng;
@@ -474,10 +475,6 @@ impl Lm {
 /// Whether coordinate j may move: not held on a bound by a gradient `g = Jᵀr` pointing out.
 fn movable(&(lo, hi): &(f64, f64), z: f64, g: f64) -> bool {
     hi > lo && !(z <= lo && g > 0.0) && !(z >= hi && g < 0.0)
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 /// Cholesky factor (lower, row-major k × k, k = free.len()) of `A_ff + λ D_ff`; false when the
