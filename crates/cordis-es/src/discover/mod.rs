@@ -371,12 +371,15 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
     let raw = traj;
     let smoothed;
     let mut accel = None;
+    let mut smoothing = None;
     let traj = match smooth::smooth(traj, &fixed, noise).filter(|_| noise > 0.0) {
         Some((s, h)) => {
+            smoothing = Some(h);
             accel = smooth::Accelerations::new(raw, h, dt);
             notes.push(format!(
                 "noisy positions: cubic Savitzky-Golay filter over {} frames ({h} frames \
-                 dropped at each end{})",
+                 dropped at each end; the scene's initial state at the first frame by its \
+                 end-point fit{})",
                 2 * h + 1,
                 if accel.is_some() {
                     "; accelerations from the raw positions by a kernel uncorrelated with it"
@@ -685,14 +688,18 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
     for i in 0..n {
         // A fixed particle at its maximum-likelihood position under noise, the mean over every
         // raw frame (frame 0 alone is off by the full noise σ, biasing every link anchored
-        // on it); a moving one at the first (smoothed) frame.
-        let pos = if fixed[i] {
-            fixed_position(raw, i)
-        } else {
-            traj.pos(0, i)
+        // on it); a moving one at the take's first frame: smoothed by the end-point form of
+        // the smoothing when it ran (the smoothed trajectory starts h frames in), else raw.
+        let smoothed_start = smoothing.and_then(|h| smooth::start_positions(raw, i, h));
+        let (pos, xm1) = match smoothed_start {
+            _ if fixed[i] => (fixed_position(raw, i), raw.pos(0, i)),
+            Some(start) => start,
+            // x(-1) by quadratic extrapolation of frames 0–2.
+            None => (
+                traj.pos(0, i),
+                traj.pos(0, i) * 3.0 - traj.pos(1, i) * 3.0 + traj.pos(2, i),
+            ),
         };
-        // x(-1) by quadratic extrapolation of frames 0–2.
-        let xm1 = traj.pos(0, i) * 3.0 - traj.pos(1, i) * 3.0 + traj.pos(2, i);
         let vel = (pos - xm1) / dt;
         let m = masses[i];
         let mass = if fixed[i] || opt.masses.is_some() {

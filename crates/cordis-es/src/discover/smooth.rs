@@ -228,6 +228,38 @@ impl Accelerations {
     }
 }
 
+/// The first raw frame's position of particle `i` and the one a frame before it (m), from the
+/// cubic least-squares fit to raw frames `0 ..= 2h` evaluated at frames 0 and −1: the
+/// Savitzky–Golay filter's end-point form. [`smooth`] drops the `h` first frames, which its
+/// centred window cannot reach, so a scene started from the first smoothed frame would start
+/// `h` frames into the take; this starts it at the take's own first frame, with the same
+/// polynomial degree and window as the smoothing. `None` when the take has fewer than `2h + 1`
+/// frames.
+pub fn start_positions(traj: &Trajectory, i: usize, h: usize) -> Option<(Vec3, Vec3)> {
+    let len = 2 * h + 1;
+    if traj.frames() < len.max(4) {
+        return None;
+    }
+    let basis = |t: f64| [1.0, t, t * t, t * t * t];
+    let mut normal = nalgebra::Matrix4::<f64>::zeros();
+    let mut rhs = nalgebra::Matrix4x3::<f64>::zeros();
+    let x0 = traj.pos(0, i);
+    for t in 0..len {
+        let b = nalgebra::Vector4::from(basis(t as f64));
+        normal += b * b.transpose();
+        // Offsets from frame 0: the fit's rounding scales with the motion, not the position.
+        let d = traj.pos(t, i) - x0;
+        rhs += b * nalgebra::RowVector3::new(d.x, d.y, d.z);
+    }
+    let coef = normal.cholesky()?.solve(&rhs);
+    let at = |t: f64| {
+        let b = nalgebra::RowVector4::from(basis(t));
+        let v = b * coef;
+        x0 + Vec3::new(v[0], v[1], v[2])
+    };
+    Some((at(0.0), at(-1.0)))
+}
+
 fn apply(traj: &Trajectory, fixed: &[bool], h: usize) -> (Trajectory, f64) {
     let (frames, n) = (traj.frames(), traj.particles());
     let c = weights(h);
@@ -282,6 +314,35 @@ pub fn smooth(traj: &Trajectory, fixed: &[bool], noise: f64) -> Option<(Trajecto
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The end-point fit reproduces a cubic at frames 0 and −1, and on noisy frames lands
+    /// within its own spread of the truth (guards the discovered scene's start: the smoothed
+    /// trajectory starts h frames into the take).
+    #[test]
+    fn the_start_positions_extrapolate_cubics_to_frame_zero_and_before() {
+        let cubic = |t: f64| {
+            Vec3::new(
+                0.3 + 0.02 * t - 1e-3 * t * t + 2e-5 * t * t * t,
+                -1.0,
+                0.5 * t,
+            )
+        };
+        for h in HALF_WIDTHS {
+            let frames = 2 * h + 9;
+            let data: Vec<f64> = (0..frames)
+                .flat_map(|t| {
+                    let x = cubic(t as f64);
+                    [x.x, x.y, x.z]
+                })
+                .collect();
+            let traj = Trajectory::from_flat(frames, 1, data).unwrap();
+            let (x0, xm1) = start_positions(&traj, 0, h).unwrap();
+            assert!((x0 - cubic(0.0)).norm() < 1e-12, "h {h}: {x0:?}");
+            assert!((xm1 - cubic(-1.0)).norm() < 1e-12, "h {h}: {xm1:?}");
+        }
+        let short = Trajectory::from_flat(4, 1, vec![0.0; 12]).unwrap();
+        assert!(start_positions(&short, 0, 2).is_none());
+    }
 
     /// The dampers' velocity kernel: the scheme's backward difference on cubics, and no
     /// covariance with the smoothed positions at the frame and the one before, nor with the
