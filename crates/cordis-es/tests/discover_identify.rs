@@ -224,7 +224,11 @@ fn given_masses_and_gravity_stay_known() {
     };
     let d = discover(&traj, truth.dt, &opt).unwrap();
     let id = identify_discovered(&traj, &d, &opt).unwrap();
-    assert!(id.converged && !id.gravity_fitted && id.reference.is_none());
+    assert!(
+        id.converged && !id.gravity_fitted && id.reference.is_none(),
+        "end {}",
+        id.end
+    );
     assert!(
         id.params.iter().all(|p| p.name.starts_with("types.")),
         "{:?}",

@@ -352,6 +352,13 @@ pub(crate) struct LmSettings {
     pub ftol: f64,
     pub xtol: f64,
     pub gtol: f64,
+    /// Dense path: a θ coordinate on its bound that the step pushes out is held and the step
+    /// solved again on the box's face ([`step_in_the_box`]) instead of projected. Off where
+    /// the cost kinks (contacts, conditional links, Provot's limit): measured on the Provot
+    /// patch (`tests/output_error_kinds.rs`, seed 0) the face steps crawl along a kink to the
+    /// window's budget (278 iterations, the same cost) where the projected ones converge in
+    /// 226. The matrix-free path always re-solves.
+    pub face_steps: bool,
 }
 
 /// How one LM stage ended.
@@ -409,7 +416,7 @@ pub(crate) fn lm_stage(
         if ne.cost <= floor {
             return StageEnd::Converged;
         }
-        let held = fit.held(q, &ne.g);
+        let mut held = fit.held(q, &ne.g);
         // gtol: every free column's cosine with the residual.
         let gmax = (0..len)
             .filter(|&a| !held[a] && ne.h[(a, a)] > 0.0)
@@ -418,7 +425,11 @@ pub(crate) fn lm_stage(
         if gmax <= set.gtol {
             return StageEnd::Converged;
         }
-        let Some(delta) = damped_step(&ne, &scale, &held, lambda) else {
+        let solved = match set.face_steps {
+            true => step_in_the_box(fit, q, &ne, &scale, &mut held, lambda),
+            false => damped_step(&ne, &scale, &held, lambda),
+        };
+        let Some(delta) = solved else {
             lambda *= nu;
             nu *= 2.0;
             if lambda > 1e20 {
@@ -458,6 +469,13 @@ pub(crate) fn lm_stage(
                 return StageEnd::Converged;
             }
         } else {
+            // MINPACK's ftol test holds for a rejected step too: neither the actual change nor
+            // the model's gain exceeds ftol of the cost. At rounding (noiseless data fitted
+            // exactly, a rollout's own rounding a few times `rounding_floor`) every step is
+            // rejected and λ would otherwise climb to `Stalled`.
+            if (c - ne.cost).abs() <= set.ftol * ne.cost && predicted <= set.ftol * ne.cost {
+                return StageEnd::Converged;
+            }
             lambda *= nu;
             nu *= 2.0;
             if lambda > 1e20 {
@@ -466,6 +484,32 @@ pub(crate) fn lm_stage(
         }
     }
     StageEnd::Budget
+}
+
+/// The damped step from `q`, with every θ coordinate on a bound that the step pushes out of
+/// the box held (added to `held`) and the step solved again on the box's face, as the
+/// matrix-free path does: projecting the coupled step instead changes its direction, and the
+/// coordinates still free never get the step that is best with the others held. `None` when a
+/// solve fails.
+fn step_in_the_box(
+    fit: &Fitter<'_>,
+    q: &[f64],
+    ne: &Normal,
+    scale: &[f64],
+    held: &mut [bool],
+    lambda: f64,
+) -> Option<DVector<f64>> {
+    loop {
+        let delta = damped_step(ne, scale, held, lambda)?;
+        let pushed = fit.pushed_out(q, delta.as_slice(), held);
+        if pushed.is_empty() {
+            return Some(delta);
+        }
+        // Each pass holds at least one more coordinate: at most θ passes.
+        for a in pushed {
+            held[a] = true;
+        }
+    }
 }
 
 /// `(H + λ D) δ = -g` on the coordinates not held (held ones get δ = 0), by Cholesky.
@@ -488,4 +532,81 @@ fn damped_step(ne: &Normal, scale: &[f64], held: &[bool], lambda: f64) -> Option
         out[i] = x[r];
     }
     x.iter().all(|v| v.is_finite()).then_some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::space::ParameterSpace;
+    use cordis_core::{Bounds, LinkKind, LinkType, Param, Particle, Scene};
+
+    /// A step that pushes a θ coordinate on its bound out of the box is solved again with that
+    /// coordinate held: the others get the reduced system's solution, not the coupled step's
+    /// (guards `step_in_the_box` against falling back to a projection of the coupled step).
+    #[test]
+    fn a_step_pushing_a_bound_coordinate_out_is_solved_again_on_the_face() {
+        let mut scene = Scene::new(0.01);
+        scene.add_particle(Particle::new(1.0, [1.0, 0.0, 0.0]));
+        let unknown = |min: f64, max: f64| {
+            Param::Unknown(Bounds {
+                min,
+                max,
+                init: None,
+            })
+        };
+        scene.add_type(
+            LinkType::new("a", LinkKind::Anchor)
+                .with("stiffness", 10.0)
+                .with("rest_length", 0.5),
+        );
+        scene.types[0].params[0] = unknown(1.0, 100.0);
+        scene.types[0].params[1] = unknown(0.1, 2.0);
+        scene.add_link("a", &[0]);
+        scene.links[0].point = Some([0.0; 3]);
+        let traj = scene.simulate(5).unwrap();
+        let takes = vec![Take::complete(&traj)];
+        let tangent = Tangent::new(&scene).unwrap();
+        let space = ParameterSpace::from_scene(&scene);
+        let base = scene.param_values();
+        let slots: Vec<usize> = space.unknowns.iter().map(|u| u.slot).collect();
+        let fit = Fitter {
+            cols: tangent.columns(&slots),
+            tangent: &tangent,
+            unknowns: &space.unknowns,
+            base: &base,
+            takes: &takes,
+        };
+        let len = fit.len();
+        assert_eq!((fit.theta(), len), (2, 8));
+        // θ0 on its lower bound, its gradient pointing into the box; a quadratic model coupling
+        // θ0 and θ1 whose unconstrained step still moves θ0 further down (δ ≈ (-0.67, 1.6)).
+        let mut q = vec![0.0; len];
+        q[0] = space.unknowns[0].internal_bounds().0;
+        q[1] =
+            0.5 * (space.unknowns[1].internal_bounds().0 + space.unknowns[1].internal_bounds().1);
+        let mut h = DMatrix::<f64>::identity(len, len);
+        h[(0, 0)] = 2.0;
+        h[(0, 1)] = 0.9;
+        h[(1, 0)] = 0.9;
+        let mut g = DVector::zeros(len);
+        g[0] = -0.1;
+        g[1] = -1.0;
+        let ne = Normal { cost: 1.0, h, g };
+        let scale = vec![1.0; len];
+        let mut held = fit.held(&q, &ne.g);
+        assert!(!held[0], "the gradient alone does not hold θ0");
+        let lambda = 1e-3;
+        let coupled = damped_step(&ne, &scale, &held, lambda).unwrap();
+        assert!(coupled[0] < 0.0, "the coupled step pushes θ0 out");
+        let delta = step_in_the_box(&fit, &q, &ne, &scale, &mut held, lambda).unwrap();
+        assert!(held[0] && delta[0] == 0.0);
+        // On the face: (1 + λ) δ1 = -g1.
+        let face = 1.0 / (1.0 + lambda);
+        assert!((delta[1] - face).abs() < 1e-12, "{} vs {face}", delta[1]);
+        assert!(
+            (coupled[1] - face).abs() > 0.1,
+            "the coupled step differs: {}",
+            coupled[1]
+        );
+    }
 }

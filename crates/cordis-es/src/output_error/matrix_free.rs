@@ -2364,6 +2364,7 @@ mod tests {
             ftol: 1e-10,
             xtol: 1e-10,
             gtol: 1e-10,
+            face_steps: true,
         };
         let config = super::super::Config::default();
         let mut qd = s.q.clone();

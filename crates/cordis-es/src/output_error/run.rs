@@ -172,6 +172,10 @@ impl Prepared {
             check_memory(&tangent, &cols, takes.len())?;
         }
         let (noise_level, noise_samples) = takes.iter().map(start::noise_level_and_samples).unzip();
+        // Kinks in the cost: contacts, pairs appearing and vanishing, Provot's projection.
+        let kinked = !tangent.plan.planes.is_empty()
+            || !tangent.plan.conditionals.is_empty()
+            || !tangent.plan.provot.links.is_empty();
         Ok(Prepared {
             scene: scene.clone(),
             tangent,
@@ -185,6 +189,7 @@ impl Prepared {
                 ftol: config.ftol,
                 xtol: config.xtol,
                 gtol: config.gtol,
+                face_steps: !kinked,
             },
             first_window: config.first_window,
             loss: config.loss,

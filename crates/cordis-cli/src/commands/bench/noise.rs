@@ -48,6 +48,10 @@ pub struct Args {
     /// Observation patterns, comma-separated: complete | missing | hidden.
     #[arg(long, default_value = "complete,missing,hidden")]
     patterns: String,
+    /// The first draw's seed: draws `first_draw .. first_draw + draws` (to split a grid across
+    /// processes; the JSON lines carry the counts to merge).
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u64).range(0..=1_000_000))]
+    first_draw: u64,
     /// The estimator's first window, frames (its default otherwise).
     #[arg(long, value_parser = clap::value_parser!(u64).range(3..=100_000))]
     first_window: Option<u64>,
@@ -259,7 +263,7 @@ pub fn run(a: Args) -> Result<()> {
     for &rel in &levels {
         for &pattern in &patterns {
             let mut cell = Cell::default();
-            for d in 0..a.draws {
+            for d in a.first_draw..a.first_draw + a.draws {
                 one_draw(&a, d, rel, pattern, &mut cell);
             }
             report(&a, rel, pattern, &cell);
@@ -292,6 +296,10 @@ fn report(a: &Args, rel: f64, pattern: &str, cell: &Cell) {
         "coverage95": {
             "stiffness": cov[0], "rest_length": cov[1], "rest_cos": cov[2], "damping": cov[3]
         },
+        "coverage_counts": cell.coverage,
+        "first_draw": a.first_draw,
+        "errors_pct": cell.error,
+        "crbs_pct": cell.bound,
         "median_seconds": median(&cell.seconds),
         "median_cpu_seconds": median(&cell.cpu),
         "converged": cell.converged,
