@@ -3,6 +3,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
+use super::continuity::{Continuity, Layout, SegmentEnd};
 use super::observations::Take;
 use super::tangent::{Columns, Sens, Tangent};
 use crate::space::Unknown;
@@ -16,6 +17,9 @@ pub(crate) struct Fitter<'a> {
     pub base: &'a [f64],
     pub takes: &'a [Take],
     pub cols: Columns,
+    /// Multiple shooting ([`super::shooting`]): the takes are segments and each one's end is
+    /// tied to the next one's state. `None`: every take is a rollout of its own.
+    pub continuity: Option<&'a Continuity>,
 }
 
 /// What one evaluation with sensitivities returns: `cost = Σ w² e²`, the Gauss–Newton matrix
@@ -61,10 +65,15 @@ impl Fitter<'_> {
     pub fn cost(&self, q: &[f64], window: usize, buf: &mut Sens) -> f64 {
         let p = self.params(q);
         let mut total = 0.0;
+        let mut end = SegmentEnd::default();
         for (k, take) in self.takes.iter().enumerate() {
             let state = &q[self.theta() + k * self.state_len()..][..self.state_len()];
             let frames = window.min(take.frames());
+            let tied = self.continuity.and_then(|c| c.tied(k, window, take));
             let mut visit = |t: usize, x: &[cordis_core::Vec3], _: Option<&[f64]>| {
+                if tied.is_some() {
+                    end.record(t, frames, x, None);
+                }
                 for (i, xi) in x.iter().enumerate() {
                     for c in 0..3 {
                         let (obs, w) = take.at(t, i, c);
@@ -81,6 +90,10 @@ impl Fitter<'_> {
                 .is_err()
             {
                 return f64::INFINITY;
+            }
+            if let (Some(c), Some(j)) = (self.continuity, tied) {
+                let next = &q[self.theta() + j * self.state_len()..][..self.state_len()];
+                total += c.cost(&self.tangent.free, next, &end);
             }
         }
         if total.is_finite() {
@@ -140,14 +153,19 @@ impl Fitter<'_> {
         let mut we = vec![0.0; capacity];
         let mut local_h = DMatrix::<f64>::zeros(width, width);
         let mut local_g = DVector::<f64>::zeros(width);
+        let mut end = SegmentEnd::default();
         for (k, take) in self.takes.iter().enumerate() {
             local_h.fill(0.0);
             local_g.fill(0.0);
             let state = &q[nt + k * ns..][..ns];
             let frames = window.min(take.frames());
+            let tied = self.continuity.and_then(|c| c.tied(k, window, take));
             let mut m = 0;
             let mut visit = |t: usize, x: &[cordis_core::Vec3], s: Option<&[f64]>| {
                 let s = s.expect("rollout with columns");
+                if tied.is_some() {
+                    end.record(t, frames, x, Some(s));
+                }
                 for (i, xi) in x.iter().enumerate() {
                     for c in 0..3 {
                         let (obs, w) = take.at(t, i, c);
@@ -187,6 +205,15 @@ impl Fitter<'_> {
                 for b in 0..width {
                     h[(global(a), global(b))] += local_h[(a, b)];
                 }
+            }
+            if let (Some(c), Some(j)) = (self.continuity, tied) {
+                let at = Layout {
+                    free: &self.tangent.free,
+                    theta: nt,
+                    state: ns,
+                    width,
+                };
+                cost += c.accumulate(&at, (k, j), (q, &end), &chain, &mut h, &mut g);
             }
         }
         cost.is_finite().then_some(Normal { cost, h, g })
@@ -575,6 +602,7 @@ mod tests {
             unknowns: &space.unknowns,
             base: &base,
             takes: &takes,
+            continuity: None,
         };
         let len = fit.len();
         assert_eq!((fit.theta(), len), (2, 8));

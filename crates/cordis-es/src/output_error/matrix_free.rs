@@ -2047,6 +2047,7 @@ mod tests {
             base: &s.base,
             takes: &s.takes,
             cols: s.tangent.columns(&slots),
+            continuity: None,
         }
     }
 

@@ -31,6 +31,10 @@
 //!   every take, then `2W`, `4W`, … up to the whole take, each stage from the previous optimum.
 //!   On a short window the cost is nearly quadratic around any start that gets the first
 //!   oscillation right.
+//! - **Multiple shooting** ([`shooting`]): a fit whose windows stay above the noise level (a
+//!   wrong basin) goes back to its start with the takes cut into segments, each simulated from
+//!   its own state and tied to the next by continuity, then finishes by single shooting; then
+//!   seeded restarts ([`run`]).
 //! - **Start** ([`start`]): the short cost's exact minimum on Savitzky–Golay-smoothed,
 //!   gap-filled positions (biased but close), each take's initial state from a quadratic
 //!   through its first frames.
@@ -43,11 +47,13 @@
 
 mod checks;
 mod config;
+pub(crate) mod continuity;
 pub mod fit;
 pub mod loss;
 pub mod matrix_free;
 pub mod observations;
 pub mod run;
+pub(crate) mod shooting;
 pub mod start;
 mod summary;
 pub mod tangent;
@@ -149,6 +155,7 @@ pub fn cramer_rao_takes(
         base: &base,
         takes,
         cols,
+        continuity: None,
     };
     let mut q: Vec<f64> = space
         .unknowns

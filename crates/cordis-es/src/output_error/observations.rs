@@ -247,6 +247,19 @@ impl Take {
         }
     }
 
+    /// Frames `from..to` of the take (clamped to its length), renumbered from 0.
+    pub fn frame_range(&self, from: usize, to: usize) -> Take {
+        let to = to.min(self.frames);
+        let from = from.min(to);
+        let row = self.particles * 3;
+        Take {
+            frames: to - from,
+            particles: self.particles,
+            values: self.values[from * row..to * row].to_vec(),
+            weights: self.weights[from * row..to * row].to_vec(),
+        }
+    }
+
     /// The take with coordinates hidden where `keep(t, i, c)` is false.
     pub fn masked(&self, keep: impl Fn(usize, usize, usize) -> bool) -> Take {
         let mut out = self.clone();

@@ -17,6 +17,7 @@ use super::fit::{self, Counts, Fitter, LmSettings, StageEnd};
 use super::loss::{self, Loss};
 use super::matrix_free::{self, CgCounts};
 use super::observations::Take;
+use super::shooting;
 use super::start;
 use super::summary::{self, Estimate};
 use super::tangent::{Columns, Sens, Tangent};
@@ -30,6 +31,10 @@ use crate::strategy::bits;
 /// networks with a quarter of the particles hidden at σ = 1e-3: 2 of 20 fits get stuck from
 /// the heuristic start, and 2 of 5 random restarts reach the noise level.
 const MAX_RESTARTS: usize = 6;
+
+/// Segments of multiple shooting, in first windows: each as long as the second window of the
+/// growing schedule.
+const SEGMENT_WINDOWS: usize = 2;
 
 /// Relative residual difference under which two stuck attempts count as one optimum (see
 /// [`Prepared::unstick`]): a wrong basin from another random start lands elsewhere.
@@ -74,6 +79,19 @@ pub struct Progress {
     /// The initial states the fit started from (restarts start from them too).
     #[serde(with = "bits")]
     states0: Vec<f64>,
+    /// The genome the fit started from: the first restart shoots from it
+    /// ([`Prepared::shoot`]). Empty in checkpoints from before multiple shooting.
+    #[serde(with = "bits", default)]
+    genome0: Vec<f64>,
+    /// Whether multiple shooting was tried (once, at the first stuck window, before the
+    /// seeded restarts), and whether the attempt now running is its single-shooting finish.
+    #[serde(default)]
+    shot: bool,
+    #[serde(default)]
+    shooting: bool,
+    /// The first stuck attempt's initial states: the first seeded restart redraws about them.
+    #[serde(with = "bits", default)]
+    first_stuck: Vec<f64>,
     /// Of the attempts stuck so far, the one with the smallest residuals: what the fit goes on
     /// from when no restart is left.
     best_stuck: Option<Box<Stuck>>,
@@ -207,6 +225,7 @@ impl Prepared {
             base: &space.base,
             takes,
             cols: self.cols.clone(),
+            continuity: None,
         }
     }
 
@@ -269,17 +288,16 @@ impl Prepared {
     /// others (measured with a quarter of the particles hidden at σ = 1e-2, 10 draws: a first
     /// window of 64 frames converged on 7, 16 frames on 5, not the same ones; BENCHMARKS.md).
     fn schedule(&self, fitter: &Fitter<'_>, attempt: usize) -> Schedule {
+        self.schedule_from(fitter, self.first_window.saturating_mul(1 << (attempt % 3)))
+    }
+
+    /// The schedule of a fit whose first window is `first` frames (at most the longest take).
+    fn schedule_from(&self, fitter: &Fitter<'_>, first: usize) -> Schedule {
         let noisiest = (0..self.noise_level.len())
             .max_by(|&a, &b| self.noise_level[a].total_cmp(&self.noise_level[b]));
         let (noise, samples) =
             noisiest.map_or((0.0, 0), |k| (self.noise_level[k], self.noise_samples[k]));
-        Schedule::new(
-            fitter,
-            self.first_window.saturating_mul(1 << (attempt % 3)),
-            noise,
-            samples,
-            self.loss != Loss::Squared,
-        )
+        Schedule::new(fitter, first, noise, samples, self.loss != Loss::Squared)
     }
 
     /// The fit's start: `config.start` (and `config.start_states`) or the short-cost start
@@ -312,6 +330,10 @@ impl Prepared {
         fitter.project(&mut q);
         Ok(Progress {
             states0: q[space.dim()..].to_vec(),
+            genome0: q[..space.dim()].to_vec(),
+            shot: false,
+            shooting: false,
+            first_stuck: Vec::new(),
             restarts: 0,
             best_stuck: None,
             robust: Vec::new(),
@@ -333,6 +355,8 @@ impl Prepared {
         progress: &mut Progress,
         halt: &dyn Fn() -> bool,
     ) -> Result<Step, CostError> {
+        // What a stop inside the shooting attempt goes back to: the stage is rerun on resume.
+        let at_start = progress.clone();
         let takes = self.weighed(progress);
         let fitter = self.fitter_on(space, &takes);
         let w = progress.schedule.next;
@@ -390,8 +414,21 @@ impl Prepared {
         let mut after = progress
             .schedule
             .after(&fitter, &mut q, end, &mut Sens::default())?;
-        if after == After::Stuck {
-            after = self.unstick(space, progress, &mut q)?;
+        // The shooting attempt fits the whole take at once: above the noise there, it is stuck
+        // as a window that cannot be grown into is.
+        let shot_above =
+            progress.shooting && matches!(after, After::Done(_)) && progress.schedule.above_noise();
+        if after == After::Stuck || shot_above {
+            let stuck = q.clone();
+            match self.unstick(space, progress, &mut q, halt)? {
+                Some(next) => after = next,
+                None => {
+                    let counts = progress.counts;
+                    *progress = at_start;
+                    progress.partial = Some(Partial { q: stuck, counts });
+                    return Ok(Step::Stopped);
+                }
+            }
         }
         progress.q = q;
         Ok(match after {
@@ -405,13 +442,16 @@ impl Prepared {
 
     /// A stuck fit (a wrong basin) restarts from [`start::restart_genome`] and, for what the
     /// takes do not see, [`start::restart_states`] while restarts are left and the restarts do not repeat one optimum; then it goes on from the stuck attempt
-    /// with the smallest residuals, settled (no more stepping back).
+    /// with the smallest residuals, settled (no more stepping back). Before the first seeded
+    /// restart, once, multiple shooting from the start ([`Prepared::shoot`]); `None` when told
+    /// to stop within it.
     fn unstick(
         &self,
         space: &ParameterSpace,
         progress: &mut Progress,
         q: &mut Vec<f64>,
-    ) -> Result<After, CostError> {
+        halt: &dyn Fn() -> bool,
+    ) -> Result<Option<After>, CostError> {
         let fitter = self.fitter(space);
         let this = Box::new(Stuck {
             q: q.clone(),
@@ -428,10 +468,36 @@ impl Prepared {
             Some(best) => best.better(this),
             None => this,
         };
+        if !progress.shot && !self.large && !progress.genome0.is_empty() {
+            progress.shot = true;
+            progress.first_stuck = q[space.dim()..].to_vec();
+            let mut counts = progress.counts;
+            let shot = self.shoot(space, &progress.genome0, &mut counts, halt);
+            progress.counts = counts;
+            if let shooting::Shot::Interrupted = shot {
+                return Ok(None);
+            }
+            if let shooting::Shot::Done(shot) = shot {
+                progress.best_stuck = Some(best);
+                progress.shooting = true;
+                *q = shot;
+                fitter.project(q);
+                // Shooting fitted the whole take: single shooting goes on there, not from a
+                // short window whose parameters the data do not hold yet.
+                progress.schedule = self.schedule_from(&fitter, usize::MAX);
+                return Ok(Some(After::Stage));
+            }
+        }
+        progress.shooting = false;
         if progress.restarts < MAX_RESTARTS && !repeated {
             progress.best_stuck = Some(best);
+            // The seeded restarts go as they would have without the shooting attempt: the
+            // first redraws about the first attempt's states.
+            let stuck_states = match progress.restarts == 0 && !progress.first_stuck.is_empty() {
+                true => progress.first_stuck.clone(),
+                false => q[space.dim()..].to_vec(),
+            };
             progress.restarts += 1;
-            let stuck_states = q[space.dim()..].to_vec();
             *q = start::restart_genome(&self.scene, space, &self.takes[0], progress.restarts);
             let len = fitter.state_len();
             for (k, take) in self.takes.iter().enumerate() {
@@ -447,12 +513,35 @@ impl Prepared {
             }
             fitter.project(q);
             progress.schedule = self.schedule(&fitter, progress.restarts);
-            return Ok(After::Stage);
+            return Ok(Some(After::Stage));
         }
         *q = best.q;
         progress.schedule = best.schedule;
         progress.schedule.settle();
-        progress.schedule.keep_going(q)
+        progress.schedule.keep_going(q).map(Some)
+    }
+
+    /// Multiple shooting ([`shooting`]) from `genome`: the takes cut into segments of twice
+    /// the first window, each started from its own first frames, tied by the penalty stages;
+    /// returns θ and each take's first segment's state for single shooting to go on from
+    /// (`None` when a stage diverged). Not interruptible: a stop waits for its stages (a few
+    /// Levenberg–Marquardt fits of the whole take).
+    fn shoot(
+        &self,
+        space: &ParameterSpace,
+        genome: &[f64],
+        counts: &mut Counts,
+        halt: &dyn Fn() -> bool,
+    ) -> shooting::Shot {
+        let initial = |take: &Take| start::initial_state(&self.scene, &self.tangent.free, take);
+        shooting::shoot(
+            &self.fitter(space),
+            genome,
+            SEGMENT_WINDOWS * self.first_window,
+            &initial,
+            (self.set, counts),
+            halt,
+        )
     }
 
     /// The estimate at the end of a fit whose last [`Prepared::stage`] was [`Step::Done`]:
@@ -613,16 +702,21 @@ impl Progress {
 
     /// Where the fit started, and its restarts.
     pub fn start_note(&self) -> String {
+        let shot = match (self.shot, self.restarts) {
+            (false, _) => "",
+            (true, 0) => "; restarted by multiple shooting from the start",
+            (true, _) => "; multiple shooting from the start stuck too",
+        };
         match (self.restarts, self.schedule.settled()) {
-            (0, _) => self.start.clone(),
+            (0, false) => format!("{}{shot}", self.start),
             (r, false) => format!(
-                "{}; restarted {r} time(s) from seeded points in the boxes (a window stuck above \
-                 the noise level)",
+                "{}{shot}; restarted {r} time(s) from seeded points in the boxes (a window stuck \
+                 above the noise level)",
                 self.start
             ),
             (r, true) => format!(
-                "{}; {r} restart(s) stuck above the noise level as the first start did: went \
-                 on from the attempt with the smallest residuals",
+                "{}{shot}; {r} restart(s) stuck above the noise level as the first start did: \
+                 went on from the attempt with the smallest residuals",
                 self.start
             ),
         }

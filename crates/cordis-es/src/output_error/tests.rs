@@ -300,6 +300,7 @@ fn a_runaway_replay_costs_infinity_though_its_positions_stay_finite() {
         unknowns: &space.unknowns,
         base: &base,
         takes: &takes,
+        continuity: None,
     };
     assert_eq!(fitter.cost(&q, 60, &mut Sens::default()), f64::INFINITY);
     // The true stiffness is no runaway: its cost is the exact fit's.

@@ -147,6 +147,11 @@ impl Schedule {
         self.last.map_or(f64::INFINITY, |l| l.rms)
     }
 
+    /// Whether the last stage left residuals above its window's clean bound.
+    pub fn above_noise(&self) -> bool {
+        self.last.is_some_and(|l| l.rms > l.tolerance)
+    }
+
     /// The longest take, frames.
     pub fn longest(&self) -> usize {
         self.longest
