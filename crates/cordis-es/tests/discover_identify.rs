@@ -211,6 +211,29 @@ fn noiseless_discovery_then_identify_stays_exact() {
     }
 }
 
+/// A given noise level (`--noise-level`) is the estimator's too: the fit is judged against it
+/// and reports it, so a level ten times below the data's own makes the same fit end
+/// `above_noise` instead of `converged` (before, the estimator read its own level and ignored
+/// the given one).
+#[test]
+fn a_given_noise_level_is_the_one_the_fit_is_judged_against() {
+    let truth = random_network(6, 10, 3);
+    let clean = truth.simulate(FRAMES).unwrap();
+    let sigma = 1e-4 * clean.scale();
+    let traj = add_noise(&clean, sigma, 6);
+    let opt = |noise: f64| DiscoverOptions {
+        total_mass: Some(free_total(&truth)),
+        noise_level: Some(noise),
+        ..DiscoverOptions::default()
+    };
+    let d = discover(&traj, truth.dt, &opt(sigma)).unwrap();
+    for (given, end) in [(sigma, "converged"), (sigma / 10.0, "above_noise")] {
+        let id = identify_discovered(&traj, &d, &opt(given)).unwrap();
+        assert_eq!(id.noise_level, given);
+        assert_eq!(id.end, end, "given {given:e} m: σ̂ {:e} m", id.sigma);
+    }
+}
+
 /// Given masses and a given gravity are the scene's as given: not among the unknowns.
 #[test]
 fn given_masses_and_gravity_stay_known() {

@@ -27,6 +27,9 @@
 //!   generated network at 1e-4), and a fit held at it stays above the noise (seeds 6, 13, 34:
 //!   every fit `above_noise`; fitted: every one converged). Held when none was found (0),
 //!   when given (`gravity_given`), or when the fit is too large for the dense path.
+//! - **Noise level**: a given one (`--noise-level`, `opt.noise_level`) is the estimator's
+//!   too: its windows are judged clean against it, and it is the level reported; otherwise the
+//!   estimator reads its own from the take's third differences.
 //! - **Status**: `converged` only when the estimator's last window met its own criterion.
 
 use cordis_core::{Param, Scene};
@@ -79,8 +82,8 @@ pub struct Identified {
     /// `stalled`, `above_noise`.
     pub end: &'static str,
     pub converged: bool,
-    /// Weighted sum of squared position residuals (m²), σ̂ (m), and the noise read from the
-    /// data before the fit (m).
+    /// Weighted sum of squared position residuals (m²), σ̂ (m), and the noise level the fit
+    /// was judged against (m): the given one, else read from the data before the fit.
     pub position_cost: f64,
     pub sigma: f64,
     pub noise_level: f64,
@@ -123,6 +126,7 @@ pub fn identify_discovered(
     let gravity_unknown = opt.gravity.is_none() && with_gravity(&scene, &mut space);
     let config = Config {
         start: Some(space.genome_of(&d.scene.param_values())),
+        noise_level: opt.noise_level,
         ..Config::default()
     };
     let take = Take::complete(&traj.clone().with_dt(d.scene.dt));

@@ -21,6 +21,10 @@ pub struct Config {
     pub start_states: Option<Vec<Vec<f64>>>,
     /// The loss on each residual ([`loss`]: squared, or robust against outliers).
     pub loss: Loss,
+    /// Standard deviation of the position noise per unit-weight coordinate, m, when known:
+    /// the windows' clean bound ([`super::windows`]) and the start's smoothing use it instead
+    /// of the level read from each take's third differences. `None`: read from the data.
+    pub noise_level: Option<f64>,
 }
 
 impl Default for Config {
@@ -34,12 +38,13 @@ impl Default for Config {
             start: None,
             start_states: None,
             loss: Loss::Squared,
+            noise_level: None,
         }
     }
 }
 
 /// Every option is in its range: a window of at least 3 frames, at least one iteration, finite
-/// tolerances ≥ 0.
+/// tolerances ≥ 0, a given noise level finite and ≥ 0.
 pub(crate) fn check_config(c: &Config) -> Result<(), CostError> {
     if c.first_window < 3 {
         return Err(CostError::mismatch(
@@ -55,6 +60,14 @@ pub(crate) fn check_config(c: &Config) -> Result<(), CostError> {
             return Err(CostError::mismatch(
                 name,
                 format!("must be a finite number ≥ 0, got {v}"),
+            ));
+        }
+    }
+    if let Some(s) = c.noise_level {
+        if !(s.is_finite() && s >= 0.0) {
+            return Err(CostError::mismatch(
+                "noise_level",
+                format!("must be a finite number of m ≥ 0, got {s}"),
             ));
         }
     }

@@ -189,7 +189,11 @@ impl Prepared {
         } else {
             check_memory(&tangent, &cols, takes.len())?;
         }
-        let (noise_level, noise_samples) = takes.iter().map(start::noise_level_and_samples).unzip();
+        // A given level is exact: no spread from the differences it would be read from.
+        let (noise_level, noise_samples) = match config.noise_level {
+            Some(s) => (vec![s; takes.len()], vec![usize::MAX; takes.len()]),
+            None => takes.iter().map(start::noise_level_and_samples).unzip(),
+        };
         // Kinks in the cost: contacts, pairs appearing and vanishing, Provot's projection.
         let kinked = !tangent.plan.planes.is_empty()
             || !tangent.plan.conditionals.is_empty()
