@@ -32,6 +32,8 @@ pub(crate) struct Continuity {
     pub next: Vec<Option<usize>>,
     /// `√ρ w̄`: multiplies each defect (m) into a residual of the observations' scale.
     pub weight: f64,
+    /// Per free particle, a factor on `weight` (empty: all 1).
+    pub factor: Vec<f64>,
     /// Time step, s.
     pub dt: f64,
 }
@@ -78,6 +80,11 @@ impl Continuity {
             .filter(|_| window >= take.frames() && take.frames() >= 2)
     }
 
+    /// The weight of free particle `f`'s defects.
+    fn weight_of(&self, f: usize) -> f64 {
+        self.weight * self.factor.get(f).copied().unwrap_or(1.0)
+    }
+
     /// The weighted defects of a segment's end against the next segment's `state` (free
     /// particles `free`, `[x0, v0]` each):
     /// `(particle f, coordinate c, position defect, previous-position defect)`.
@@ -92,7 +99,8 @@ impl Continuity {
                 let (x0, v0) = (state[6 * f + c], state[6 * f + 3 + c]);
                 let d_last = end.x_last[i][c] - x0;
                 let d_before = end.x_before[i][c] - (x0 - v0 * self.dt);
-                (f, c, self.weight * d_last, self.weight * d_before)
+                let w = self.weight_of(f);
+                (f, c, w * d_last, w * d_before)
             })
         })
     }
@@ -125,6 +133,7 @@ impl Continuity {
         let state = &q[next..][..ns];
         for (f, c, d_last, d_before) in self.defects(at.free, state, end) {
             let i = at.free[f];
+            let w = self.weight_of(f);
             for (rows, d, v0) in [
                 (&end.s_last, d_last, 0.0),
                 (&end.s_before, d_before, self.dt),
@@ -133,11 +142,11 @@ impl Continuity {
                 let src = &rows[(3 * i + c) * width..][..width];
                 for (a, &s) in src.iter().enumerate() {
                     let dz = if a < nt { chain[a] } else { 1.0 };
-                    row.push((global(a), self.weight * s * dz));
+                    row.push((global(a), w * s * dz));
                 }
-                row.push((next + 6 * f + c, -self.weight));
+                row.push((next + 6 * f + c, -w));
                 if v0 != 0.0 {
-                    row.push((next + 6 * f + 3 + c, self.weight * v0));
+                    row.push((next + 6 * f + 3 + c, w * v0));
                 }
                 cost += d * d;
                 for &(a, ra) in &row {
