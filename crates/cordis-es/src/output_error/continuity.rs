@@ -39,32 +39,30 @@ pub(crate) struct Continuity {
 }
 
 /// The end of one segment's rollout: its last two frames' positions and, with sensitivities,
-/// their rows (`3N × width`, row-major).
+/// their rows (`3N × width`, row-major); caller-owned, reused from segment to segment.
 #[derive(Default)]
 pub(crate) struct SegmentEnd {
     pub x_before: Vec<Vec3>,
     pub x_last: Vec<Vec3>,
     pub s_before: Vec<f64>,
     pub s_last: Vec<f64>,
+    /// One continuity row being assembled (scratch of [`Continuity::accumulate`]).
+    row: Vec<(usize, f64)>,
 }
 
 impl SegmentEnd {
     /// Records frame `t` of a rollout of `frames` frames when it is one of the last two.
     pub fn record(&mut self, t: usize, frames: usize, x: &[Vec3], s: Option<&[f64]>) {
-        if t + 2 == frames {
-            self.x_before.clear();
-            self.x_before.extend_from_slice(x);
-            if let Some(s) = s {
-                self.s_before.clear();
-                self.s_before.extend_from_slice(s);
-            }
-        } else if t + 1 == frames {
-            self.x_last.clear();
-            self.x_last.extend_from_slice(x);
-            if let Some(s) = s {
-                self.s_last.clear();
-                self.s_last.extend_from_slice(s);
-            }
+        let (xs, ss) = match frames - t {
+            2 => (&mut self.x_before, &mut self.s_before),
+            1 => (&mut self.x_last, &mut self.s_last),
+            _ => return,
+        };
+        xs.clear();
+        xs.extend_from_slice(x);
+        if let Some(s) = s {
+            ss.clear();
+            ss.extend_from_slice(s);
         }
     }
 }
@@ -119,7 +117,7 @@ impl Continuity {
         &self,
         at: &Layout<'_>,
         (k, j): (usize, usize),
-        (q, end): (&[f64], &SegmentEnd),
+        (q, end): (&[f64], &mut SegmentEnd),
         chain: &[f64],
         h: &mut DMatrix<f64>,
         g: &mut DVector<f64>,
@@ -129,14 +127,15 @@ impl Continuity {
         let next = nt + j * ns;
         let mut cost = 0.0;
         // One row: the segment's local columns, then the next state's x0 (and v0) entries.
-        let mut row: Vec<(usize, f64)> = Vec::with_capacity(width + 2);
+        let mut row = std::mem::take(&mut end.row);
+        let ended: &SegmentEnd = end;
         let state = &q[next..][..ns];
-        for (f, c, d_last, d_before) in self.defects(at.free, state, end) {
+        for (f, c, d_last, d_before) in self.defects(at.free, state, ended) {
             let i = at.free[f];
             let w = self.weight_of(f);
             for (rows, d, v0) in [
-                (&end.s_last, d_last, 0.0),
-                (&end.s_before, d_before, self.dt),
+                (&ended.s_last, d_last, 0.0),
+                (&ended.s_before, d_before, self.dt),
             ] {
                 row.clear();
                 let src = &rows[(3 * i + c) * width..][..width];
@@ -157,6 +156,7 @@ impl Continuity {
                 }
             }
         }
+        end.row = row;
         cost
     }
 }

@@ -213,7 +213,7 @@ impl Fitter<'_> {
                     state: ns,
                     width,
                 };
-                cost += c.accumulate(&at, (k, j), (q, &end), &chain, &mut h, &mut g);
+                cost += c.accumulate(&at, (k, j), (q, &mut end), &chain, &mut h, &mut g);
             }
         }
         cost.is_finite().then_some(Normal { cost, h, g })

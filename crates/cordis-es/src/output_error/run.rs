@@ -527,9 +527,8 @@ impl Prepared {
 
     /// Multiple shooting ([`shooting`]) from `genome`: the takes cut into segments of twice
     /// the first window, each started from its own first frames, tied by the penalty stages;
-    /// returns θ and each take's first segment's state for single shooting to go on from
-    /// (`None` when a stage diverged). Not interruptible: a stop waits for its stages (a few
-    /// Levenberg–Marquardt fits of the whole take).
+    /// θ and each take's first segment's state for single shooting to go on from, or how it
+    /// ended without them (a stage diverged, or `halt()` stopped it).
     fn shoot(
         &self,
         space: &ParameterSpace,
@@ -708,7 +707,9 @@ impl Progress {
     pub fn start_note(&self) -> String {
         let shot = match (self.shot, self.restarts) {
             (false, _) => "",
-            (true, 0) => "; restarted by multiple shooting from the start",
+            (true, 0) if !self.schedule.settled() => {
+                "; restarted by multiple shooting from the start"
+            }
             (true, _) => "; multiple shooting from the start stuck too",
         };
         match (self.restarts, self.schedule.settled()) {

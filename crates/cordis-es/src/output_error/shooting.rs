@@ -89,20 +89,11 @@ pub(crate) fn segments(takes: &[Take], length: usize) -> Segments {
 
 /// The rms of the observed weights of `takes` (1 for unweighted data).
 pub(crate) fn rms_weight(takes: &[Take]) -> f64 {
-    let (mut sum, mut count) = (0.0, 0usize);
-    for take in takes {
-        for t in 0..take.frames() {
-            for i in 0..take.particles() {
-                for c in 0..3 {
-                    let w = take.at(t, i, c).1;
-                    if w > 0.0 {
-                        sum += w * w;
-                        count += 1;
-                    }
-                }
-            }
-        }
-    }
+    let observed = takes
+        .iter()
+        .flat_map(|t| (0..t.frames() * t.particles() * 3).map(|k| t.weight_at(k)))
+        .filter(|&w| w > 0.0);
+    let (sum, count) = observed.fold((0.0, 0usize), |(s, n), w| (s + w * w, n + 1));
     match count {
         0 => 1.0,
         _ => (sum / count as f64).sqrt(),
