@@ -214,13 +214,15 @@ pub(crate) fn forward(
             let (jac, g0, e) = (&d[..36], &d[36..42], d[42]);
             for col in 0..w {
                 let at = |e: usize, c: usize| cur[(3 * e + c) * w + col];
-                let y = [0, 1, 2, 3, 4, 5].map(|c| {
-                    if c < 3 {
-                        at(i, c) - at(j, c)
-                    } else {
-                        at(m, c - 3) - at(j, c - 3)
-                    }
-                });
+                // Spelled out: `[..].map` was not inlined in the springs' passes.
+                let y = [
+                    at(i, 0) - at(j, 0),
+                    at(i, 1) - at(j, 1),
+                    at(i, 2) - at(j, 2),
+                    at(m, 0) - at(j, 0),
+                    at(m, 1) - at(j, 1),
+                    at(m, 2) - at(j, 2),
+                ];
                 let th = |s: usize| if s == NONE { 0.0 } else { dth[s * w + col] };
                 let sigma = k * th(cc) - e * th(ck);
                 let mut g = [0.0; 6];
@@ -260,13 +262,15 @@ pub(crate) fn adjoint(
             let (jac, g0, e) = (&d[..36], &d[36..42], d[42]);
             for col in 0..w {
                 let at = |e: usize, c: usize| phi[(3 * e + c) * w + col];
-                let y = [0, 1, 2, 3, 4, 5].map(|c| {
-                    if c < 3 {
-                        at(i, c) - at(j, c)
-                    } else {
-                        at(m, c - 3) - at(j, c - 3)
-                    }
-                });
+                // Spelled out: `[..].map` was not inlined in the springs' passes.
+                let y = [
+                    at(i, 0) - at(j, 0),
+                    at(i, 1) - at(j, 1),
+                    at(i, 2) - at(j, 2),
+                    at(m, 0) - at(j, 0),
+                    at(m, 1) - at(j, 1),
+                    at(m, 2) - at(j, 2),
+                ];
                 let mut h = [0.0; 6];
                 for (rr, yr) in y.iter().enumerate() {
                     let row = &jac[6 * rr..6 * rr + 6];

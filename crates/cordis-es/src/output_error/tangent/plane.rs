@@ -256,7 +256,8 @@ pub(crate) fn adjoint(
             let i = pass.particles[l] as usize;
             let slots = slots_of(pass, l, r.param, of_slot);
             for col in 0..w {
-                let ph = [0, 1, 2].map(|c| phi[(3 * i + c) * w + col]);
+                let at = |c: usize| phi[(3 * i + c) * w + col];
+                let ph = [at(0), at(1), at(2)];
                 for c in 0..3 {
                     let (mut gx, mut gv) = (0.0, 0.0);
                     for (rr, f) in ph.iter().enumerate() {
