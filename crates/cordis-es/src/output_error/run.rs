@@ -129,9 +129,13 @@ struct Stuck {
 }
 
 impl Stuck {
-    /// The stuck attempt with the smaller residual rms of the two (`self` on a tie).
-    fn better(self: Box<Self>, other: Box<Stuck>) -> Box<Stuck> {
-        match other.schedule.last_rms() < self.schedule.last_rms() {
+    /// The stuck attempt whose estimate fits the whole takes better, by `whole` (their
+    /// residual scale over every frame; `self` on a tie or when neither is a number). Not by
+    /// the residual rms of the window each got stuck at: an attempt stuck at 16 frames fits
+    /// those frames closer than one stuck at 200 fits its 200, and the fit goes on from the
+    /// winner over the whole takes.
+    fn better(self: Box<Self>, other: Box<Stuck>, whole: impl Fn(&[f64]) -> f64) -> Box<Stuck> {
+        match whole(&other.q) < whole(&self.q) {
             true => other,
             false => self,
         }
@@ -469,7 +473,12 @@ impl Prepared {
                 && (a - c).abs() <= SAME_OPTIMUM * a.min(c)
         });
         let best = match progress.best_stuck.take() {
-            Some(best) => best.better(this),
+            Some(best) => best.better(this, |q| {
+                let mut buf = super::tangent::Sens::default();
+                progress
+                    .schedule
+                    .residual_scale(&fitter, q, usize::MAX, &mut buf)
+            }),
             None => this,
         };
         if !progress.shot && !self.large && !progress.genome0.is_empty() {
@@ -725,5 +734,77 @@ impl Progress {
                 self.start
             ),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use cordis_core::{Bounds, LinkKind, LinkType, Param, Particle};
+
+    /// Guards `Stuck::better`: when every restart is stuck, the attempt the fit goes on from is
+    /// the one fitting the whole take better, not the one with the smaller rms over the
+    /// (shorter) window it got stuck at.
+    #[test]
+    fn the_stuck_attempt_kept_is_the_one_fitting_the_whole_take_not_its_own_window() {
+        let mut scene = Scene::new(0.01);
+        scene.add_particle(Particle::new(1.0, [1.0, 0.0, 0.0]));
+        scene.add_type(
+            LinkType::new("a", LinkKind::Anchor)
+                .with("stiffness", 10.0)
+                .with("rest_length", 0.5),
+        );
+        scene.add_link("a", &[0]);
+        scene.links[0].point = Some([0.0; 3]);
+        let traj = scene.simulate(120).unwrap();
+        scene.types[0].params[0] = Param::Unknown(Bounds {
+            min: 1.0,
+            max: 100.0,
+            init: None,
+        });
+        let takes = vec![Take::complete(&traj)];
+        let tangent = Tangent::new(&scene).unwrap();
+        let space = ParameterSpace::from_scene(&scene);
+        let base = scene.param_values();
+        let slots: Vec<usize> = space.unknowns.iter().map(|u| u.slot).collect();
+        let fitter = Fitter {
+            cols: tangent.columns(&slots),
+            tangent: &tangent,
+            unknowns: &space.unknowns,
+            base: &base,
+            takes: &takes,
+            continuity: None,
+        };
+        let at = |k: f64, dx: f64| {
+            let mut q = vec![space.unknowns[0].to_internal(k)];
+            q.extend_from_slice(&[1.0 + dx, 0.0, 0.0, 0.0, 0.0, 0.0]);
+            q
+        };
+        // A: a stiffness 30 % off, close over its first 8 frames, out of phase later.
+        // B: the true stiffness from a start 1 mm off: the same small error over every frame.
+        let attempt = |mut q: Vec<f64>, window: usize| {
+            let mut schedule = Schedule::new(&fitter, window, 1e-6, usize::MAX, false);
+            let mut buf = Sens::default();
+            schedule
+                .after(&fitter, &mut q, StageEnd::Budget, &mut buf)
+                .unwrap();
+            Box::new(Stuck { q, schedule })
+        };
+        let a = attempt(at(13.0, 0.0), 8);
+        let b = attempt(at(10.0, 1e-3), 120);
+        assert!(
+            a.schedule.last_rms() < b.schedule.last_rms(),
+            "A looks better on its window"
+        );
+        let whole = |q: &[f64]| {
+            a.schedule
+                .residual_scale(&fitter, q, usize::MAX, &mut Sens::default())
+        };
+        let (wa, wb) = (whole(&a.q), whole(&b.q));
+        assert!(wb < wa, "B fits the whole take better: {wb} vs {wa}");
+        let kept = a.clone().better(b.clone(), whole);
+        assert_eq!(kept.q, b.q);
+        let kept = b.clone().better(a.clone(), whole);
+        assert_eq!(kept.q, b.q);
     }
 }

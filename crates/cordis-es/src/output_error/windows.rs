@@ -133,7 +133,13 @@ impl Schedule {
     }
 
     /// The residuals' rms over `window` frames (their robust scale for a robust loss), m.
-    fn residual_scale(&self, fitter: &Fitter<'_>, q: &[f64], window: usize, buf: &mut Sens) -> f64 {
+    pub(super) fn residual_scale(
+        &self,
+        fitter: &Fitter<'_>,
+        q: &[f64],
+        window: usize,
+        buf: &mut Sens,
+    ) -> f64 {
         if !self.robust {
             return fitter.rms(q, window, buf);
         }
