@@ -565,15 +565,14 @@ fn damped_step(ne: &Normal, scale: &[f64], held: &[bool], lambda: f64) -> Option
 mod tests {
     use super::*;
     use crate::space::ParameterSpace;
-    use cordis_core::{Bounds, LinkKind, LinkType, Param, Particle, Scene};
+    use cordis_core::{Bounds, Param};
 
     /// A step that pushes a θ coordinate on its bound out of the box is solved again with that
     /// coordinate held: the others get the reduced system's solution, not the coupled step's
     /// (guards `step_in_the_box` against falling back to a projection of the coupled step).
     #[test]
     fn a_step_pushing_a_bound_coordinate_out_is_solved_again_on_the_face() {
-        let mut scene = Scene::new(0.01);
-        scene.add_particle(Particle::new(1.0, [1.0, 0.0, 0.0]));
+        let mut scene = super::super::tests::anchored_particle();
         let unknown = |min: f64, max: f64| {
             Param::Unknown(Bounds {
                 min,
@@ -581,29 +580,14 @@ mod tests {
                 init: None,
             })
         };
-        scene.add_type(
-            LinkType::new("a", LinkKind::Anchor)
-                .with("stiffness", 10.0)
-                .with("rest_length", 0.5),
-        );
         scene.types[0].params[0] = unknown(1.0, 100.0);
         scene.types[0].params[1] = unknown(0.1, 2.0);
-        scene.add_link("a", &[0]);
-        scene.links[0].point = Some([0.0; 3]);
         let traj = scene.simulate(5).unwrap();
         let takes = vec![Take::complete(&traj)];
         let tangent = Tangent::new(&scene).unwrap();
         let space = ParameterSpace::from_scene(&scene);
         let base = scene.param_values();
-        let slots: Vec<usize> = space.unknowns.iter().map(|u| u.slot).collect();
-        let fit = Fitter {
-            cols: tangent.columns(&slots),
-            tangent: &tangent,
-            unknowns: &space.unknowns,
-            base: &base,
-            takes: &takes,
-            continuity: None,
-        };
+        let fit = super::super::tests::fitter_of(&tangent, &space, &base, &takes);
         let len = fit.len();
         assert_eq!((fit.theta(), len), (2, 8));
         // θ0 on its lower bound, its gradient pointing into the box; a quadratic model coupling

@@ -740,22 +740,14 @@ impl Progress {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use cordis_core::{Bounds, LinkKind, LinkType, Param, Particle};
+    use cordis_core::{Bounds, Param};
 
     /// Guards `Stuck::better`: when every restart is stuck, the attempt the fit goes on from is
     /// the one fitting the whole take better, not the one with the smaller rms over the
     /// (shorter) window it got stuck at.
     #[test]
     fn the_stuck_attempt_kept_is_the_one_fitting_the_whole_take_not_its_own_window() {
-        let mut scene = Scene::new(0.01);
-        scene.add_particle(Particle::new(1.0, [1.0, 0.0, 0.0]));
-        scene.add_type(
-            LinkType::new("a", LinkKind::Anchor)
-                .with("stiffness", 10.0)
-                .with("rest_length", 0.5),
-        );
-        scene.add_link("a", &[0]);
-        scene.links[0].point = Some([0.0; 3]);
+        let mut scene = super::super::tests::anchored_particle();
         let traj = scene.simulate(120).unwrap();
         scene.types[0].params[0] = Param::Unknown(Bounds {
             min: 1.0,
@@ -766,15 +758,7 @@ mod tests {
         let tangent = Tangent::new(&scene).unwrap();
         let space = ParameterSpace::from_scene(&scene);
         let base = scene.param_values();
-        let slots: Vec<usize> = space.unknowns.iter().map(|u| u.slot).collect();
-        let fitter = Fitter {
-            cols: tangent.columns(&slots),
-            tangent: &tangent,
-            unknowns: &space.unknowns,
-            base: &base,
-            takes: &takes,
-            continuity: None,
-        };
+        let fitter = super::super::tests::fitter_of(&tangent, &space, &base, &takes);
         let at = |k: f64, dx: f64| {
             let mut q = vec![space.unknowns[0].to_internal(k)];
             q.extend_from_slice(&[1.0 + dx, 0.0, 0.0, 0.0, 0.0, 0.0]);

@@ -5,6 +5,39 @@ use cordis_core::{Bounds, LinkKind, LinkType, OptionalParam, Param, Scene, Vec3}
 
 use super::tangent::{Sens, Tangent};
 
+/// One 1 kg particle at (1, 0, 0) on an anchor to the origin (type "a": stiffness 10 N/m,
+/// rest length 0.5 m, known): the smallest scene a fit's bookkeeping can be tested on.
+pub(super) fn anchored_particle() -> Scene {
+    let mut scene = Scene::new(0.01);
+    scene.add_particle(cordis_core::Particle::new(1.0, [1.0, 0.0, 0.0]));
+    scene.add_type(
+        LinkType::new("a", LinkKind::Anchor)
+            .with("stiffness", 10.0)
+            .with("rest_length", 0.5),
+    );
+    scene.add_link("a", &[0]);
+    scene.links[0].point = Some([0.0; 3]);
+    scene
+}
+
+/// The single-shooting fitter of `space`'s unknowns over `takes`.
+pub(super) fn fitter_of<'a>(
+    tangent: &'a Tangent,
+    space: &'a crate::space::ParameterSpace,
+    base: &'a [f64],
+    takes: &'a [super::observations::Take],
+) -> super::fit::Fitter<'a> {
+    let slots: Vec<usize> = space.unknowns.iter().map(|u| u.slot).collect();
+    super::fit::Fitter {
+        cols: tangent.columns(&slots),
+        tangent,
+        unknowns: &space.unknowns,
+        base,
+        takes,
+        continuity: None,
+    }
+}
+
 /// A random network with every damping non-zero, a quadratic viscosity, a damper, an anchor, a
 /// drag, two angles, a ground with friction and conditional links
 /// (one at a free vertex, one with a fixed end): every term of the tangent recursion (also the

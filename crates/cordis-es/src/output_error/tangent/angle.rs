@@ -213,16 +213,7 @@ pub(crate) fn forward(
             let d = &lin[(r.start + l) * ANGLE..][..ANGLE];
             let (jac, g0, e) = (&d[..36], &d[36..42], d[42]);
             for col in 0..w {
-                let at = |e: usize, c: usize| cur[(3 * e + c) * w + col];
-                // Spelled out: `[..].map` was not inlined in the springs' passes.
-                let y = [
-                    at(i, 0) - at(j, 0),
-                    at(i, 1) - at(j, 1),
-                    at(i, 2) - at(j, 2),
-                    at(m, 0) - at(j, 0),
-                    at(m, 1) - at(j, 1),
-                    at(m, 2) - at(j, 2),
-                ];
+                let y = arms(cur, (i, j, m), w, col);
                 let th = |s: usize| if s == NONE { 0.0 } else { dth[s * w + col] };
                 let sigma = k * th(cc) - e * th(ck);
                 let mut g = [0.0; 6];
@@ -238,6 +229,21 @@ pub(crate) fn forward(
             }
         }
     }
+}
+
+/// Column `col` of the two arms `(v_i - v_j, v_m - v_j)` of an angle i–j–m (vertex j) in rows
+/// of width w. Spelled out, not `[..].map(..)`, which was not inlined in the springs' passes.
+#[inline(always)]
+fn arms(v: &[f64], (i, j, m): (usize, usize, usize), w: usize, col: usize) -> [f64; 6] {
+    let at = |e: usize, c: usize| v[(3 * e + c) * w + col];
+    [
+        at(i, 0) - at(j, 0),
+        at(i, 1) - at(j, 1),
+        at(i, 2) - at(j, 2),
+        at(m, 0) - at(j, 0),
+        at(m, 1) - at(j, 1),
+        at(m, 2) - at(j, 2),
+    ]
 }
 
 /// Matrix-free adjoint: `na += (∂F/∂x)ᵀ φ` and the θ gradient `grad += (∂F/∂θ)ᵀ φ` (θ rows in
@@ -261,16 +267,7 @@ pub(crate) fn adjoint(
             let d = &lin[(r.start + l) * ANGLE..][..ANGLE];
             let (jac, g0, e) = (&d[..36], &d[36..42], d[42]);
             for col in 0..w {
-                let at = |e: usize, c: usize| phi[(3 * e + c) * w + col];
-                // Spelled out: `[..].map` was not inlined in the springs' passes.
-                let y = [
-                    at(i, 0) - at(j, 0),
-                    at(i, 1) - at(j, 1),
-                    at(i, 2) - at(j, 2),
-                    at(m, 0) - at(j, 0),
-                    at(m, 1) - at(j, 1),
-                    at(m, 2) - at(j, 2),
-                ];
+                let y = arms(phi, (i, j, m), w, col);
                 let mut h = [0.0; 6];
                 for (rr, yr) in y.iter().enumerate() {
                     let row = &jac[6 * rr..6 * rr + 6];
