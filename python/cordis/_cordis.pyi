@@ -842,6 +842,12 @@ class DiscoverResult:
         ``value``, ``stderr``, ``low``, ``high``, ``at_bound``), ``end`` and ``converged`` (the estimator's
         own status), ``sigma``, ``noise_level``, ``undetermined``, ``gravity_fitted``,
         ``reference``, as ``cordis discover --identify``'s summary; else None."""
+    @property
+    def link_test(self) -> Optional[Dict[str, Any]]:
+        """With ``link_test=True``: the output-error link test's fit (``end``, ``converged``,
+        ``sigma``, ``noise_level``, ``variables``, ``iterations``), ``kept``, and every
+        candidate pair's verdict (``pairs``: ``particles``, ``kind``, estimates and standard
+        errors, ``score``, ``threshold``, ``kept``); else None."""
 
 def scene_from_markers(
     markers: _ArrayLike,
@@ -883,6 +889,7 @@ def discover(
     gravity: Optional[Tuple[float, float, float]] = None,
     kinds: Optional[Sequence[str]] = None,
     identify: bool = False,
+    link_test: bool = False,
 ) -> DiscoverResult:
     """Proposes a network of springs, anchors and dampers (links with their ``kind``, masses,
     gravity, types) from positions alone (GIL released). Give ``total_mass`` (kg, moving
@@ -890,7 +897,10 @@ def discover(
     ``"spring"``, ``"anchor"`` (to a fixed particle), ``"damper"`` (isotropic); default all three; an
     unknown name raises ``ValueError``. ``identify=True`` then fits the discovered network by
     output-error on the same motion (``res.identified``, ``res.identification``; refused with
-    ``CordisError`` when the discovery names something as not determined).
+    ``CordisError`` when the discovery names something as not determined). ``link_test=True``
+    first tests every candidate pair again by output error (each pair a spring of its own,
+    kept when its stiffness stands clear of 0 against its standard error; slower, more
+    powerful under noise): the graph is then the test's, its fit in ``res.link_test``.
 
     >>> res = cordis.discover(traj, truth.dt, total_mass=12.3)  # doctest: +SKIP
     """

@@ -3,6 +3,7 @@
 //! alone, with a score per link.
 
 use cordis_es::discover::identify::{identify_discovered, Identified};
+use cordis_es::discover::link_test::{link_test as core_link_test, LinkTestReport};
 use cordis_es::discover::{discover as core_discover, DiscoverOptions, Discovery, Kinds};
 use pyo3::prelude::*;
 
@@ -61,6 +62,12 @@ pub struct DiscoverResult {
     /// `identify`; else None.
     #[pyo3(get)]
     identification: Option<Py<PyAny>>,
+    /// With `link_test=True`: the output-error link test's fit (`end`, `converged`, `sigma`,
+    /// `noise_level`, `variables`, `iterations`), `kept`, and every candidate pair's verdict
+    /// (`pairs`: `particles`, `kind`, estimates and standard errors, `score`, `threshold`,
+    /// `kept`), as the CLI's summary `link_test`; else None.
+    #[pyo3(get)]
+    link_test: Option<Py<PyAny>>,
 }
 
 #[pymethods]
@@ -79,7 +86,12 @@ impl DiscoverResult {
     }
 }
 
-fn to_py(py: Python<'_>, d: Discovery, id: Option<Identified>) -> PyResult<DiscoverResult> {
+fn to_py(
+    py: Python<'_>,
+    d: Discovery,
+    id: Option<Identified>,
+    tested: Option<LinkTestReport>,
+) -> PyResult<DiscoverResult> {
     crate::identify::warn_all(py, &d.warnings())?;
     if let Some(id) = &id {
         let mut w: Vec<String> = id
@@ -118,6 +130,9 @@ fn to_py(py: Python<'_>, d: Discovery, id: Option<Identified>) -> PyResult<Disco
         identified: id
             .map(|id| Py::new(py, Scene::from_core(id.scene)))
             .transpose()?,
+        link_test: tested
+            .map(|t| json(serde_json::to_value(t).unwrap_or_default()))
+            .transpose()?,
     })
 }
 
@@ -133,14 +148,17 @@ fn to_py(py: Python<'_>, d: Discovery, id: Option<Identified>) -> PyResult<Disco
 /// (`spring`, `anchor`: to a fixed particle, `damper`: isotropic; default all three; an unknown
 /// name is a `ValueError`). `identify=True` then fits the discovered network by output-error
 /// on the same motion (`cordis discover --identify`): `res.identified` (Scene) and
-/// `res.identification` (dict). Each link's `kind` is in `res.links`. `res.undetermined` names what the data cannot decide (also raised as
+/// `res.identification` (dict). `link_test=True` first tests every candidate pair again by
+/// output error (`cordis discover --link-test`: each pair a spring of its own, kept when its
+/// stiffness stands clear of 0 against its standard error; slower, more powerful under
+/// noise): the graph is then the test's, its fit in `res.link_test` (dict). Each link's `kind` is in `res.links`. `res.undetermined` names what the data cannot decide (also raised as
 /// warnings). See docs/discover.md.
 ///
 /// >>> truth = cordis.random_network(1, 12, 3)
 /// >>> traj = truth.simulate(300)
 /// >>> res = cordis.discover(traj, truth.dt, total_mass=12.3)   # doctest: +SKIP
 #[pyfunction]
-#[pyo3(signature = (traj, dt, total_mass = None, masses = None, max_range = None, noise_level = None, threshold_scale = 1.0, type_tolerance = 1e-3, gravity = None, kinds = None, identify = false))]
+#[pyo3(signature = (traj, dt, total_mass = None, masses = None, max_range = None, noise_level = None, threshold_scale = 1.0, type_tolerance = 1e-3, gravity = None, kinds = None, identify = false, link_test = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn discover(
     py: Python<'_>,
@@ -155,6 +173,7 @@ pub fn discover(
     gravity: Option<[f64; 3]>,
     kinds: Option<Vec<String>>,
     identify: bool,
+    link_test: bool,
 ) -> PyResult<DiscoverResult> {
     let dt = check_dt(dt, "dt")?;
     let traj = traj_from_py(traj, "traj")?;
@@ -172,18 +191,25 @@ pub fn discover(
         gravity,
         kinds,
     };
-    let (d, id) = py
+    let (d, id, tested) = py
         .detach(|| {
             let d = core_discover(&traj, dt, &opt)?;
+            let (d, tested) = match link_test {
+                true => {
+                    let t = core_link_test(&traj, &d, &opt)?;
+                    (t.discovery, Some(t.report))
+                }
+                false => (d, None),
+            };
             let id = if identify {
                 Some(identify_discovered(&traj, &d, &opt)?)
             } else {
                 None
             };
-            Ok((d, id))
+            Ok((d, id, tested))
         })
         .map_err(cost_to_py)?;
-    to_py(py, d, id)
+    to_py(py, d, id, tested)
 }
 
 /// A seed-generated random spring network of `masses` particles and `types` spring types

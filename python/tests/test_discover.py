@@ -121,3 +121,38 @@ def test_discover_identify_returns_what_the_cli_writes(tmp_path):
     with pytest.warns(UserWarning, match="noisy"):
         plain = cordis.discover(traj, truth.dt, total_mass=total)
     assert plain.identified is None and plain.identification is None
+
+
+def test_discover_link_test_returns_what_the_cli_writes(tmp_path):
+    """`link_test=True` (issue 20): every candidate pair tested again by output error; the
+    summary lists each pair's verdict (a probability, a score and the cut it is held to), the
+    scene holds the kept pairs, and the CLI's `--link-test` writes the same scene."""
+    np = pytest.importorskip("numpy")
+    truth = cordis.random_network(3, 6, 2)
+    clean = np.asarray(truth.simulate(300))
+    rng = np.random.default_rng(3)
+    traj = clean + rng.normal(0.0, 1e-3 * np.ptp(clean), clean.shape)
+    d = truth.to_dict()
+    total = sum(p["mass"] for p in d["particles"] if not p.get("fixed", False))
+    with pytest.warns(UserWarning, match="noisy"):
+        res = cordis.discover(traj, truth.dt, total_mass=total, link_test=True)
+    lt = res.link_test
+    assert lt["converged"] == (lt["end"] == "converged")
+    assert lt["kept"] == sum(p["kept"] for p in lt["pairs"]) > 0
+    for p in lt["pairs"]:
+        assert 0.0 <= p["p_value"] <= 1.0
+        assert p["kept"] == (p["score"] > p["threshold"])
+    kept = {tuple(p["particles"]) for p in lt["pairs"] if p["kept"]}
+    springs = {tuple(l["particles"]) for l in res.links if l["kind"] != "damper"}
+    assert springs == kept
+
+    path, out = tmp_path / "net.npy", tmp_path / "found.json"
+    cordis.write_trajectory(path, traj)
+    argv = ["cordis", "discover", "-t", str(path), "--dt", repr(truth.dt), "--total-mass",
+            repr(total), "--link-test", "--out", str(out), "-q"]
+    from cordis import _cordis
+
+    assert _cordis._cli_main(argv) == 0
+    assert cordis.Scene.from_json(out).to_dict() == res.scene.to_dict()
+    with pytest.warns(UserWarning, match="noisy"):
+        assert cordis.discover(traj, truth.dt, total_mass=total).link_test is None

@@ -3,6 +3,7 @@ use std::time::Instant;
 
 use anyhow::{anyhow, bail, Result};
 use cordis_es::discover::identify::{identify_discovered, Identified};
+use cordis_es::discover::link_test::link_test;
 use cordis_es::discover::{discover, DiscoverOptions, Kinds};
 
 use super::Output;
@@ -57,6 +58,13 @@ pub struct Args {
     /// Where to write the per-link scores and the near misses (JSON).
     #[arg(long)]
     scores: Option<PathBuf>,
+    /// Then test every candidate pair again by output error: each pair a spring of its own,
+    /// all fitted at once to the positions (never differentiated), a pair kept as a link when
+    /// its stiffness stands clear of 0 against its standard error at a 5 % false discovery
+    /// rate (`docs/discover.md`, Link test).
+    /// Slower (a fit of 3 unknowns per candidate pair), more powerful under noise.
+    #[arg(long)]
+    link_test: bool,
     /// Then identify the discovered network by output-error on the same motion (link
     /// parameters, gravity and discovered masses in boxes around the discovered values) and
     /// write the identified scene here (JSON). Refused when the discovery names something as
@@ -124,6 +132,14 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     };
     let start = Instant::now();
     let d = discover(&traj, dt, &opt)?;
+    let (d, tested) = match a.link_test {
+        true => {
+            let t = link_test(&traj, &d, &opt)?;
+            let summary = serde_json::to_value(&t.report)?;
+            (t.discovery, Some(summary))
+        }
+        false => (d, None),
+    };
     let seconds = start.elapsed().as_secs_f64();
     // Identified before anything is written: a refused or failed fit leaves no file behind.
     let identified = match &a.identify {
@@ -148,6 +164,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         "noise_estimated": d.estimated_noise,
         "notes": d.notes,
         "seconds": seconds,
+        "link_test": tested,
     });
     if let Some(path) = &a.scores {
         let text = serde_json::to_string_pretty(&scores)?;
@@ -169,13 +186,14 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     output.scene_result(&d.scene, a.out.as_deref(), summary.clone())?;
     if output.human() {
         eprintln!(
-            "{} particles, {} candidate pairs (radius {:.4} m) -> {} links of {} types in {:.2} s; short-cost rmse {:.3e} m",
+            "{} particles, {} candidate pairs (radius {:.4} m) -> {} links of {} types in {:.2} s; {} {:.3e} m",
             d.scene.num_particles(),
             d.candidates,
             d.radius,
             d.scene.links.len(),
             d.scene.types.len(),
             seconds,
+            if a.link_test { "position σ̂" } else { "short-cost rmse" },
             d.rmse
         );
         let weakest = d

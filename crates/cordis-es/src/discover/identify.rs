@@ -123,7 +123,12 @@ pub fn identify_discovered(
     }
     let (scene, reference) = with_boxes(&d.scene, masses_discovered && total_mass.is_some())?;
     let mut space = ParameterSpace::from_scene(&scene);
-    let gravity_unknown = opt.gravity.is_none() && with_gravity(&scene, &mut space);
+    let gravity_unknown = opt.gravity.is_none()
+        && with_gravity(
+            &scene,
+            &mut space,
+            crate::output_error::matrix_free::DENSE_MAX_COLUMNS,
+        );
     let config = Config {
         start: Some(space.genome_of(&d.scene.param_values())),
         noise_level: opt.noise_level,
@@ -180,14 +185,15 @@ pub fn identify_discovered(
 }
 
 /// Makes gravity's three components unknown in `g ± GRAVITY_BOX |g|` around the discovered
-/// value (the start), unless it is 0 (none found) or the fit would be too large for the dense
-/// path (the only one with gravity's sensitivities): returns whether it did.
-fn with_gravity(scene: &Scene, space: &mut ParameterSpace) -> bool {
+/// value (the start), unless it is 0 (none found) or the fit would have more than
+/// `max_columns` variables (the dense path is the only one with gravity's sensitivities):
+/// returns whether it did.
+pub(super) fn with_gravity(scene: &Scene, space: &mut ParameterSpace, max_columns: usize) -> bool {
     let g = scene.gravity;
     let norm = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
     let free = scene.particles.iter().filter(|p| !p.fixed).count();
     let columns = space.dim() + 3 + 6 * free;
-    if norm == 0.0 || columns > crate::output_error::matrix_free::DENSE_MAX_COLUMNS {
+    if norm == 0.0 || columns > max_columns {
         return false;
     }
     let go = scene.param_layout().gravity_offset;

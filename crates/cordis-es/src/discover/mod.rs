@@ -13,6 +13,7 @@
 pub mod candidates;
 pub mod cluster;
 pub mod identify;
+pub mod link_test;
 pub mod select;
 pub mod smooth;
 
@@ -218,6 +219,9 @@ pub struct Discovery {
     /// Candidate radius used, m.
     pub radius: f64,
     pub candidates: usize,
+    /// The candidate pairs a spring-like link (spring, or anchor to a fixed particle) was
+    /// looked for on, ascending: what [`link_test`] tests again by output error.
+    pub candidate_pairs: Vec<[usize; 2]>,
     /// Rounds of the backward selection.
     pub rounds: usize,
     /// Short cost of the proposed scene on the trajectory, m², and its rmse, m.
@@ -867,6 +871,10 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
         near_misses: near,
         radius,
         candidates: cands.len(),
+        candidate_pairs: (0..pairs.len())
+            .filter(|&p| group_kinds[p] == select::GroupKind::Spring)
+            .map(|p| pairs[p])
+            .collect(),
         rounds: sel.rounds,
         cost,
         rmse,

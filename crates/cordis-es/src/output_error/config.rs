@@ -25,6 +25,12 @@ pub struct Config {
     /// the windows' clean bound ([`super::windows`]) and the start's smoothing use it instead
     /// of the level read from each take's third differences. `None`: read from the data.
     pub noise_level: Option<f64>,
+    /// Fit variables (θ and initial states) above which the fit is matrix-free
+    /// ([`super::matrix_free`]): below, the dense Levenberg–Marquardt with exact standard
+    /// errors. Default [`super::matrix_free::DENSE_MAX_COLUMNS`]; raised where standard
+    /// errors are the point of the fit (the output-error link test of
+    /// [`crate::discover::link_test`]: its matrix-free standard-error solves did not converge).
+    pub dense_max_columns: usize,
 }
 
 impl Default for Config {
@@ -39,6 +45,7 @@ impl Default for Config {
             start_states: None,
             loss: Loss::Squared,
             noise_level: None,
+            dense_max_columns: super::matrix_free::DENSE_MAX_COLUMNS,
         }
     }
 }

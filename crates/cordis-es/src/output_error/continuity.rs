@@ -150,8 +150,14 @@ impl Continuity {
                 cost += d * d;
                 for &(a, ra) in &row {
                     g[a] += ra * d;
-                    for &(b, rb) in &row {
-                        h[(a, b)] += ra * rb;
+                }
+                // Down each column of the column-major `h` (the same sums in the same order
+                // as row by row, which strode across columns: 42 % of a shooting fit with
+                // 360 variables, under perf).
+                for &(b, rb) in &row {
+                    let mut column = h.column_mut(b);
+                    for &(a, ra) in &row {
+                        column[a] += ra * rb;
                     }
                 }
             }

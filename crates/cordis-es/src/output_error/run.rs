@@ -46,7 +46,7 @@ pub struct Prepared {
     tangent: Tangent,
     takes: Vec<Take>,
     cols: Columns,
-    /// Above [`matrix_free::DENSE_MAX_COLUMNS`] the dense normal equations cost more than the
+    /// Above [`Config::dense_max_columns`] the dense normal equations cost more than the
     /// whole matrix-free fit.
     large: bool,
     /// Noise level of each take read from its third differences, m.
@@ -174,7 +174,7 @@ impl Prepared {
         check_config(config)?;
         let slots: Vec<usize> = space.unknowns.iter().map(|u| u.slot).collect();
         let cols = tangent.columns(&slots);
-        let large = cols.len > matrix_free::DENSE_MAX_COLUMNS;
+        let large = cols.len > config.dense_max_columns;
         if let Some(u) = space.unknowns.iter().find(|u| u.role == Role::Gravity) {
             if large {
                 return Err(CostError::mismatch(
@@ -182,8 +182,7 @@ impl Prepared {
                     format!(
                         "an unknown gravity has sensitivities on the dense path only ({} fit \
                          variables > {}): give it",
-                        cols.len,
-                        matrix_free::DENSE_MAX_COLUMNS
+                        cols.len, config.dense_max_columns
                     ),
                 ));
             }
