@@ -844,7 +844,8 @@ class DiscoverResult:
         ``reference``, as ``cordis discover --identify``'s summary; else None."""
     @property
     def link_test(self) -> Optional[Dict[str, Any]]:
-        """With ``link_test=True``: the output-error link test's fit (``end``, ``converged``,
+        """With ``link_test=True``: whether it decided the graph (``applied``: False, with a
+        warning, when its fit stayed above the noise), the output-error link test's fit (``end``, ``converged``,
         ``sigma``, ``noise_level``, ``variables``, ``iterations``), ``kept``, and every
         candidate pair's verdict (``pairs``: ``particles``, ``kind``, estimates and standard
         errors, ``score``, ``threshold``, ``kept``); else None."""

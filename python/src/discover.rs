@@ -62,7 +62,8 @@ pub struct DiscoverResult {
     /// `identify`; else None.
     #[pyo3(get)]
     identification: Option<Py<PyAny>>,
-    /// With `link_test=True`: the output-error link test's fit (`end`, `converged`, `sigma`,
+    /// With `link_test=True`: whether it decided the graph (`applied`: false, with a warning,
+    /// when its fit stayed above the noise), the output-error link test's fit (`end`, `converged`, `sigma`,
     /// `noise_level`, `variables`, `iterations`), `kept`, and every candidate pair's verdict
     /// (`pairs`: `particles`, `kind`, estimates and standard errors, `score`, `threshold`,
     /// `kept`), as the CLI's summary `link_test`; else None.

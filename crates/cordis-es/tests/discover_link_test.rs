@@ -37,10 +37,11 @@ fn found_pairs(d: &Discovery) -> HashSet<[usize; 2]> {
 }
 
 /// Small generated networks (5 moving particles, 2 types; seeds chosen before any run) at
-/// noise 1e-3 of the motion's size, the noise level estimated: the test's fit converges at the
-/// noise, every p-value is a probability and every reported number finite or an explicit
-/// infinity (no NaN), and over the seeds it keeps ≥ 95 % of the links with ≤ 5 % extra and at
-/// least as many as the equation-error selection found.
+/// noise 1e-3 of the motion's size, the noise level estimated: every p-value is a probability
+/// and every reported number finite or an explicit infinity (no NaN); a test whose fit stayed
+/// above the noise is not applied (the selection's graph stands, with a warning); over the
+/// seeds the graphs keep ≥ 95 % of the links with ≤ 5 % extra and at least as many as the
+/// equation-error selection found.
 #[test]
 fn noisy_small_networks_keep_their_links_under_the_link_test() {
     let (mut links, mut found, mut extra, mut found_ee) = (0, 0, 0, 0);
@@ -70,9 +71,20 @@ fn noisy_small_networks_keep_their_links_under_the_link_test() {
             for v in [p.stiffness_se, p.rest_length_se, p.damping_se] {
                 assert!(!v.is_nan(), "seed {seed}: {p:?}");
             }
-            assert_eq!(p.kept, p.score > p.threshold);
+            assert_eq!(p.kept, r.applied && p.score > p.threshold);
         }
         assert_eq!(r.kept, r.pairs.iter().filter(|p| p.kept).count());
+        // A fit above the noise decides nothing: the selection's graph stands, with a warning.
+        assert!(!(r.end == "above_noise" && r.applied), "seed {seed}: {r:?}");
+        assert!(!r.converged || r.applied, "seed {seed}: {r:?}");
+        if !r.applied {
+            assert_eq!(found_pairs(&t.discovery), found_pairs(&d));
+            assert!(t
+                .discovery
+                .data_warnings
+                .iter()
+                .any(|w| w.contains("link test not applied")));
+        }
         let want = spring_pairs(&truth);
         let got = found_pairs(&t.discovery);
         links += want.len();

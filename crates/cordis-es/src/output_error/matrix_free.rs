@@ -1918,6 +1918,7 @@ pub(crate) fn finish(
         correlation,
         undetermined: Vec::new(),
         converged: end == StageEnd::Converged,
+        above_noise: false,
         end: super::summary::end_text(end),
         iterations: counts.iterations,
         evaluations: counts.evaluations,

@@ -591,9 +591,22 @@ impl Prepared {
         let fitter = self.fitter_on(space, &takes);
         let p = progress;
         let windows = p.schedule.windows.clone();
+        let mut e = self.summarise(&fitter, scene, p, end, windows)?;
+        e.above_noise = p.schedule.above_noise();
+        Ok(e)
+    }
+
+    fn summarise(
+        &self,
+        fitter: &Fitter<'_>,
+        scene: &Scene,
+        p: &Progress,
+        end: StageEnd,
+        windows: Vec<usize>,
+    ) -> Result<Estimate, CostError> {
         if self.large {
             return matrix_free::finish(
-                &fitter,
+                fitter,
                 p.q.clone(),
                 p.counts,
                 p.cg,
@@ -609,7 +622,7 @@ impl Prepared {
             .normal(&p.q, p.schedule.longest(), &mut Sens::default())
             .ok_or_else(|| CostError::mismatch("fit", "the model diverged at its estimate"))?;
         Ok(summary::summarise(
-            &fitter,
+            fitter,
             scene,
             p.q.clone(),
             ne,

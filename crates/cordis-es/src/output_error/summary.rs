@@ -41,6 +41,9 @@ pub struct Estimate {
     pub undetermined: Vec<Vec<String>>,
     /// The last window's Levenberg–Marquardt met its own criterion (ftol, xtol or gtol).
     pub converged: bool,
+    /// The residuals over the whole takes stayed above the noise level's clean bound (a model
+    /// or basin that cannot follow the motion), whatever `end` says (a `budget` end can be).
+    pub above_noise: bool,
     /// How the last window ended: `converged`, `budget` or `stalled`.
     pub end: &'static str,
     pub iterations: usize,
@@ -100,6 +103,7 @@ pub(crate) fn summarise(
         correlation,
         undetermined,
         converged: end == StageEnd::Converged,
+        above_noise: false,
         end: end_text(end),
         iterations: counts.iterations,
         evaluations: counts.evaluations,
