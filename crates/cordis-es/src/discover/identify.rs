@@ -279,6 +279,15 @@ fn with_boxes(found: &Scene, masses: bool) -> Result<(Scene, Option<usize>), Cos
     Ok((scene, reference))
 }
 
+/// The sum of `scene`'s moving masses in the parameter vector `params`, kg.
+pub(super) fn moving_mass(scene: &Scene, params: &[f64]) -> f64 {
+    let offset = scene.param_layout().mass_offset;
+    (0..scene.num_particles())
+        .filter(|&i| !scene.particles[i].fixed)
+        .map(|i| params[offset + i])
+        .sum()
+}
+
 /// The estimate rescaled so that the moving masses sum to `total` (module docs), and the
 /// covariance carried through: the unknowns' block, then one more row and column for the
 /// reference mass `r`. A variance that depends on an undetermined one is infinite.
@@ -290,13 +299,7 @@ fn rescaled(
     total: f64,
 ) -> (Vec<f64>, DMatrix<f64>) {
     let layout = scene.param_layout();
-    let free_mass = |p: &[f64]| -> f64 {
-        (0..scene.num_particles())
-            .filter(|&i| !scene.particles[i].fixed)
-            .map(|i| p[layout.mass_offset + i])
-            .sum()
-    };
-    let sum = free_mass(&e.params);
+    let sum = moving_mass(scene, &e.params);
     let c = total / sum;
     // Which slots scale with the masses: every stiffness and damping, every moving mass.
     let mut scales = vec![false; layout.len];

@@ -203,14 +203,7 @@ pub fn link_test(
         return Err(failed.expect("three attempts"));
     };
     let scale = match (reference, opt.total_mass) {
-        (Some(_), Some(total)) => {
-            let layout = scene.param_layout();
-            let sum: f64 = (0..scene.num_particles())
-                .filter(|&i| !scene.particles[i].fixed)
-                .map(|i| e.params[layout.mass_offset + i])
-                .sum();
-            total / sum
-        }
+        (Some(_), Some(total)) => total / super::identify::moving_mass(&scene, &e.params),
         _ => 1.0,
     };
     let fitted_gauge = output_error::identified_scene(&scene, &e, 0);
@@ -392,6 +385,19 @@ fn discovered_values(d: &Discovery, pair: [usize; 2]) -> Option<[f64; 3]> {
     Some(["stiffness", "rest_length", "damping"].map(|n| ty.value(n).unwrap_or(0.0)))
 }
 
+/// A link of the discovered damper type `ty` on `particles`, the type added once with every
+/// value known and times `scale` (the masses' rescaling; 1 in the gauge fit).
+fn add_known_link(scene: &mut Scene, ty: &LinkType, particles: &[usize], scale: f64) {
+    if scene.types.iter().all(|t| t.name != ty.name) {
+        let mut known = ty.clone();
+        for p in &mut known.params {
+            *p = Param::Known(p.value() * scale);
+        }
+        scene.add_type(known);
+    }
+    scene.add_link(&ty.name, particles);
+}
+
 /// The discovered scene with one spring type per candidate pair (first in the catalogue, in
 /// the order of `candidate_pairs`), the discovered dampers known, and, when `masses`, every
 /// moving mass unknown in its [`MASS_BOX`] but the first (the reference, returned).
@@ -436,15 +442,12 @@ fn candidate_scene(d: &Discovery, masses: bool) -> (Scene, Option<usize>) {
         .iter()
         .filter(|l| found.types[l.type_index].kind == LinkKind::Damper)
     {
-        let ty = &found.types[link.type_index];
-        if scene.types.iter().all(|t| t.name != ty.name) {
-            let mut known = ty.clone();
-            for p in &mut known.params {
-                *p = Param::Known(p.value());
-            }
-            scene.add_type(known);
-        }
-        scene.add_link(&ty.name, &link.particles);
+        add_known_link(
+            &mut scene,
+            &found.types[link.type_index],
+            &link.particles,
+            1.0,
+        );
     }
     let mut reference = None;
     if masses {
@@ -513,14 +516,7 @@ fn tested_discovery(
     for l in &dampers {
         let ty = d.scene.types.iter().find(|t| t.name == l.type_name);
         if let Some(ty) = ty {
-            if scene.types.iter().all(|t| t.name != ty.name) {
-                let mut known = ty.clone();
-                for p in &mut known.params {
-                    *p = Param::Known(p.value() * scale);
-                }
-                scene.add_type(known);
-            }
-            scene.add_link(&ty.name, &l.particles);
+            add_known_link(&mut scene, ty, &l.particles, scale);
         }
     }
     for p in &mut scene.particles {
