@@ -1,6 +1,9 @@
 //! Structure discovery on generated networks (issue 10): the exact link set, masses, link
 //! parameters and number of types from noiseless motion; most links from noisy motion.
 
+mod common;
+
+use common::free_total;
 use std::collections::{HashMap, HashSet};
 
 use cordis_core::examples::random_network;
@@ -19,15 +22,6 @@ fn link_set(scene: &Scene) -> HashSet<[usize; 2]> {
             [a.min(b), a.max(b)]
         })
         .collect()
-}
-
-fn free_total(scene: &Scene) -> f64 {
-    scene
-        .particles
-        .iter()
-        .filter(|p| !p.fixed)
-        .map(|p| p.mass.value())
-        .sum()
 }
 
 fn run(truth: &Scene, traj: &Trajectory, noise: f64) -> Discovery {

@@ -3,6 +3,9 @@
 //! closer to the truth than discovery's own (short-cost, smoothed) values, and its 95 %
 //! intervals hold the truth.
 
+mod common;
+
+use common::free_total;
 use std::collections::HashMap;
 
 use cordis_core::examples::random_network;
@@ -12,15 +15,6 @@ use cordis_es::discover::{discover, DiscoverOptions, Discovery, Undetermined};
 use cordis_es::identify::add_noise;
 
 const FRAMES: usize = 300;
-
-fn free_total(scene: &Scene) -> f64 {
-    scene
-        .particles
-        .iter()
-        .filter(|p| !p.fixed)
-        .map(|p| p.mass.value())
-        .sum()
-}
 
 fn pair(l: &cordis_core::Link) -> [usize; 2] {
     let (a, b) = (l.particles[0], l.particles[1]);

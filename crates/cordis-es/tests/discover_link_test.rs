@@ -1,6 +1,9 @@
 //! The output-error link test (issue 20, `cordis discover --link-test`): every candidate pair
 //! fitted as a spring of its own from the positions, kept at a 5 % false discovery rate.
 
+mod common;
+
+use common::free_total;
 use std::collections::HashSet;
 
 use cordis_core::examples::random_network;
@@ -10,15 +13,6 @@ use cordis_es::discover::{discover, DiscoverOptions, Discovery};
 use cordis_es::identify::add_noise;
 
 const FRAMES: usize = 300;
-
-fn free_total(scene: &Scene) -> f64 {
-    scene
-        .particles
-        .iter()
-        .filter(|p| !p.fixed)
-        .map(|p| p.mass.value())
-        .sum()
-}
 
 fn spring_pairs(scene: &Scene) -> HashSet<[usize; 2]> {
     scene

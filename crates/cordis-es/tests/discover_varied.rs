@@ -2,6 +2,9 @@
 //! `cordis_core::examples::varied_network` — degrees 1–6, pre-stress, planar and 3-D, gravity
 //! on and off, fixed particles, dampers, anchors.
 
+mod common;
+
+use common::free_total;
 use std::collections::HashSet;
 
 use cordis_core::examples::{varied_network, VariedKinds};
@@ -60,15 +63,6 @@ fn found_links(d: &Discovery) -> HashSet<Found> {
         .iter()
         .map(|l| found(&d.scene, l.particles, l.kind))
         .collect()
-}
-
-fn free_total(scene: &Scene) -> f64 {
-    scene
-        .particles
-        .iter()
-        .filter(|p| !p.fixed)
-        .map(|p| p.mass.value())
-        .sum()
 }
 
 struct Outcome {

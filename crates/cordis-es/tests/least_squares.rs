@@ -1,6 +1,9 @@
 //! `least-squares` on noiseless linear scenes: the generating parameters to rounding, fast;
 //! free masses under a known total; undetermined unknowns named; noise degrades gracefully.
 
+mod common;
+
+use common::free_total;
 use std::time::Instant;
 
 use cordis_core::examples::{cloth, horse, muscle, random_network, rigid};
@@ -127,15 +130,6 @@ fn with_unknown_masses(scene: &Scene) -> Scene {
         });
     }
     s
-}
-
-fn free_total(scene: &Scene) -> f64 {
-    scene
-        .particles
-        .iter()
-        .filter(|p| !p.fixed)
-        .map(|p| p.mass.value())
-        .sum()
 }
 
 #[test]

@@ -607,3 +607,13 @@ pub fn driven_tgr_pair() -> Scene {
     s.add_coupling("t", &[0, 1]);
     s
 }
+
+/// The total mass of a scene's free particles, kg: what `--total-mass` gives discovery.
+pub fn free_total(scene: &Scene) -> f64 {
+    scene
+        .particles
+        .iter()
+        .filter(|p| !p.fixed)
+        .map(|p| p.mass.value())
+        .sum()
+}
