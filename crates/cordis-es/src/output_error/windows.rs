@@ -326,9 +326,7 @@ mod tests {
     use super::super::tests::{anchored_particle, fitter_of};
     use super::*;
     use crate::space::ParameterSpace;
-    use cordis_core::{Bounds, Param, Trajectory};
-    use rand::SeedableRng;
-    use rand_distr::{Distribution, Normal};
+    use cordis_core::{Bounds, Param};
 
     /// Guards the whiteness test: a whole-take fit whose residual rms is inside the noise
     /// bound (a level read from as many differences as the take has) but whose residuals carry
@@ -341,17 +339,8 @@ mod tests {
         scene.particles[0].vel = [0.0, 1.0, 0.0];
         let frames = 1000;
         let sigma = 1e-2;
-        let traj = scene.simulate(frames).unwrap();
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
-        let normal = Normal::new(0.0, sigma).unwrap();
-        let noisy: Vec<f64> = traj
-            .as_flat()
-            .iter()
-            .map(|x| x + normal.sample(&mut rng))
-            .collect();
-        let takes = vec![Take::complete(
-            &Trajectory::from_flat(frames, 1, noisy).unwrap(),
-        )];
+        let traj = crate::identify::add_noise(&scene.simulate(frames).unwrap(), sigma, 7);
+        let takes = vec![Take::complete(&traj)];
         scene.types[0].params[0] = Param::Unknown(Bounds {
             min: 1.0,
             max: 100.0,
