@@ -304,7 +304,11 @@ impl Prepared {
             .max_by(|&a, &b| self.noise_level[a].total_cmp(&self.noise_level[b]));
         let (noise, samples) =
             noisiest.map_or((0.0, 0), |k| (self.noise_level[k], self.noise_samples[k]));
-        Schedule::new(fitter, first, noise, samples, self.loss != Loss::Squared)
+        let schedule = Schedule::new(fitter, first, noise, samples, self.loss != Loss::Squared);
+        match self.large {
+            true => schedule,
+            false => schedule.restart_on_budget(),
+        }
     }
 
     /// The fit's start: `config.start` (and `config.start_states`) or the short-cost start
@@ -737,11 +741,12 @@ impl Progress {
             (0, false) => format!("{}{shot}", self.start),
             (r, false) => format!(
                 "{}{shot}; restarted {r} time(s) from seeded points in the boxes (a window stuck \
-                 above the noise level)",
+                 above the noise level, or the whole take's on its budget)",
                 self.start
             ),
             (r, true) => format!(
-                "{}{shot}; {r} restart(s) stuck above the noise level as the first start did: \
+                "{}{shot}; {r} restart(s) stuck above the noise level or on their budget as the first \
+                 start did: \
                  went on from the attempt with the smallest residuals",
                 self.start
             ),
