@@ -745,9 +745,8 @@ impl Progress {
                 self.start
             ),
             (r, true) => format!(
-                "{}{shot}; {r} restart(s) stuck above the noise level or on their budget as the first \
-                 start did: \
-                 went on from the attempt with the smallest residuals",
+                "{}{shot}; {r} restart(s) stuck above the noise level or on their budget as the \
+                 first start did: went on from the attempt with the smallest residuals",
                 self.start
             ),
         }
