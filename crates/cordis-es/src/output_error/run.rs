@@ -83,10 +83,14 @@ pub struct Progress {
     /// ([`Prepared::shoot`]). Empty in checkpoints from before multiple shooting.
     #[serde(with = "bits", default)]
     genome0: Vec<f64>,
-    /// Whether multiple shooting was tried (once, at the first stuck window, before the
-    /// seeded restarts), and whether the attempt now running is its single-shooting finish.
+    /// Whether multiple shooting from the start was tried (at the first stuck window, before
+    /// the seeded restarts), whether the seeded restart now running has shot (each shoots
+    /// once, from its own seeded point, at its first stuck window), and whether the attempt
+    /// now running is a shooting's single-shooting finish.
     #[serde(default)]
     shot: bool,
+    #[serde(default)]
+    attempt_shot: bool,
     #[serde(default)]
     shooting: bool,
     /// The first stuck attempt's initial states: the first seeded restart redraws about them.
@@ -343,6 +347,7 @@ impl Prepared {
             states0: q[space.dim()..].to_vec(),
             genome0: q[..space.dim()].to_vec(),
             shot: false,
+            attempt_shot: false,
             shooting: false,
             first_stuck: Vec::new(),
             restarts: 0,
@@ -452,10 +457,13 @@ impl Prepared {
     }
 
     /// A stuck fit (a wrong basin) restarts from [`start::restart_genome`] and, for what the
-    /// takes do not see, [`start::restart_states`] while restarts are left and the restarts do not repeat one optimum; then it goes on from the stuck attempt
-    /// with the smallest residuals, settled (no more stepping back). Before the first seeded
-    /// restart, once, multiple shooting from the start ([`Prepared::shoot`]); `None` when told
-    /// to stop within it.
+    /// takes do not see, [`start::restart_states`] while restarts are left and the restarts
+    /// do not repeat one optimum; then it goes on from the stuck attempt with the smallest
+    /// residuals, settled (no more stepping back). Each attempt, the first start and every
+    /// seeded restart, first shoots once from the θ it started from ([`Prepared::shoot`]) at
+    /// its first stuck window: growing windows and multiple shooting fail on different draws
+    /// from one θ (BENCHMARKS.md, "Shooting from every restart"). `None` when told to stop
+    /// within a shooting.
     fn unstick(
         &self,
         space: &ParameterSpace,
@@ -484,11 +492,16 @@ impl Prepared {
             }),
             None => this,
         };
-        if !progress.shot && !self.large && !progress.genome0.is_empty() {
-            progress.shot = true;
-            progress.first_stuck = q[space.dim()..].to_vec();
+        if let Some(from) = self.shooting_start(space, progress) {
+            match progress.restarts {
+                0 => {
+                    progress.shot = true;
+                    progress.first_stuck = q[space.dim()..].to_vec();
+                }
+                _ => progress.attempt_shot = true,
+            }
             let mut counts = progress.counts;
-            let shot = self.shoot(space, &progress.genome0, &mut counts, halt);
+            let shot = self.shoot(space, &from, &mut counts, halt);
             progress.counts = counts;
             if let shooting::Shot::Interrupted = shot {
                 return Ok(None);
@@ -514,6 +527,7 @@ impl Prepared {
                 false => q[space.dim()..].to_vec(),
             };
             progress.restarts += 1;
+            progress.attempt_shot = false;
             *q = start::restart_genome(&self.scene, space, &self.takes[0], progress.restarts);
             let len = fitter.state_len();
             for (k, take) in self.takes.iter().enumerate() {
@@ -535,6 +549,21 @@ impl Prepared {
         progress.schedule = best.schedule;
         progress.schedule.settle();
         progress.schedule.keep_going(q).map(Some)
+    }
+
+    /// The θ the attempt now stuck shoots from, when it has not shot yet: the start's for the
+    /// first attempt, restart k's seeded point ([`start::restart_genome`]) for restart k. None
+    /// on the matrix-free path (its budget ends are the cloth's crawl, not a wrong basin).
+    fn shooting_start(&self, space: &ParameterSpace, progress: &Progress) -> Option<Vec<f64>> {
+        match progress.restarts {
+            _ if self.large => None,
+            0 if !progress.shot && !progress.genome0.is_empty() => Some(progress.genome0.clone()),
+            0 => None,
+            r if !progress.attempt_shot => {
+                Some(start::restart_genome(&self.scene, space, &self.takes[0], r))
+            }
+            _ => None,
+        }
     }
 
     /// Multiple shooting ([`shooting`]) from `genome`: the takes cut into segments of twice
@@ -737,16 +766,26 @@ impl Progress {
             }
             (true, _) => "; multiple shooting from the start stuck too",
         };
+        // Seeded restarts shoot when the start did (the dense path).
+        let (last_shot, each_shot) = match self.shot {
+            true if self.shooting => (", the last by multiple shooting from its seeded point", ""),
+            true => (
+                "",
+                ", each also by multiple shooting from its seeded point,",
+            ),
+            false => ("", ""),
+        };
         match (self.restarts, self.schedule.settled()) {
             (0, false) => format!("{}{shot}", self.start),
             (r, false) => format!(
                 "{}{shot}; restarted {r} time(s) from seeded points in the boxes (a window stuck \
-                 above the noise level, or the whole take's on its budget)",
+                 above the noise level, or the whole take's on its budget){last_shot}",
                 self.start
             ),
             (r, true) => format!(
-                "{}{shot}; {r} restart(s) stuck above the noise level or on their budget as the \
-                 first start did: went on from the attempt with the smallest residuals",
+                "{}{shot}; {r} restart(s){each_shot} stuck above the noise level or on their \
+                 budget as the first start did: went on from the attempt with the smallest \
+                 residuals",
                 self.start
             ),
         }
@@ -757,6 +796,48 @@ impl Progress {
 mod tests {
     use super::*;
     use cordis_core::{Bounds, Param};
+
+    /// Guards the restarts' shooting: the first start shoots once from its start θ, each
+    /// seeded restart once from its own seeded point, the matrix-free path never.
+    #[test]
+    fn every_attempt_shoots_once_from_the_theta_it_started_from() {
+        let mut scene = super::super::tests::anchored_particle();
+        let traj = scene.simulate(60).unwrap();
+        scene.types[0].params[0] = Param::Unknown(Bounds {
+            min: 1.0,
+            max: 100.0,
+            init: None,
+        });
+        let space = ParameterSpace::from_scene(&scene);
+        let takes = vec![Take::complete(&traj)];
+        let config = Config::default();
+        let prepared = Prepared::new(&scene, &space, takes.clone(), &config).unwrap();
+        let mut progress = prepared.start(&scene, &space, &config).unwrap();
+        let from = |p: &Progress| prepared.shooting_start(&space, p);
+        assert_eq!(from(&progress), Some(progress.genome0.clone()));
+        progress.shot = true;
+        assert_eq!(from(&progress), None, "the start shoots once");
+        let mut seeded = Vec::new();
+        for r in 1..=2 {
+            progress.restarts = r;
+            progress.attempt_shot = false;
+            seeded.push(start::restart_genome(&scene, &space, &takes[0], r));
+            assert_eq!(from(&progress).as_ref(), seeded.last(), "restart {r}");
+            progress.attempt_shot = true;
+            assert_eq!(from(&progress), None, "restart {r} shoots once");
+        }
+        assert_ne!(seeded[0], seeded[1], "each restart from its own point");
+        let config = Config {
+            dense_max_columns: 0,
+            ..config
+        };
+        let large = Prepared::new(&scene, &space, takes, &config).unwrap();
+        progress.attempt_shot = false;
+        assert_eq!(large.shooting_start(&space, &progress), None);
+        progress.restarts = 0;
+        progress.shot = false;
+        assert_eq!(large.shooting_start(&space, &progress), None);
+    }
 
     /// Guards `Stuck::better`: when every restart is stuck, the attempt the fit goes on from is
     /// the one fitting the whole take better, not the one with the smaller rms over the

@@ -21,8 +21,9 @@
 //! penalty leaves (a long rollout amplifies them: right after shooting its rms can be a few
 //! times the noise, BENCHMARKS.md; pairwise merging of the segments instead lost the data).
 //!
-//! It runs once, at a fit's first stuck window ([`super::run`]), from the fit's start θ; the
-//! seeded restarts follow when single shooting from its optimum is still above the noise.
+//! Each attempt of a fit runs it once, at the attempt's first stuck window ([`super::run`]):
+//! the first from the fit's start θ, each seeded restart from its own seeded θ; the next
+//! seeded restart follows when single shooting from its optimum is still above the noise.
 //!
 //! Hidden particles have no data to start a segment from: each segment's hidden state comes
 //! from the rigid motion of the seen particles ([`super::start::initial_state`]), and their
