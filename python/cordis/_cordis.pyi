@@ -648,7 +648,11 @@ class IdentifyResult:
         ``output-error``; None for strategies that do not estimate it."""
     @property
     def intervals(self) -> Optional[Dict[str, Tuple[float, float]]]:
-        """95 % interval ``(low, high)`` of each unknown, by name; None when not estimated."""
+        """95 % interval ``(low, high)`` of each unknown, by name; None when not estimated.
+
+        ``value ± 1.96 stderr``, or on ``ln value`` (``value * exp(±1.96 stderr / value)``)
+        for a positive unknown searched in log coordinates (a box wider than a factor 10:
+        usually stiffness, rest length, damping, mass): never below zero (docs/identification.md, Uncertainty)."""
     @property
     def covariance(self) -> Optional[npt.NDArray[np.float64]]:
         """Covariance of the unknowns in ``list(params)`` order, ``(n, n)``; inf on the diagonal

@@ -38,7 +38,7 @@ use serde::Serialize;
 
 use super::{DiscoverOptions, Discovery};
 use crate::error::CostError;
-use crate::output_error::{self, Config, Estimate, Take};
+use crate::output_error::{self, interval95, Config, Estimate, Take};
 use crate::space::{ParameterSpace, Role, Unknown};
 use cordis_core::Trajectory;
 
@@ -62,7 +62,8 @@ pub struct IdentifiedParam {
     /// parameter (N/m, m, N·s/m, kg).
     pub discovered: f64,
     pub value: f64,
-    /// Standard error (inf: not determined) and the 95 % interval `value ± 1.96 se`.
+    /// Standard error (inf: not determined) and the 95 % interval (`value ± 1.96 se`, on
+    /// `ln value` for a positive log-searched one: `output_error::interval95`).
     pub stderr: f64,
     pub low: f64,
     pub high: f64,
@@ -148,7 +149,13 @@ pub fn identify_discovered(
         .iter()
         .enumerate()
         .map(|(a, u)| {
-            let mut r = row(&u.name, discovered[u.slot], params[u.slot], cov[(a, a)]);
+            let mut r = row(
+                &u.name,
+                discovered[u.slot],
+                params[u.slot],
+                cov[(a, a)],
+                u.log,
+            );
             let v = e.params[u.slot];
             let tol = 1e-9 * (u.max - u.min);
             // A damping's floor 0 is physics, not the box: ending there is an answer.
@@ -164,6 +171,7 @@ pub fn identify_discovered(
             discovered[slot],
             params[slot],
             cov[(k, k)],
+            true,
         ));
     }
     Ok(Identified {
@@ -212,19 +220,21 @@ pub(super) fn with_gravity(scene: &Scene, space: &mut ParameterSpace, max_column
     true
 }
 
-fn row(name: &str, discovered: f64, value: f64, var: f64) -> IdentifiedParam {
+/// `log`: the value is positive and searched in log coordinates (its interval on `ln value`).
+fn row(name: &str, discovered: f64, value: f64, var: f64, log: bool) -> IdentifiedParam {
     let se = if var.is_nan() {
         f64::INFINITY
     } else {
         var.sqrt()
     };
+    let (low, high) = interval95(value, se, log);
     IdentifiedParam {
         name: name.to_string(),
         discovered,
         value,
         stderr: se,
-        low: value - 1.96 * se,
-        high: value + 1.96 * se,
+        low,
+        high,
         at_bound: false,
     }
 }

@@ -66,6 +66,7 @@ pub use config::Config;
 pub use loss::Loss;
 pub use observations::Take;
 pub use run::{Prepared, Progress, Step};
+pub(crate) use summary::interval95;
 pub use summary::Estimate;
 
 use crate::error::CostError;

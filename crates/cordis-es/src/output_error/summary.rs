@@ -32,7 +32,8 @@ pub struct Estimate {
     /// computed, when the matrix-free path's solve for it did not converge — the strategy
     /// then reports no uncertainty rather than a NaN).
     pub stderr: Vec<f64>,
-    /// 95 % interval per unknown (`value ± 1.96 stderr`).
+    /// 95 % interval per unknown ([`interval95`]: `value ± 1.96 stderr`, on `ln value` for
+    /// the log-searched ones).
     pub intervals: Vec<(f64, f64)>,
     /// Covariance of the unknowns (physical units), row-major dim × dim.
     pub covariance: DMatrix<f64>,
@@ -125,7 +126,7 @@ pub(crate) fn end_text(end: StageEnd) -> &'static str {
     }
 }
 
-/// Standard errors (the covariance's diagonal) and 95 % intervals `θ̂ ± 1.96 se`.
+/// Standard errors (the covariance's diagonal) and 95 % intervals ([`interval95`]).
 pub(crate) fn spread(
     fitter: &Fitter<'_>,
     params: &[f64],
@@ -137,9 +138,31 @@ pub(crate) fn spread(
     let intervals = stderr
         .iter()
         .zip(fitter.unknowns)
-        .map(|(se, u)| (params[u.slot] - 1.96 * se, params[u.slot] + 1.96 * se))
+        .map(|(&se, u)| interval95(params[u.slot], se, u.log))
         .collect();
     (stderr, intervals)
+}
+
+/// The 95 % Wald interval of a value `v` with standard error `se`: on `ln v` for a parameter
+/// searched in log coordinates (`log`: positive, with a wide box), `v e^(±1.96 se/v)` (the
+/// delta method's `se(ln v) = se/v`), else `v ± 1.96 se`.
+///
+/// Why on `ln v`: a positive parameter the data determine poorly (a damping with `se/v` ≈ 0.75
+/// at σ = 1e-2) has a skewed estimate, and the symmetric interval reaches below zero, where
+/// no truth is, while too short above: with every coordinate or 20 % missing at σ = 1e-2
+/// (50 draws each) the symmetric intervals held 98.3 % of the true dampings, these 94.4 %
+/// (stiffness and rest lengths, `se/v` ≈ 1 %, unchanged); BENCHMARKS.md, "Intervals on ln θ".
+/// The fit's own coordinates are these, so the interval is the Gauss–Newton model's where it
+/// was built. Always positive, never past zero.
+pub(crate) fn interval95(v: f64, se: f64, log: bool) -> (f64, f64) {
+    const Z95: f64 = 1.96;
+    match log && v > 0.0 {
+        true => {
+            let factor = (Z95 * se / v).exp();
+            (v / factor, v * factor)
+        }
+        false => (v - Z95 * se, v + Z95 * se),
+    }
 }
 
 /// Each take's `[x0, v0]` block of the fit's variables.
@@ -163,4 +186,40 @@ fn variable_names(fitter: &Fitter<'_>, _scene: &Scene) -> Vec<String> {
         }
     }
     names
+}
+
+#[cfg(test)]
+mod tests {
+    use super::interval95;
+    use approx::assert_relative_eq;
+
+    /// Guards the log intervals: positive, the value their geometric centre, the Wald interval
+    /// on `ln v`, and the symmetric one where se ≪ v (the two agree to first order).
+    #[test]
+    fn a_log_searched_interval_is_symmetric_in_ln_v_and_never_reaches_zero() {
+        let (v, se) = (0.2, 0.15);
+        let (lo, hi) = interval95(v, se, true);
+        assert!(lo > 0.0 && lo < v && v < hi);
+        assert_relative_eq!(lo * hi, v * v, max_relative = 1e-12);
+        assert_relative_eq!((hi / lo).ln(), 2.0 * 1.96 * se / v, max_relative = 1e-12);
+        let (slo, shi) = interval95(v, se, false);
+        assert!(slo < 0.0, "the symmetric one reaches below zero: {slo}");
+        assert_relative_eq!(shi - slo, 2.0 * 1.96 * se, max_relative = 1e-12);
+        let (lo, hi) = interval95(100.0, 1e-3, true);
+        assert_relative_eq!(lo, 100.0 - 1.96e-3, max_relative = 1e-9);
+        assert_relative_eq!(hi, 100.0 + 1.96e-3, max_relative = 1e-9);
+    }
+
+    /// A value at or below zero (a damping on its floor 0) or a standard error not computed
+    /// keeps the symmetric interval, or NaN: no log of a non-positive number, no invented bound.
+    #[test]
+    fn a_non_positive_value_or_unknown_error_gives_no_log_interval() {
+        let (lo, hi) = interval95(0.0, 0.1, true);
+        assert_relative_eq!(lo, -0.196, max_relative = 1e-12);
+        assert_relative_eq!(hi, 0.196, max_relative = 1e-12);
+        let (lo, hi) = interval95(1.0, f64::NAN, true);
+        assert!(lo.is_nan() && hi.is_nan());
+        let (lo, hi) = interval95(1.0, f64::INFINITY, true);
+        assert_eq!((lo, hi), (0.0, f64::INFINITY));
+    }
 }
