@@ -305,6 +305,10 @@ pub(crate) struct Mf<'a, 'b> {
     p: Vec<f64>,
     chain: Vec<f64>,
     pub lins: Vec<Lin>,
+    /// Per particle `dt²/m` (s²/kg), 0 on fixed particles: the step's `h`.
+    h: Vec<f64>,
+    /// The free particles whose mass is unknown, with the mass's column.
+    unknown_masses: Vec<(usize, usize)>,
     /// Steps split their springs over two threads from this many ([`SPLIT_MIN_SPRINGS`]).
     split_min_springs: usize,
 }
@@ -316,6 +320,8 @@ impl<'a, 'b> Mf<'a, 'b> {
             p: Vec::new(),
             chain: Vec::new(),
             lins: vec![Lin::default(); fit.takes.len()],
+            h: Vec::new(),
+            unknown_masses: Vec::new(),
             split_min_springs: SPLIT_MIN_SPRINGS,
         }
     }
@@ -333,6 +339,18 @@ impl<'a, 'b> Mf<'a, 'b> {
     pub fn linearise(&mut self, q: &[f64], window: usize, work: &mut Work) -> bool {
         self.p = self.fit.params(q);
         self.chain = self.fit.chain(q);
+        let plan = &self.fit.tangent.plan;
+        let (mo, of_slot) = (plan.layout.mass_offset, &self.fit.cols.of_slot);
+        self.h = (0..plan.n)
+            .map(|i| match plan.free[i] {
+                true => plan.dt * plan.dt / self.p[mo + i],
+                false => 0.0,
+            })
+            .collect();
+        self.unknown_masses = (0..plan.n)
+            .filter(|&i| plan.free[i] && of_slot[mo + i] != NONE)
+            .map(|i| (i, of_slot[mo + i]))
+            .collect();
         let (nt, ns) = (self.fit.theta(), self.fit.state_len());
         for k in 0..self.fit.takes.len() {
             let state = &q[nt + k * ns..][..ns];
@@ -916,26 +934,26 @@ impl<'a, 'b> Mf<'a, 'b> {
             let cs = (cur, &*vel);
             conditional::forward(&plan.conditionals, &lin.cond, t, p, of_slot, w, cs, df, dth);
         }
-        let mo = plan.layout.mass_offset;
-        let dt2 = dt * dt;
-        for i in 0..n {
-            let base = 3 * i * w;
-            if !plan.free[i] {
-                prev[base..base + 3 * w].iter_mut().for_each(|x| *x = 0.0);
-                continue;
+        // Slices zipped per particle, not indexed: the indexed loop, generic in w, spent more
+        // time on bounds and overlap checks than on the update (perf, 32 x 32 cloth).
+        let particles = prev
+            .chunks_exact_mut(3 * w)
+            .zip(cur.chunks_exact(3 * w))
+            .zip(df.chunks_exact(3 * w));
+        for (((next, cur), df), &h) in particles.zip(&self.h) {
+            // h = 0 on fixed particles, whose rows are 0.
+            for ((x, &c), &f) in next.iter_mut().zip(cur).zip(df) {
+                *x = 2.0 * c - *x + h * f;
             }
-            let m = p[mo + i];
-            let h = dt2 / m;
-            let ms = of_slot[mo + i];
+        }
+        for &(i, ms) in &self.unknown_masses {
+            let h = self.h[i];
+            let m = p[plan.layout.mass_offset + i];
             for c in 0..3 {
-                let row = base + c * w;
                 let fm = h * lin.force[t * rows + 3 * i + c] / m;
-                for col in 0..w {
-                    let q = row + col;
-                    prev[q] = 2.0 * cur[q] - prev[q] + h * df[q];
-                    if ms != NONE {
-                        prev[q] -= fm * dth[ms * w + col];
-                    }
+                let row = &mut prev[(3 * i + c) * w..(3 * i + c + 1) * w];
+                for (x, &d) in row.iter_mut().zip(&dth[ms * w..(ms + 1) * w]) {
+                    *x -= fm * d;
                 }
             }
         }
@@ -989,20 +1007,28 @@ impl<'a, 'b> Mf<'a, 'b> {
             }
             // φ = h ⊙ P a(t+1); a(t) starts as u(t) + 2 P a(t+1) + b(t+1), b(t) as -P a(t+1).
             let u = &cot[t * rows * w..(t + 1) * rows * w];
-            for i in 0..n {
-                let range = 3 * i * w..3 * (i + 1) * w;
-                if plan.free[i] {
-                    let h = dt * dt / p[mo + i];
-                    for q in range {
-                        phi[q] = h * a[q];
-                        na[q] = u[q] + 2.0 * a[q] + b[q];
-                        b[q] = -a[q];
+            let particles = phi
+                .chunks_exact_mut(3 * w)
+                .zip(na.chunks_exact_mut(3 * w))
+                .zip(b.chunks_exact_mut(3 * w))
+                .zip(a.chunks_exact(3 * w).zip(u.chunks_exact(3 * w)));
+            for ((((phi, na), b), (a, u)), (&h, &free)) in
+                particles.zip(self.h.iter().zip(&plan.free))
+            {
+                let rows = phi.iter_mut().zip(na.iter_mut()).zip(b.iter_mut());
+                let rows = rows.zip(a.iter().zip(u));
+                if free {
+                    for (((phi, na), b), (&a, &u)) in rows {
+                        *phi = h * a;
+                        *na = u + 2.0 * a + *b;
+                        *b = -a;
                     }
                 } else {
-                    for q in range {
-                        phi[q] = 0.0;
-                        na[q] = u[q] + b[q];
-                        b[q] = 0.0;
+                    // The free-row mask P is 0 on a fixed particle.
+                    for (((phi, na), b), (_, &u)) in rows {
+                        *phi = 0.0;
+                        *na = u + *b;
+                        *b = 0.0;
                     }
                 }
             }
@@ -1057,11 +1083,7 @@ impl<'a, 'b> Mf<'a, 'b> {
                 let cond = &plan.conditionals;
                 conditional::adjoint(cond, &lin.cond, t, p, of_slot, w, phi, (na, psi), grad);
             }
-            for i in 0..n {
-                let ms = of_slot[mo + i];
-                if ms == NONE || !plan.free[i] {
-                    continue;
-                }
+            for &(i, ms) in &self.unknown_masses {
                 let m = p[mo + i];
                 for c in 0..3 {
                     let fm = lin.force[t * rows + 3 * i + c] / m;
