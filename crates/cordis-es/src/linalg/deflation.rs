@@ -135,6 +135,47 @@ impl Deflation {
         let y = self.e.solve(&self.block_t(&self.abasis, z));
         self.sub_block(&self.basis, &y, z);
     }
+
+    /// [`Self::start`] for each of the `w` solves whose iterates and residuals are the columns
+    /// of the row-major n × w blocks `x` and `r`; `column` is a buffer of n.
+    pub fn start_columns(&self, x: &mut [f64], r: &mut [f64], w: usize, column: &mut Vec<f64>) {
+        let mut xc = vec![0.0; self.n];
+        for c in 0..w {
+            gather(x, w, c, &mut xc);
+            gather(r, w, c, column);
+            self.start(&mut xc, column);
+            scatter(&xc, w, c, x);
+            scatter(column, w, c, r);
+        }
+    }
+
+    /// [`Self::project`] for each column of the row-major n × w block `z` in `columns`.
+    pub fn project_columns(
+        &self,
+        z: &mut [f64],
+        w: usize,
+        columns: &[usize],
+        column: &mut Vec<f64>,
+    ) {
+        for &c in columns {
+            gather(z, w, c, column);
+            self.project(column);
+            scatter(column, w, c, z);
+        }
+    }
+}
+
+/// Column c of the row-major block `m` (w columns) into `out`.
+fn gather(m: &[f64], w: usize, c: usize, out: &mut Vec<f64>) {
+    out.clear();
+    out.extend(m.iter().skip(c).step_by(w));
+}
+
+/// `v` into column c of the row-major block `m` (w columns).
+fn scatter(v: &[f64], w: usize, c: usize, m: &mut [f64]) {
+    for (slot, x) in m.iter_mut().skip(c).step_by(w).zip(v) {
+        *slot = *x;
+    }
 }
 
 #[cfg(test)]
@@ -191,6 +232,38 @@ mod tests {
         let az = &a * DVector::from_column_slice(&z);
         assert_relative_eq!(dot(az.as_slice(), &w1), 0.0, epsilon = 1e-9);
         assert_relative_eq!(dot(az.as_slice(), &w2), 0.0, epsilon = 1e-9);
+    }
+
+    #[test]
+    fn column_blocks_are_started_and_projected_as_single_vectors() {
+        let (n, w) = (9, 3);
+        let a = valley(n);
+        let w1: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin()).collect();
+        let d = Deflation::new(&[w1], apply_of(&a)).unwrap();
+        let col =
+            |c: usize| -> Vec<f64> { (0..n).map(|i| ((i * 5 + c * 3) % 7) as f64 - 3.0).collect() };
+        let (mut x, mut r, mut z) = (vec![0.0; n * w], vec![0.0; n * w], vec![0.0; n * w]);
+        for c in 0..w {
+            for i in 0..n {
+                r[i * w + c] = col(c)[i];
+                z[i * w + c] = col(c + 1)[i];
+            }
+        }
+        let mut buf = Vec::new();
+        d.start_columns(&mut x, &mut r, w, &mut buf);
+        d.project_columns(&mut z, w, &[0, 2], &mut buf);
+        for c in 0..w {
+            let (mut xs, mut rs, mut zs) = (vec![0.0; n], col(c), col(c + 1));
+            d.start(&mut xs, &mut rs);
+            if c != 1 {
+                d.project(&mut zs);
+            }
+            for i in 0..n {
+                assert_eq!(x[i * w + c], xs[i]);
+                assert_eq!(r[i * w + c], rs[i]);
+                assert_eq!(z[i * w + c], zs[i]);
+            }
+        }
     }
 
     #[test]

@@ -100,8 +100,8 @@
 //! # What it reports
 //!
 //! Standard errors for θ: the θ block of `H⁻¹` by nθ PCG solves `H x_k = e_k` (run together,
-//! as wide as the solves still running), scaled by `σ̂²`, each stopped when its variance has
-//! settled ([`theta_inverse`]). A solve that does not converge leaves its unknown's standard
+//! as wide as the solves still running, deflated by the last window's last accepted steps),
+//! scaled by `σ̂²`, each stopped when its variance has settled ([`theta_inverse`]). A solve that does not converge leaves its unknown's standard
 //! error NaN (not computed), never a guessed number. The undetermined directions of the full system
 //! are not computed on this path (no eigendecomposition of a 6,000-wide H).
 
@@ -762,16 +762,26 @@ impl<'a, 'b> Mf<'a, 'b> {
     ) {
         let nsp = self.fit.tangent.plan.springs.pairs.len();
         // One direction (every CG iteration) gets its own instance of the link loops, the
-        // width a constant (BENCHMARKS, "Large scenes").
+        // width a constant (BENCHMARKS, "Large scenes"). The kernels are forced inline: left
+        // to itself the compiler called each link's as a function, reloading the environment
+        // (perf, 32 x 32 cloth: a single-thread product 21 → 17 ms; BENCHMARKS, "Lean passes").
         let run = |springs: (Range<usize>, bool), df: &mut [f64]| {
             if w == 1 {
-                self.each_link(lin, t, springs, |k, slots, ends, d| {
-                    spring::forward(d, k, slots, ends, 1, sv, df, dth)
-                });
+                self.each_link(
+                    lin,
+                    t,
+                    springs,
+                    #[inline(always)]
+                    |k, slots, ends, d| spring::forward(d, k, slots, ends, 1, sv, df, dth),
+                );
             } else {
-                self.each_link(lin, t, springs, |k, slots, ends, d| {
-                    spring::forward(d, k, slots, ends, w, sv, df, dth)
-                });
+                self.each_link(
+                    lin,
+                    t,
+                    springs,
+                    #[inline(always)]
+                    |k, slots, ends, d| spring::forward(d, k, slots, ends, w, sv, df, dth),
+                );
             }
         };
         if nsp < self.split_min_springs {
@@ -814,13 +824,25 @@ impl<'a, 'b> Mf<'a, 'b> {
         let run =
             |springs: (Range<usize>, bool), (na, psi): (&mut [f64], &mut [f64]), g: &mut [f64]| {
                 if w == 1 {
-                    self.each_link(lin, t, springs, |k, slots, ends, d| {
-                        spring::adjoint(d, k, slots, ends, 1, phi, (&mut *na, &mut *psi), g)
-                    });
+                    self.each_link(
+                        lin,
+                        t,
+                        springs,
+                        #[inline(always)]
+                        |k, slots, ends, d| {
+                            spring::adjoint(d, k, slots, ends, 1, phi, (&mut *na, &mut *psi), g)
+                        },
+                    );
                 } else {
-                    self.each_link(lin, t, springs, |k, slots, ends, d| {
-                        spring::adjoint(d, k, slots, ends, w, phi, (&mut *na, &mut *psi), g)
-                    });
+                    self.each_link(
+                        lin,
+                        t,
+                        springs,
+                        #[inline(always)]
+                        |k, slots, ends, d| {
+                            spring::adjoint(d, k, slots, ends, w, phi, (&mut *na, &mut *psi), g)
+                        },
+                    );
                 }
             };
         if nsp < self.split_min_springs {
@@ -1532,6 +1554,7 @@ pub(crate) fn lm_stage(
     verify_newton: bool,
     counts: &mut Counts,
     cgc: &mut CgCounts,
+    recent: &mut std::collections::VecDeque<Vec<f64>>,
     work: &mut Work,
     halt: &dyn Fn() -> bool,
 ) -> StageEnd {
@@ -1556,7 +1579,7 @@ pub(crate) fn lm_stage(
     let mut sens = super::tangent::Sens::default();
     let mut g0norm: Option<f64> = None;
     let mut accepted = 0usize;
-    let mut recent: std::collections::VecDeque<Vec<f64>> = Default::default();
+    recent.clear();
     for _ in 0..set.max_iterations {
         if halt() {
             return StageEnd::Interrupted;
@@ -1591,7 +1614,7 @@ pub(crate) fn lm_stage(
         let mut ok = false;
         for _ in 0..2 {
             let pre = Pre::new(mf, &cols, &scale, &held, lambda);
-            let deflation = step_deflation(mf, &recent, &scale, &held, lambda, work);
+            let deflation = step_deflation(mf, recent, &scale, &held, lambda, work);
             let (its, conv) = pcg(
                 mf,
                 &pre,
@@ -1740,7 +1763,7 @@ pub(crate) fn lm_stage(
                 let held = fit.held(q, &DVector::from_column_slice(&g));
                 let pre = Pre::new(mf, &cols, &scale, &held, NEWTON_LAMBDA);
                 let rhs: Vec<f64> = g.iter().map(|x| -x).collect();
-                let deflation = step_deflation(mf, &recent, &scale, &held, NEWTON_LAMBDA, work);
+                let deflation = step_deflation(mf, recent, &scale, &held, NEWTON_LAMBDA, work);
                 let (its, ok) = pcg(
                     mf,
                     &pre,
@@ -1811,9 +1834,18 @@ pub(crate) const STDERR_STOP: StderrStop = StderrStop {
 /// residual criterion (1e-6) was never met in 300 iterations (`‖r‖` 0.02–0.3) while every
 /// variance had settled to 4 digits: the fit reported no standard error at all, for 49 s
 /// (BENCHMARKS.md, "Pattern moves").
+///
+/// The solves are deflated ([`crate::linalg::deflation`]) by `recycled`, the last window's
+/// last accepted steps: they line up with the poorly determined directions (the cloth's
+/// structural/bending valley), which carry most of each variance and which CG resolves last.
+/// Deflated CG keeps its residuals orthogonal to the steps and its iterates Galerkin on the
+/// steps and the Krylov space, so `e_kᵀx_j` still rises monotonically to the variance and the
+/// stopping rule holds. Measured on the 32 × 32 cloth: 253 → 178 iterations, 28 → 17 s, the
+/// same standard errors to 3 digits (BENCHMARKS.md, "Lean passes").
 pub(crate) fn theta_inverse(
     mf: &Mf<'_, '_>,
     stop: StderrStop,
+    recycled: &[Vec<f64>],
     cgc: &mut CgCounts,
     work: &mut Work,
 ) -> DMatrix<f64> {
@@ -1856,7 +1888,19 @@ pub(crate) fn theta_inverse(
     let coldot = |u: &[f64], v: &[f64], c: usize| -> f64 {
         (0..len).map(|a| u[a * w + c] * v[a * w + c]).sum()
     };
+    let deflation = match recycled.is_empty() {
+        true => None,
+        false => Deflation::new(recycled, |v, k, out| mf.hv(v, k, out, work)),
+    };
+    let mut column = Vec::with_capacity(len);
+    if let Some(d) = &deflation {
+        d.start_columns(&mut x, &mut r, w, &mut column);
+    }
+    let all: Vec<usize> = (0..w).collect();
     precondition(&r, &mut z, &mut rc, &mut zc);
+    if let Some(d) = &deflation {
+        d.project_columns(&mut z, w, &all, &mut column);
+    }
     p.copy_from_slice(&z);
     let mut rz: Vec<f64> = (0..w).map(|c| coldot(&r, &z, c)).collect();
     let mut done = vec![false; w];
@@ -1902,6 +1946,14 @@ pub(crate) fn theta_inverse(
             }
         }
         precondition(&r, &mut z, &mut rc, &mut zc);
+        if let Some(d) = &deflation {
+            let still: Vec<usize> = running
+                .iter()
+                .copied()
+                .filter(|&c| !done[c] && !failed[c])
+                .collect();
+            d.project_columns(&mut z, w, &still, &mut column);
+        }
         for &c in &running {
             if done[c] || failed[c] {
                 continue;
@@ -1939,6 +1991,7 @@ pub(crate) fn stage(
     set: LmSettings,
     counts: &mut Counts,
     cgc: &mut CgCounts,
+    steps: &mut Vec<Vec<f64>>,
     halt: &dyn Fn() -> bool,
 ) -> StageEnd {
     let step_cg = CgSettings {
@@ -1961,9 +2014,24 @@ pub(crate) fn stage(
             ..set
         }
     };
-    lm_stage(
-        &mut mf, q, w, set, step_cg, chi2, wftol, last, counts, cgc, &mut work, halt,
-    )
+    let mut recent = std::collections::VecDeque::new();
+    let end = lm_stage(
+        &mut mf,
+        q,
+        w,
+        set,
+        step_cg,
+        chi2,
+        wftol,
+        last,
+        counts,
+        cgc,
+        &mut recent,
+        &mut work,
+        halt,
+    );
+    *steps = recent.into();
+    end
 }
 
 /// The estimate at the end of the matrix-free fit, its standard errors by CG solves of H.
@@ -1977,6 +2045,7 @@ pub(crate) fn finish(
     windows: Vec<usize>,
     noise_level: Vec<f64>,
     start: String,
+    last_steps: &[Vec<f64>],
 ) -> Result<super::Estimate, crate::error::CostError> {
     let mut mf = Mf::new(fitter);
     let mut work = Work::default();
@@ -1995,7 +2064,7 @@ pub(crate) fn finish(
     let sigma2 = cost / dof as f64;
     let dim = fitter.theta();
     let solves_before = cgc.unconverged;
-    let inv = theta_inverse(&mf, STDERR_STOP, &mut cgc, &mut work);
+    let inv = theta_inverse(&mf, STDERR_STOP, last_steps, &mut cgc, &mut work);
     let cov_q = DMatrix::from_fn(dim, dim, |a, b| {
         let v = 0.5 * (inv[(a, b)] + inv[(b, a)]);
         sigma2 * v
@@ -2518,9 +2587,20 @@ mod tests {
         .unwrap();
         let mut qm = s.q.clone();
         let (mut mcounts, mut cgc) = (Counts::default(), CgCounts::default());
+        let mut steps = Vec::new();
         let longest = fit.takes.iter().map(Take::frames).max().unwrap();
         let (end, windows) = super::super::grow_windows(&fit, &mut qm, &config, &mut |q, w| {
-            super::stage(&fit, q, w, longest, set, &mut mcounts, &mut cgc, &never)
+            super::stage(
+                &fit,
+                q,
+                w,
+                longest,
+                set,
+                &mut mcounts,
+                &mut cgc,
+                &mut steps,
+                &never,
+            )
         })
         .unwrap();
         let e = super::finish(
@@ -2535,6 +2615,7 @@ mod tests {
                 .map(super::super::start::noise_level)
                 .collect(),
             "test".into(),
+            &steps,
         )
         .unwrap();
         let nt = fit.theta();
@@ -2574,26 +2655,37 @@ mod tests {
             form: 0.0,
             ..STDERR_STOP
         };
-        let inv = theta_inverse(&mf, exact, &mut CgCounts::default(), &mut work);
-        for a in 0..nt {
-            for b in 0..nt {
-                let scale = (hinv[(a, a)] * hinv[(b, b)]).sqrt();
-                assert!(
-                    (inv[(a, b)] - hinv[(a, b)]).abs() <= 1e-6 * scale,
-                    "H⁻¹[{a},{b}]: CG {} dense {}",
-                    inv[(a, b)],
-                    hinv[(a, b)]
-                );
+        // Without and with the fit's last steps deflating the solves (exact on any subspace).
+        assert!(!steps.is_empty(), "the last stage kept no step");
+        for recycled in [&[][..], &steps[..]] {
+            let inv = theta_inverse(&mf, exact, recycled, &mut CgCounts::default(), &mut work);
+            for a in 0..nt {
+                for b in 0..nt {
+                    let scale = (hinv[(a, a)] * hinv[(b, b)]).sqrt();
+                    assert!(
+                        (inv[(a, b)] - hinv[(a, b)]).abs() <= 1e-6 * scale,
+                        "H⁻¹[{a},{b}]: CG {} dense {} ({} steps)",
+                        inv[(a, b)],
+                        hinv[(a, b)],
+                        recycled.len()
+                    );
+                }
             }
-        }
-        // The default stop (the variances settled): variances within 1 % (standard errors
-        // within 0.5 %), covariances within 0.1 of their scale (correlations within 0.1).
-        let inv = theta_inverse(&mf, STDERR_STOP, &mut CgCounts::default(), &mut work);
-        for a in 0..nt {
-            assert!((inv[(a, a)] / hinv[(a, a)] - 1.0).abs() <= 1e-2);
-            for b in 0..nt {
-                let scale = (hinv[(a, a)] * hinv[(b, b)]).sqrt();
-                assert!((inv[(a, b)] - hinv[(a, b)]).abs() <= 0.1 * scale);
+            // The default stop (the variances settled): variances within 1 % (standard errors
+            // within 0.5 %), covariances within 0.1 of their scale (correlations within 0.1).
+            let inv = theta_inverse(
+                &mf,
+                STDERR_STOP,
+                recycled,
+                &mut CgCounts::default(),
+                &mut work,
+            );
+            for a in 0..nt {
+                assert!((inv[(a, a)] / hinv[(a, a)] - 1.0).abs() <= 1e-2);
+                for b in 0..nt {
+                    let scale = (hinv[(a, a)] * hinv[(b, b)]).sqrt();
+                    assert!((inv[(a, b)] - hinv[(a, b)]).abs() <= 0.1 * scale);
+                }
             }
         }
     }

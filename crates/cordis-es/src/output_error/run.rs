@@ -104,6 +104,11 @@ pub struct Progress {
     robust: Vec<Vec<f64>>,
     /// Reweighting rounds of the current window.
     reweights: usize,
+    /// The last accepted steps of the last stage of a matrix-free fit: they deflate its
+    /// standard-error solves ([`matrix_free::theta_inverse`]). Empty on the dense path and in
+    /// checkpoints from before.
+    #[serde(with = "nested_bits", default)]
+    last_steps: Vec<Vec<f64>>,
 }
 
 /// Exact f64 vectors of vectors in JSON (IEEE bits).
@@ -354,6 +359,7 @@ impl Prepared {
             best_stuck: None,
             robust: Vec::new(),
             reweights: 0,
+            last_steps: Vec::new(),
             q,
             schedule: self.schedule(&fitter, 0),
             counts: Counts::default(),
@@ -379,6 +385,7 @@ impl Prepared {
         let mut q = progress.q.clone();
         let mut counts = progress.counts;
         let mut cg = progress.cg;
+        let mut steps = Vec::new();
         let end = if self.large {
             let longest = progress.schedule.longest();
             matrix_free::stage(
@@ -389,6 +396,7 @@ impl Prepared {
                 self.set,
                 &mut counts,
                 &mut cg,
+                &mut steps,
                 halt,
             )
         } else {
@@ -402,6 +410,7 @@ impl Prepared {
         progress.partial = None;
         progress.counts = counts;
         progress.cg = cg;
+        progress.last_steps = steps;
         // Intermediate windows only steer the growth: a few rounds; the last one to the fixed
         // point.
         let rounds = match w >= progress.schedule.longest() {
@@ -647,6 +656,7 @@ impl Prepared {
                 windows,
                 self.noise_level.clone(),
                 p.start_note(),
+                &p.last_steps,
             );
         }
         let mut counts = p.counts;
