@@ -9,14 +9,15 @@
 //! true value, stiffness and rest length identified — over 100 frames the cloth's light dampings
 //! are barely excited, their standard errors exceed 60 %). With `FROM_TRUTH` set in the
 //! environment each seed is also fitted from the truth (parameters and initial state): a
-//! diagnosis of whether the estimate is the likelihood's optimum or a search failure. Prints seconds, the mean parameter error and the
-//! short-cost least-squares error on the same noisy data.
+//! diagnosis of whether the estimate is the likelihood's optimum or a search failure. Prints seconds, the mean parameter error, the
+//! short-cost least-squares error on the same noisy data and the Cramér–Rao bound on the mean
+//! error (`cramer_rao` at the truth, matrix-free on the cloth; not part of the timed fit).
 use std::time::Instant;
 
 use cordis_core::examples::cloth;
 use cordis_es::cost::CostKind;
 use cordis_es::identify::{add_noise, with_unknown_boxes};
-use cordis_es::output_error::{estimate, Config, Take};
+use cordis_es::output_error::{cramer_rao, estimate, expected_error_pct, Config, Take};
 use cordis_es::problem::Problem;
 use cordis_es::run::cpu_time::process_cpu_seconds as cpu_seconds;
 use cordis_es::space::ParameterSpace;
@@ -88,7 +89,14 @@ fn main() {
         // matrix-free passes split their steps over its threads (RAYON_NUM_THREADS sets them).
         let pool = rayon::ThreadPoolBuilder::new().build().unwrap();
         let e = pool
-            .install(|| estimate(&guess, &space, &[take], &Config::default()))
+            .install(|| {
+                estimate(
+                    &guess,
+                    &space,
+                    std::slice::from_ref(&take),
+                    &Config::default(),
+                )
+            })
             .unwrap();
         println!("  cost {:.6e}", e.cost);
         let secs = t0.elapsed().as_secs_f64();
@@ -118,10 +126,19 @@ fn main() {
             .zip(&e.stderr)
             .map(|(u, s)| format!("{:.2}", 100.0 * s / tv[u.slot]))
             .collect();
+        // The Cramér–Rao bound on the mean parameter error for this observation pattern (the
+        // noise bench's formula), at the truth, after the timed fit.
+        let t0 = Instant::now();
+        let truths: Vec<f64> = space.unknowns.iter().map(|u| tv[u.slot]).collect();
+        let bound = pool
+            .install(|| cramer_rao(&truth, &space, std::slice::from_ref(&take), sigma))
+            .map_or(f64::NAN, |sd| expected_error_pct(&sd, &truths));
+        let bound_secs = t0.elapsed().as_secs_f64();
         println!(
             "{side}x{side} x {frames} frames{}, seed {seed}, σ = {rel:e} of {:.3} m: \
              output-error {err:.4} % in {secs:.1} s wall, {cpu:.1} s CPU ({}, {} it, {} ev, σ̂/σ {:.3}) | \
-             short-cost {short_err:.2} % in {short_secs:.1} s | ratio {:.0}×\n  stderr % {}\n  {}",
+             short-cost {short_err:.2} % in {short_secs:.1} s | ratio {:.0}× | Cramér–Rao bound \
+             {bound:.2} % ({:.1}× the bound; {bound_secs:.0} s)\n  stderr % {}\n  {}",
             if limit { " (Provot limit)" } else { "" },
             traj.scale(),
             e.end,
@@ -129,6 +146,7 @@ fn main() {
             e.evaluations,
             e.sigma / sigma,
             short_err / err,
+            err / bound,
             rel_se.join(" "),
             e.start
         );

@@ -120,7 +120,10 @@ pub(crate) fn grow_windows(
 /// The Cramér–Rao bound of the unknowns: standard deviations (physical units) of any unbiased
 /// estimate from takes with the given observation pattern (their weights; values unused) and
 /// Gaussian noise `sigma` (m) per unit-weight coordinate, the initial states unknown. `truth`
-/// holds the true parameters and initial state; `space` names the unknowns.
+/// holds the true parameters and initial state; `space` names the unknowns. Above
+/// [`matrix_free::DENSE_MAX_COLUMNS`] sensitivity columns (the 32 × 32 cloth) the θ block of
+/// `H⁻¹` comes from the matrix-free fit's CG solves ([`matrix_free::cramer_rao_sd`]: variances
+/// to ~0.1 %, NaN where a solve did not settle).
 pub fn cramer_rao(
     truth: &Scene,
     space: &ParameterSpace,
@@ -148,7 +151,11 @@ pub fn cramer_rao_takes(
     tangent.guard_by(takes);
     let slots: Vec<usize> = space.unknowns.iter().map(|u| u.slot).collect();
     let cols = tangent.columns(&slots);
-    check_memory(&tangent, &cols, takes.len())?;
+    let large = cols.len > matrix_free::DENSE_MAX_COLUMNS;
+    match large {
+        true => matrix_free::check_memory(&tangent, takes)?,
+        false => check_memory(&tangent, &cols, takes.len())?,
+    }
     let base = truth.param_values();
     let fitter = Fitter {
         tangent: &tangent,
@@ -170,6 +177,9 @@ pub fn cramer_rao_takes(
         }
     }
     let longest = takes.iter().map(Take::frames).max().unwrap_or(0);
+    if large {
+        return matrix_free::cramer_rao_sd(&fitter, &q, longest, sigma);
+    }
     let ne = fitter
         .normal(&q, longest, &mut Sens::default())
         .ok_or_else(|| CostError::mismatch("truth", "the true model diverges"))?;

@@ -597,6 +597,29 @@ impl Prepared {
         )
     }
 
+    /// Hands `f` the number of fit variables and the matrix-free Gauss–Newton product
+    /// `(v, width, out) ↦ out = H v` (row-major, variables × width) at `progress`'s variables
+    /// over the whole take: the operator every CG iteration of a large fit applies, for the
+    /// criterion benchmark (`benches/matrix_free.rs`). `None` when the rollout diverges there.
+    #[doc(hidden)]
+    pub fn with_gauss_newton_product<R>(
+        &self,
+        space: &ParameterSpace,
+        progress: &Progress,
+        f: impl FnOnce(usize, &mut (dyn FnMut(&[f64], usize, &mut [f64]) + Send)) -> R,
+    ) -> Option<R> {
+        let takes = self.weighed(progress);
+        let fitter = self.fitter_on(space, &takes);
+        let mut mf = matrix_free::Mf::new(&fitter);
+        let mut work = matrix_free::Work::default();
+        if !mf.linearise(&progress.q, progress.schedule.longest(), &mut work) {
+            return None;
+        }
+        Some(f(fitter.len(), &mut |v, w, out| {
+            mf.hv(v, w, out, &mut work)
+        }))
+    }
+
     /// The estimate at the end of a fit whose last [`Prepared::stage`] was [`Step::Done`]:
     /// σ̂, standard errors, intervals, correlations and undetermined directions.
     pub fn finish(
