@@ -315,13 +315,19 @@ pub(crate) struct Mf<'a, 'b> {
 
 impl<'a, 'b> Mf<'a, 'b> {
     pub fn new(fit: &'a Fitter<'b>) -> Self {
+        let plan = &fit.tangent.plan;
+        let (mo, of_slot) = (plan.layout.mass_offset, &fit.cols.of_slot);
+        let unknown_masses = (0..plan.n)
+            .filter(|&i| plan.free[i] && of_slot[mo + i] != NONE)
+            .map(|i| (i, of_slot[mo + i]))
+            .collect();
         Mf {
             fit,
             p: Vec::new(),
             chain: Vec::new(),
             lins: vec![Lin::default(); fit.takes.len()],
             h: Vec::new(),
-            unknown_masses: Vec::new(),
+            unknown_masses,
             split_min_springs: SPLIT_MIN_SPRINGS,
         }
     }
@@ -340,16 +346,12 @@ impl<'a, 'b> Mf<'a, 'b> {
         self.p = self.fit.params(q);
         self.chain = self.fit.chain(q);
         let plan = &self.fit.tangent.plan;
-        let (mo, of_slot) = (plan.layout.mass_offset, &self.fit.cols.of_slot);
+        let mo = plan.layout.mass_offset;
         self.h = (0..plan.n)
             .map(|i| match plan.free[i] {
                 true => plan.dt * plan.dt / self.p[mo + i],
                 false => 0.0,
             })
-            .collect();
-        self.unknown_masses = (0..plan.n)
-            .filter(|&i| plan.free[i] && of_slot[mo + i] != NONE)
-            .map(|i| (i, of_slot[mo + i]))
             .collect();
         let (nt, ns) = (self.fit.theta(), self.fit.state_len());
         for k in 0..self.fit.takes.len() {
@@ -1896,10 +1898,11 @@ pub(crate) fn theta_inverse(
     if let Some(d) = &deflation {
         d.start_columns(&mut x, &mut r, w, &mut column);
     }
-    let all: Vec<usize> = (0..w).collect();
+    // The columns a deflated iteration projects (all of them at the start).
+    let mut still: Vec<usize> = (0..w).collect();
     precondition(&r, &mut z, &mut rc, &mut zc);
     if let Some(d) = &deflation {
-        d.project_columns(&mut z, w, &all, &mut column);
+        d.project_columns(&mut z, w, &still, &mut column);
     }
     p.copy_from_slice(&z);
     let mut rz: Vec<f64> = (0..w).map(|c| coldot(&r, &z, c)).collect();
@@ -1947,11 +1950,8 @@ pub(crate) fn theta_inverse(
         }
         precondition(&r, &mut z, &mut rc, &mut zc);
         if let Some(d) = &deflation {
-            let still: Vec<usize> = running
-                .iter()
-                .copied()
-                .filter(|&c| !done[c] && !failed[c])
-                .collect();
+            still.clear();
+            still.extend(running.iter().filter(|&&c| !done[c] && !failed[c]));
             d.project_columns(&mut z, w, &still, &mut column);
         }
         for &c in &running {
@@ -1999,12 +1999,18 @@ pub(crate) fn cramer_rao_sd(
         ));
     }
     let inv = theta_inverse(&mf, STDERR_STOP, &[], &mut CgCounts::default(), &mut work);
-    let nt = fitter.theta();
-    let cov = DMatrix::from_fn(nt, nt, |a, b| {
-        sigma * sigma * 0.5 * (inv[(a, b)] + inv[(b, a)])
+    let cov = theta_covariance(&inv, sigma * sigma, &fitter.chain(q));
+    Ok((0..fitter.theta()).map(|a| cov[(a, a)].sqrt()).collect())
+}
+
+/// `σ² [H⁻¹]_θθ` in physical units from the θ block `inv` of [`theta_inverse`] (internal
+/// coordinates, symmetrised; `chain` the internal-to-physical derivatives).
+fn theta_covariance(inv: &DMatrix<f64>, sigma2: f64, chain: &[f64]) -> DMatrix<f64> {
+    let cov_q = DMatrix::from_fn(inv.nrows(), inv.ncols(), |a, b| {
+        let v = 0.5 * (inv[(a, b)] + inv[(b, a)]);
+        sigma2 * v
     });
-    let cov = super::uncertainty::physical(&cov, &fitter.chain(q));
-    Ok((0..nt).map(|a| cov[(a, a)].sqrt()).collect())
+    super::uncertainty::physical(&cov_q, chain)
 }
 
 /// One window's stage of the matrix-free fit: the last window (the whole take) to the final
@@ -2092,12 +2098,7 @@ pub(crate) fn finish(
     let dim = fitter.theta();
     let solves_before = cgc.unconverged;
     let inv = theta_inverse(&mf, STDERR_STOP, last_steps, &mut cgc, &mut work);
-    let cov_q = DMatrix::from_fn(dim, dim, |a, b| {
-        let v = 0.5 * (inv[(a, b)] + inv[(b, a)]);
-        sigma2 * v
-    });
-    let chain = fitter.chain(&q);
-    let covariance = super::uncertainty::physical(&cov_q, &chain);
+    let covariance = theta_covariance(&inv, sigma2, &fitter.chain(&q));
     let correlation = super::uncertainty::correlation(&covariance);
     let params = fitter.params(&q);
     let (stderr, intervals) = super::summary::spread(fitter, &params, &covariance);
@@ -2571,8 +2572,7 @@ mod tests {
         );
     }
 
-    /// Guards the pattern move's rule: doubling along the direction while the cost falls,
-    /// keeping the best point, and leaving the iterate alone when the first trial does not gain.
+    /// Guards the matrix-free Cramér–Rao bound (large scenes) against the dense one.
     #[test]
     fn the_matrix_free_bound_is_the_dense_one() {
         let s = setup(0.0);
@@ -2594,6 +2594,8 @@ mod tests {
         }
     }
 
+    /// Guards the pattern move's rule: doubling along the direction while the cost falls,
+    /// keeping the best point, and leaving the iterate alone when the first trial does not gain.
     #[test]
     fn a_pattern_move_doubles_along_the_valley_while_the_cost_falls() {
         // A long valley along x with its floor's minimum at x = 10.
