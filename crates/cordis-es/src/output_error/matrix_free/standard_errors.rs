@@ -1,0 +1,302 @@
+//! Standard errors from the θ block of `H⁻¹` (deflated PCG solves), the Cramér–Rao bound of
+//! large scenes, and the estimate's summary.
+
+use nalgebra::DMatrix;
+
+use super::super::fit::{Counts, Fitter, StageEnd};
+use super::cg::CgCounts;
+use super::operator::{Mf, Work};
+use super::preconditioner::Pre;
+use super::settings::{DENSE_MAX_COLUMNS, STDERR_CG_TOL, STDERR_DELAY, STDERR_FORM_TOL};
+use super::stage::approx_diag;
+use crate::linalg::deflation::Deflation;
+
+/// How a standard-error solve `H x = e_k` is judged converged ([`theta_inverse`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct StderrStop {
+    /// Relative residual `‖H x − e_k‖` (`‖e_k‖` = 1) at which the solve is exact enough.
+    pub residual: f64,
+    /// Or: the variance `x_k = e_kᵀx` grew by at most this fraction of itself over the last
+    /// [`STDERR_DELAY`] iterations (0: off).
+    pub form: f64,
+    pub max_iterations: usize,
+}
+
+/// The default: the residual of [`STDERR_CG_TOL`], or the variance settled to
+/// [`STDERR_FORM_TOL`], within 300 iterations.
+pub(crate) const STDERR_STOP: StderrStop = StderrStop {
+    residual: STDERR_CG_TOL,
+    form: STDERR_FORM_TOL,
+    max_iterations: 300,
+};
+
+/// The θ block of `H⁻¹` (internal coordinates) by nθ PCG solves `H x_k = e_k`, at the
+/// linearisation `mf` holds, run together (every product as wide as the solves still running:
+/// the passes read the stored linearisation once for all of them). Columns whose solve did not
+/// converge are NaN.
+///
+/// A column is converged when its residual is below `stop.residual`, or when its variance
+/// has settled: PCG from zero raises `e_kᵀx_j` monotonically to `e_kᵀH⁻¹e_k`, and what is left,
+/// `‖x − x_j‖²_H = Σ_{i≥j} α_i r_iᵀz_i`, is estimated by the last [`STDERR_DELAY`] terms
+/// (Strakoš and Tichý's delayed estimate, a lower bound); the solve stops when they add less
+/// than `stop.form` of the variance. The covariances follow: `|e_lᵀ(x − x_j)| ≤ √(var_l ‖x −
+/// x_j‖²_H)`, so a correlation is off by about `√stop.form`. Why: on the 32 × 32 cloth the
+/// residual criterion (1e-6) was never met in 300 iterations (`‖r‖` 0.02–0.3) while every
+/// variance had settled to 4 digits: the fit reported no standard error at all, for 49 s
+/// (BENCHMARKS.md, "Pattern moves").
+///
+/// The solves are deflated ([`crate::linalg::deflation`]) by `recycled`, the last window's
+/// last accepted steps: they line up with the poorly determined directions (the cloth's
+/// structural/bending valley), which carry most of each variance and which CG resolves last.
+/// Deflated CG keeps its residuals orthogonal to the steps and its iterates Galerkin on the
+/// steps and the Krylov space, so `e_kᵀx_j` still rises monotonically to the variance and the
+/// stopping rule holds. Measured on the 32 × 32 cloth: 253 → 178 iterations, 28 → 17 s, the
+/// same standard errors to 3 digits (BENCHMARKS.md, "Lean passes").
+pub(crate) fn theta_inverse(
+    mf: &Mf<'_, '_>,
+    stop: StderrStop,
+    recycled: &[Vec<f64>],
+    cgc: &mut CgCounts,
+    work: &mut Work,
+) -> DMatrix<f64> {
+    let nt = mf.fit.theta();
+    let len = mf.fit.len();
+    let mut out = DMatrix::from_element(nt, nt, f64::NAN);
+    if nt == 0 {
+        return out;
+    }
+    let cols = mf.theta_columns(work);
+    let scale = approx_diag(mf, &cols);
+    let held = vec![false; len];
+    // A tiny damping in the preconditioner only (the operator is H itself): hidden particles'
+    // empty local blocks stay invertible.
+    let pre = Pre::new(mf, &cols, &scale, &held, 1e-12);
+    let w = nt;
+    // Row-major len × w: column k solves H x = e_k.
+    let mut x = vec![0.0; len * w];
+    let mut r = vec![0.0; len * w];
+    let mut z = vec![0.0; len * w];
+    let mut p = vec![0.0; len * w];
+    let mut ap = vec![0.0; len * w];
+    // The running columns' directions and products, packed (len × running).
+    let (mut packed, mut packed_ap) = (vec![0.0; len * w], vec![0.0; len * w]);
+    let (mut rc, mut zc) = (vec![0.0; len], vec![0.0; len]);
+    for k in 0..nt {
+        r[k * w + k] = 1.0;
+    }
+    let precondition = |r: &[f64], z: &mut [f64], rc: &mut [f64], zc: &mut [f64]| {
+        for c in 0..w {
+            for a in 0..len {
+                rc[a] = r[a * w + c];
+            }
+            pre.apply(rc, zc);
+            for a in 0..len {
+                z[a * w + c] = zc[a];
+            }
+        }
+    };
+    let coldot = |u: &[f64], v: &[f64], c: usize| -> f64 {
+        (0..len).map(|a| u[a * w + c] * v[a * w + c]).sum()
+    };
+    let deflation = match recycled.is_empty() {
+        true => None,
+        false => Deflation::new(recycled, |v, k, out| mf.hv(v, k, out, work)),
+    };
+    let mut column = Vec::with_capacity(len);
+    if let Some(d) = &deflation {
+        d.start_columns(&mut x, &mut r, w, &mut column);
+    }
+    // The columns a deflated iteration projects (all of them at the start).
+    let mut still: Vec<usize> = (0..w).collect();
+    precondition(&r, &mut z, &mut rc, &mut zc);
+    if let Some(d) = &deflation {
+        d.project_columns(&mut z, w, &still, &mut column);
+    }
+    p.copy_from_slice(&z);
+    let mut rz: Vec<f64> = (0..w).map(|c| coldot(&r, &z, c)).collect();
+    let mut done = vec![false; w];
+    let mut failed = vec![false; w];
+    // Each column's variance x_k after every iteration (its settling test).
+    let mut variance: Vec<Vec<f64>> = vec![Vec::new(); w];
+    let mut its = 0;
+    while its < stop.max_iterations && done.iter().zip(&failed).any(|(d, f)| !d && !f) {
+        its += 1;
+        let running: Vec<usize> = (0..w).filter(|&c| !done[c] && !failed[c]).collect();
+        let nr = running.len();
+        for a in 0..len {
+            for (slot, &c) in running.iter().enumerate() {
+                packed[a * nr + slot] = p[a * w + c];
+            }
+        }
+        mf.hv(&packed[..len * nr], nr, &mut packed_ap[..len * nr], work);
+        for a in 0..len {
+            for (slot, &c) in running.iter().enumerate() {
+                ap[a * w + c] = packed_ap[a * nr + slot];
+            }
+        }
+        for &c in &running {
+            let pap = coldot(&p, &ap, c);
+            if pap.is_nan() || pap <= 0.0 {
+                failed[c] = true;
+                continue;
+            }
+            let alpha = rz[c] / pap;
+            for a in 0..len {
+                x[a * w + c] += alpha * p[a * w + c];
+                r[a * w + c] -= alpha * ap[a * w + c];
+            }
+            let history = &mut variance[c];
+            history.push(x[c * w + c]);
+            let settled = stop.form > 0.0
+                && history.len() > STDERR_DELAY
+                && history[history.len() - 1] - history[history.len() - 1 - STDERR_DELAY]
+                    <= stop.form * history[history.len() - 1];
+            // ‖e_k‖ = 1: the residual is already relative.
+            if settled || coldot(&r, &r, c).sqrt() <= stop.residual {
+                done[c] = true;
+            }
+        }
+        precondition(&r, &mut z, &mut rc, &mut zc);
+        if let Some(d) = &deflation {
+            still.clear();
+            still.extend(running.iter().filter(|&&c| !done[c] && !failed[c]));
+            d.project_columns(&mut z, w, &still, &mut column);
+        }
+        for &c in &running {
+            if done[c] || failed[c] {
+                continue;
+            }
+            let rz_new = coldot(&r, &z, c);
+            let beta = rz_new / rz[c];
+            rz[c] = rz_new;
+            for a in 0..len {
+                p[a * w + c] = z[a * w + c] + beta * p[a * w + c];
+            }
+        }
+    }
+    cgc.solves += nt;
+    cgc.iterations += its;
+    for c in 0..w {
+        if done[c] {
+            for a in 0..nt {
+                out[(a, c)] = x[a * w + c];
+            }
+        } else {
+            cgc.unconverged += 1;
+        }
+    }
+    out
+}
+
+/// The Cramér–Rao standard deviations (physical units) of the unknowns at `q` (the truth) for
+/// Gaussian noise `sigma` (m) per unit-weight coordinate over `window` frames: `σ² [H⁻¹]_θθ`
+/// by [`theta_inverse`] (its default stop: variances to ~0.1 %; NaN where a solve did not
+/// settle), the matrix-free counterpart of the dense bound of [`crate::output_error::cramer_rao_takes`].
+pub(crate) fn cramer_rao_sd(
+    fitter: &Fitter<'_>,
+    q: &[f64],
+    window: usize,
+    sigma: f64,
+) -> Result<Vec<f64>, crate::error::CostError> {
+    let mut mf = Mf::new(fitter);
+    let mut work = Work::default();
+    if !mf.linearise(q, window, &mut work) {
+        return Err(crate::error::CostError::mismatch(
+            "truth",
+            "the true model diverges",
+        ));
+    }
+    let inv = theta_inverse(&mf, STDERR_STOP, &[], &mut CgCounts::default(), &mut work);
+    let cov = theta_covariance(&inv, sigma * sigma, &fitter.chain(q));
+    Ok((0..fitter.theta()).map(|a| cov[(a, a)].sqrt()).collect())
+}
+
+/// `σ² [H⁻¹]_θθ` in physical units from the θ block `inv` of [`theta_inverse`] (internal
+/// coordinates, symmetrised; `chain` the internal-to-physical derivatives).
+pub(super) fn theta_covariance(inv: &DMatrix<f64>, sigma2: f64, chain: &[f64]) -> DMatrix<f64> {
+    let cov_q = DMatrix::from_fn(inv.nrows(), inv.ncols(), |a, b| {
+        let v = 0.5 * (inv[(a, b)] + inv[(b, a)]);
+        sigma2 * v
+    });
+    crate::output_error::uncertainty::physical(&cov_q, chain)
+}
+
+/// The estimate at the end of the matrix-free fit, its standard errors by CG solves of H.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn finish(
+    fitter: &Fitter<'_>,
+    q: Vec<f64>,
+    mut counts: Counts,
+    mut cgc: CgCounts,
+    end: StageEnd,
+    windows: Vec<usize>,
+    noise_level: Vec<f64>,
+    start: String,
+    last_steps: &[Vec<f64>],
+) -> Result<crate::output_error::Estimate, crate::error::CostError> {
+    let mut mf = Mf::new(fitter);
+    let mut work = Work::default();
+    let longest = windows.iter().copied().max().unwrap_or(0);
+    counts.evaluations += 1;
+    if !mf.linearise(&q, longest, &mut work) {
+        return Err(crate::error::CostError::mismatch(
+            "output-error",
+            "the model diverged at its estimate",
+        ));
+    }
+    let cost = mf.cost();
+    let observed: usize = fitter
+        .takes
+        .iter()
+        .map(crate::output_error::Take::observed)
+        .sum();
+    let variables = fitter.len();
+    let dof = observed.saturating_sub(variables).max(1);
+    let sigma2 = cost / dof as f64;
+    let dim = fitter.theta();
+    let solves_before = cgc.unconverged;
+    let inv = theta_inverse(&mf, STDERR_STOP, last_steps, &mut cgc, &mut work);
+    let covariance = theta_covariance(&inv, sigma2, &fitter.chain(&q));
+    let correlation = crate::output_error::uncertainty::correlation(&covariance);
+    let params = fitter.params(&q);
+    let (stderr, intervals) = crate::output_error::summary::spread(fitter, &params, &covariance);
+    let states = crate::output_error::summary::take_states(fitter, &q);
+    let missing = cgc.unconverged - solves_before;
+    let note = format!(
+        "{start}; matrix-free Gauss–Newton ({variables} variables > {DENSE_MAX_COLUMNS} dense \
+         columns): {} CG solves, {} iterations, {} short of tolerance; standard errors from \
+         {dim} CG solves of H{}; undetermined directions not computed",
+        cgc.solves,
+        cgc.iterations,
+        cgc.unconverged,
+        if missing > 0 {
+            format!(" ({missing} did not converge: those are NaN, not computed)")
+        } else {
+            String::new()
+        }
+    );
+    Ok(crate::output_error::Estimate {
+        genome: q[..dim].to_vec(),
+        params,
+        states,
+        cost,
+        sigma: sigma2.sqrt(),
+        noise_level,
+        observed,
+        variables,
+        stderr,
+        intervals,
+        covariance,
+        correlation,
+        undetermined: Vec::new(),
+        converged: end == StageEnd::Converged,
+        above_noise: false,
+        end: crate::output_error::summary::end_text(end),
+        iterations: counts.iterations,
+        evaluations: counts.evaluations,
+        windows,
+        start: note,
+        loss: crate::output_error::Loss::Squared,
+        downweighted: 0,
+    })
+}
