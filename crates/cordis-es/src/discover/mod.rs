@@ -267,6 +267,203 @@ fn bad(place: &str, msg: impl Into<String>) -> CostError {
 
 /// Discovers a spring network from a trajectory sampled every `dt` seconds (module docs).
 pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Discovery, CostError> {
+    check_options(traj, dt, opt)?;
+    let mut notes = Vec::new();
+    let mut data_warnings: Vec<String> = Vec::new();
+    let noise = match opt.noise_level {
+        Some(s) => s,
+        None => {
+            let (s, line) = estimate_noise_level(traj);
+            if s > 0.0 {
+                data_warnings.push(line);
+            } else {
+                notes.push(line);
+            }
+            s
+        }
+    };
+
+    // Stage 1: fixed particles and candidates.
+    let data = Positions::read(traj, dt, noise, &mut notes)?;
+    let cand = Candidates::find(&data, opt)?;
+
+    // Stages 2–3: local systems and selection.
+    let locals = select::build(
+        data.used(),
+        dt,
+        &data.free,
+        &cand.pairs,
+        &cand.group_kinds,
+        data.accel.as_ref(),
+    );
+    let mut sel = select_links(&data, &cand, &locals, opt, &mut notes)?;
+    let kept: Vec<usize> = (0..cand.pairs.len()).filter(|&p| sel.active[p]).collect();
+    if kept.is_empty() {
+        return Err(bad(
+            "trajectory",
+            "no candidate pair explains the motion (no link found)",
+        ));
+    }
+    // Where each kept pair sits in the locals.
+    let mut at: Vec<Vec<(usize, usize)>> = vec![Vec::new(); cand.pairs.len()];
+    for (l, loc) in locals.iter().enumerate() {
+        for (q, &p) in loc.pairs.iter().enumerate() {
+            if sel.active[p] {
+                at[p].push((l, q));
+            }
+        }
+    }
+
+    // Stage 4: masses.
+    let mut undetermined = cand.damper_ends_undetermined(&kept, &data.fixed);
+    let (masses, mass_groups) = discovered_masses(
+        &locals,
+        &sel,
+        &kept,
+        &cand.pairs,
+        &at,
+        &data.free,
+        opt,
+        &mut notes,
+    )?;
+    let estimates = link_estimates(&kept, &cand.group_kinds, &at, &locals, &sel, &masses);
+    let g = mean_gravity(&locals, &sel, &masses, opt.gravity);
+    // The local factors and fits are done with: freed before the refit, whose own memory
+    // would otherwise come on top (6,000 particles: 0.93 GB peak with them, 0.62 GB without).
+    drop(locals);
+    drop(at);
+    sel.fits = Vec::new();
+
+    // Stage 5: types, springs (and anchors) and dampers apart.
+    let types = Types::cluster(&kept, &cand.group_kinds, &estimates, opt.type_tolerance);
+
+    // Stage 6: the scene, refitted at catalogue level by the exact solver.
+    let scene = proposed_scene(&data, &masses, g, &types, &kept, &cand.pairs, opt)?;
+    let refit = refit(&scene, data.used(), dt, opt, types.count(), &mut notes)?;
+    undetermined.extend(undetermined_mass_groups(
+        &mass_groups,
+        &scene,
+        &refit.solver,
+        &data.free,
+    ));
+
+    let (links, near) = scored_links(&cand, &data.fixed, &sel, &kept, &estimates, &types.type_of);
+    notes.push(format!(
+        "{} candidate pairs within {:.6} m ({} candidate links), {} links kept after {} \
+         rounds, {} types",
+        cand.within.len(),
+        cand.radius,
+        cand.pairs.len(),
+        kept.len(),
+        sel.rounds,
+        types.count()
+    ));
+    Ok(Discovery {
+        scene: refit.scene,
+        links,
+        near_misses: near,
+        radius: cand.radius,
+        candidates: cand.within.len(),
+        candidate_pairs: (0..cand.pairs.len())
+            .filter(|&p| cand.group_kinds[p] == select::GroupKind::Spring)
+            .map(|p| cand.pairs[p])
+            .collect(),
+        rounds: sel.rounds,
+        cost: refit.cost,
+        rmse: refit.rmse,
+        solver: refit.solver,
+        undetermined,
+        data_warnings,
+        noise_level: noise,
+        estimated_noise: opt.noise_level.is_none(),
+        notes,
+    })
+}
+
+/// The masses: given, or from the kept links' estimates at their two ends
+/// ([`masses_from_ratios`]) scaled to the given total; with the groups of moving particles
+/// that no link between two moving particles joins when there are several (noted: their
+/// ratios come from the catalogue refit alone).
+#[allow(clippy::too_many_arguments)]
+fn discovered_masses(
+    locals: &[select::Local],
+    sel: &select::Selection,
+    kept: &[usize],
+    pairs: &[[usize; 2]],
+    at: &[Vec<(usize, usize)>],
+    free: &[bool],
+    opt: &DiscoverOptions,
+    notes: &mut Vec<String>,
+) -> Result<(Vec<f64>, Vec<Vec<usize>>), CostError> {
+    if let Some(ms) = &opt.masses {
+        return Ok((ms.clone(), Vec::new()));
+    }
+    let (m, groups) = masses_from_ratios(
+        locals,
+        &sel.fits,
+        kept,
+        pairs,
+        at,
+        free,
+        opt.total_mass.unwrap_or(1.0),
+    )?;
+    if groups.len() < 2 {
+        return Ok((m, Vec::new()));
+    }
+    notes.push(format!(
+        "the links split the moving particles into {} groups without a link between two \
+         moving particles: their mass ratios come only from the catalogue refit (shared types)",
+        groups.len()
+    ));
+    Ok((m, groups))
+}
+
+/// The report's links (each kept link with its estimates, score and threshold) and its
+/// near misses (the 20 candidates closest to being kept, highest score over threshold first).
+fn scored_links(
+    cand: &Candidates,
+    fixed: &[bool],
+    sel: &select::Selection,
+    kept: &[usize],
+    estimates: &[Estimate],
+    type_of: &[String],
+) -> (Vec<LinkScore>, Vec<NearMiss>) {
+    let links = kept
+        .iter()
+        .enumerate()
+        .map(|(e, &p)| {
+            let est = &estimates[e];
+            LinkScore {
+                particles: cand.pairs[p],
+                kind: cand.kind_name(p, fixed),
+                type_name: type_of[e].clone(),
+                stiffness: est.value[0],
+                rest_length: est.value[1],
+                damping: est.value[2],
+                stiffness_se: est.se[0],
+                rest_length_se: est.se[1],
+                damping_se: est.se[2],
+                score: sel.score[p],
+                threshold: sel.threshold[p],
+            }
+        })
+        .collect();
+    let mut near: Vec<NearMiss> = (0..cand.pairs.len())
+        .filter(|&p| !sel.active[p])
+        .map(|p| NearMiss {
+            particles: cand.pairs[p],
+            kind: cand.kind_name(p, fixed),
+            score: sel.score[p],
+            threshold: sel.threshold[p],
+        })
+        .collect();
+    near.sort_by(|a, b| (b.score / b.threshold).total_cmp(&(a.score / a.threshold)));
+    near.truncate(20);
+    (links, near)
+}
+
+/// Refuses a step, a take or an option discovery cannot use, naming it.
+fn check_options(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<(), CostError> {
     let (frames, n) = (traj.frames(), traj.particles());
     if !(dt > 0.0 && dt.is_finite()) {
         return Err(bad(
@@ -291,36 +488,7 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
     if n < 2 {
         return Err(bad("trajectory", "needs at least 2 particles"));
     }
-    match (&opt.total_mass, &opt.masses) {
-        (Some(m), _) if !(*m > 0.0 && m.is_finite()) => {
-            return Err(bad(
-                "total_mass",
-                format!("must be a positive number of kg, got {m}"),
-            ))
-        }
-        (_, Some(ms)) if ms.len() != n => {
-            return Err(bad(
-                "masses",
-                format!("has {} values, the trajectory {n} particles", ms.len()),
-            ))
-        }
-        (_, Some(ms)) => {
-            if let Some(k) = ms.iter().position(|m| !(*m > 0.0 && m.is_finite())) {
-                return Err(bad(
-                    &format!("masses[{k}]"),
-                    "must be a positive number of kg",
-                ));
-            }
-        }
-        (None, None) => {
-            return Err(bad(
-                "masses",
-                "masses and stiffnesses are only determined up to a common scale: give the total \
-                 mass of the moving particles or every mass",
-            ))
-        }
-        _ => {}
-    }
+    check_mass_options(opt, n)?;
     if let Some(s) = opt.noise_level {
         if !(s >= 0.0 && s.is_finite()) {
             return Err(bad("noise_level", "must be a non-negative number of m"));
@@ -350,174 +518,311 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
             ));
         }
     }
-    let scale = traj.scale().max(f64::MIN_POSITIVE);
-    let mut notes = Vec::new();
-    let mut data_warnings: Vec<String> = Vec::new();
-    let noise = match opt.noise_level {
-        Some(s) => s,
-        None => {
-            let (s, line) = estimate_noise_level(traj);
-            if s > 0.0 {
-                data_warnings.push(line);
-            } else {
-                notes.push(line);
-            }
-            s
-        }
-    };
-
-    // Stage 1: fixed particles and candidates.
-    let fixed = candidates::fixed_particles(traj, (3.0 * noise).max(1e-12 * scale));
-    let free: Vec<bool> = fixed.iter().map(|f| !f).collect();
-    if !free.iter().any(|&f| f) {
-        return Err(bad("trajectory", "no particle moves: nothing to discover"));
-    }
-    let raw = traj;
-    let smoothed;
-    let mut accel = None;
-    let mut smoothing = None;
-    let traj = match smooth::smooth(traj, &fixed, noise).filter(|_| noise > 0.0) {
-        Some((s, h)) => {
-            smoothing = Some(h);
-            accel = smooth::Accelerations::new(raw, h, dt);
-            notes.push(format!(
-                "noisy positions: cubic Savitzky-Golay filter over {} frames ({h} frames \
-                 dropped at each end; the scene's initial state at the first frame by its \
-                 end-point fit{})",
-                2 * h + 1,
-                if accel.is_some() {
-                    "; accelerations from the raw positions by a kernel uncorrelated with it"
-                } else {
-                    ""
-                }
-            ));
-            smoothed = s;
-            &smoothed
-        }
-        None => traj,
-    };
-    let x0: Vec<Vec3> = (0..n).map(|i| traj.pos(0, i)).collect();
-    let radius = match opt.max_range {
-        Some(r) if r > 0.0 && r.is_finite() => r,
-        Some(r) => {
+    if let Some(r) = opt.max_range {
+        if !(r > 0.0 && r.is_finite()) {
             return Err(bad(
                 "max_range",
                 format!("must be a positive number of m, got {r}"),
-            ))
+            ));
         }
-        None => candidates::default_radius(&x0)
-            .ok_or_else(|| bad("trajectory", "the particles of the first frame coincide"))?,
-    };
-    let place = if opt.max_range.is_some() {
-        "max_range"
-    } else {
-        "trajectory"
-    };
-    let row_frames = accel
-        .as_ref()
-        .map_or(traj.frames() - 2, |a: &smooth::Accelerations| {
-            a.last - a.first
-        });
-    let kinds = opt.kinds.unwrap_or(Kinds::ALL);
-    // Before storing any pair: each counted at the most columns a pair can take.
-    let widest = kinds
-        .groups(false, true)
-        .map(|g| g.width())
-        .sum::<usize>()
-        .max(kinds.groups(true, true).map(|g| g.width()).sum::<usize>());
-    let within = candidates::degrees_within(&x0, &fixed, radius);
-    let within_cols: Vec<usize> = within.iter().map(|d| d * widest).collect();
-    check_candidates(
-        row_frames,
-        accel.is_some(),
-        (&within, &within_cols),
-        &free,
-        radius,
-        place,
-    )?;
-    let cands = candidates::candidate_pairs(&x0, &fixed, radius, opt.max_range.is_none());
-    // A damper to a fixed particle pulls `−Z v_i` whichever fixed particle it ends on: one
-    // candidate per moving particle stands for them all (the nearest fixed one; several would
-    // make the fit rank-deficient), and when the particle had a choice its end is named as
-    // not determined.
-    let mut to_fixed: Vec<Option<(f64, usize)>> = vec![None; n];
-    let mut fixed_choices = vec![0usize; n];
-    for (k, ([i, j], d)) in cands.iter().enumerate() {
-        for (a, b) in [(*i, *j), (*j, *i)] {
-            if free[a] && fixed[b] {
-                fixed_choices[a] += 1;
-                if to_fixed[a].is_none_or(|(bd, _)| *d < bd) {
-                    to_fixed[a] = Some((*d, k));
+    }
+    Ok(())
+}
+
+/// The masses' scale: the total of the moving particles or every mass, positive.
+fn check_mass_options(opt: &DiscoverOptions, n: usize) -> Result<(), CostError> {
+    match (&opt.total_mass, &opt.masses) {
+        (Some(m), _) if !(*m > 0.0 && m.is_finite()) => Err(bad(
+            "total_mass",
+            format!("must be a positive number of kg, got {m}"),
+        )),
+        (_, Some(ms)) if ms.len() != n => Err(bad(
+            "masses",
+            format!("has {} values, the trajectory {n} particles", ms.len()),
+        )),
+        (_, Some(ms)) => match ms.iter().position(|m| !(*m > 0.0 && m.is_finite())) {
+            Some(k) => Err(bad(
+                &format!("masses[{k}]"),
+                "must be a positive number of kg",
+            )),
+            None => Ok(()),
+        },
+        (None, None) => Err(bad(
+            "masses",
+            "masses and stiffnesses are only determined up to a common scale: give the total \
+             mass of the moving particles or every mass",
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// The positions discovery reads: the raw take, which particles are fixed, and (on noisy data)
+/// the smoothed positions with the accelerations' kernel.
+struct Positions<'a> {
+    raw: &'a Trajectory,
+    dt: f64,
+    noise: f64,
+    fixed: Vec<bool>,
+    free: Vec<bool>,
+    /// The smoothing's half-width (frames dropped at each end) and the smoothed take.
+    smoothing: Option<(usize, Trajectory)>,
+    accel: Option<smooth::Accelerations>,
+}
+
+impl<'a> Positions<'a> {
+    /// Fixed particles (those that move less than 3σ), then the positions smoothed when noisy.
+    fn read(
+        raw: &'a Trajectory,
+        dt: f64,
+        noise: f64,
+        notes: &mut Vec<String>,
+    ) -> Result<Self, CostError> {
+        let scale = raw.scale().max(f64::MIN_POSITIVE);
+        let fixed = candidates::fixed_particles(raw, (3.0 * noise).max(1e-12 * scale));
+        let free: Vec<bool> = fixed.iter().map(|f| !f).collect();
+        if !free.iter().any(|&f| f) {
+            return Err(bad("trajectory", "no particle moves: nothing to discover"));
+        }
+        let mut accel = None;
+        let smoothing = match smooth::smooth(raw, &fixed, noise).filter(|_| noise > 0.0) {
+            Some((s, h)) => {
+                accel = smooth::Accelerations::new(raw, h, dt);
+                notes.push(format!(
+                    "noisy positions: cubic Savitzky-Golay filter over {} frames ({h} frames \
+                     dropped at each end; the scene's initial state at the first frame by its \
+                     end-point fit{})",
+                    2 * h + 1,
+                    if accel.is_some() {
+                        "; accelerations from the raw positions by a kernel uncorrelated with it"
+                    } else {
+                        ""
+                    }
+                ));
+                Some((h, s))
+            }
+            None => None,
+        };
+        Ok(Positions {
+            raw,
+            dt,
+            noise,
+            fixed,
+            free,
+            smoothing,
+            accel,
+        })
+    }
+
+    /// The positions the equations of motion are written on: smoothed when noisy, else raw.
+    fn used(&self) -> &Trajectory {
+        self.smoothing.as_ref().map_or(self.raw, |(_, s)| s)
+    }
+
+    /// Frames with an equation of motion.
+    fn row_frames(&self) -> usize {
+        self.accel
+            .as_ref()
+            .map_or(self.used().frames() - 2, |a| a.last - a.first)
+    }
+
+    /// The scene's initial position and velocity of particle `i`: a fixed particle at its
+    /// maximum-likelihood position under noise, the mean over every raw frame (frame 0 alone is
+    /// off by the full noise σ, biasing every link anchored on it); a moving one at the take's
+    /// first frame: smoothed by the end-point form of the smoothing when it ran (the smoothed
+    /// trajectory starts h frames in), else raw, its velocity from x(-1).
+    fn initial_state(&self, i: usize) -> (Vec3, Vec3) {
+        let (raw, traj) = (self.raw, self.used());
+        let smoothed_start = self
+            .smoothing
+            .as_ref()
+            .and_then(|(h, _)| smooth::start_positions(raw, i, *h));
+        let (pos, xm1) = match smoothed_start {
+            _ if self.fixed[i] => (fixed_position(raw, i), raw.pos(0, i)),
+            Some(start) => start,
+            // x(-1) by quadratic extrapolation of frames 0–2.
+            None => (
+                traj.pos(0, i),
+                traj.pos(0, i) * 3.0 - traj.pos(1, i) * 3.0 + traj.pos(2, i),
+            ),
+        };
+        (pos, (pos - xm1) / self.dt)
+    }
+}
+
+/// The candidate groups: per candidate pair, one per kind looked for (a pair may carry a
+/// spring and a damper).
+struct Candidates {
+    radius: f64,
+    /// The candidate pairs within the radius, with their distance.
+    within: Vec<([usize; 2], f64)>,
+    /// Per group: its pair and kind.
+    pairs: Vec<[usize; 2]>,
+    group_kinds: Vec<select::GroupKind>,
+    /// Per moving particle: how many fixed particles it could be damped to.
+    fixed_choices: Vec<usize>,
+}
+
+impl Candidates {
+    /// Pairs within the radius (given, or from the first frame's spacing), refused when a
+    /// particle would have more unknowns than equations or the local systems would not fit in
+    /// memory.
+    fn find(data: &Positions<'_>, opt: &DiscoverOptions) -> Result<Self, CostError> {
+        let traj = data.used();
+        let n = traj.particles();
+        let (fixed, free) = (&data.fixed, &data.free);
+        let x0: Vec<Vec3> = (0..n).map(|i| traj.pos(0, i)).collect();
+        let radius = match opt.max_range {
+            Some(r) => r,
+            None => candidates::default_radius(&x0)
+                .ok_or_else(|| bad("trajectory", "the particles of the first frame coincide"))?,
+        };
+        let place = if opt.max_range.is_some() {
+            "max_range"
+        } else {
+            "trajectory"
+        };
+        let row_frames = data.row_frames();
+        let kinds = opt.kinds.unwrap_or(Kinds::ALL);
+        // Before storing any pair: each counted at the most columns a pair can take.
+        let widest = kinds
+            .groups(false, true)
+            .map(|g| g.width())
+            .sum::<usize>()
+            .max(kinds.groups(true, true).map(|g| g.width()).sum::<usize>());
+        let degrees = candidates::degrees_within(&x0, fixed, radius);
+        let widest_cols: Vec<usize> = degrees.iter().map(|d| d * widest).collect();
+        let noisy = data.accel.is_some();
+        check_candidates(
+            row_frames,
+            noisy,
+            (&degrees, &widest_cols),
+            free,
+            radius,
+            place,
+        )?;
+        let within = candidates::candidate_pairs(&x0, fixed, radius, opt.max_range.is_none());
+        // A damper to a fixed particle pulls `−Z v_i` whichever fixed particle it ends on: one
+        // candidate per moving particle stands for them all (the nearest fixed one; several
+        // would make the fit rank-deficient), and when the particle had a choice its end is
+        // named as not determined.
+        let mut to_fixed: Vec<Option<(f64, usize)>> = vec![None; n];
+        let mut fixed_choices = vec![0usize; n];
+        for (k, ([i, j], d)) in within.iter().enumerate() {
+            for (a, b) in [(*i, *j), (*j, *i)] {
+                if free[a] && fixed[b] {
+                    fixed_choices[a] += 1;
+                    if to_fixed[a].is_none_or(|(bd, _)| *d < bd) {
+                        to_fixed[a] = Some((*d, k));
+                    }
                 }
             }
         }
-    }
-    // The candidate groups: per pair, one per kind looked for (a pair may carry a spring and a
-    // damper).
-    let mut pairs: Vec<[usize; 2]> = Vec::new();
-    let mut group_kinds: Vec<select::GroupKind> = Vec::new();
-    let (mut degree, mut cols) = (vec![0; n], vec![0; n]);
-    for (k, ([i, j], _)) in cands.iter().enumerate() {
-        degree[*i] += 1;
-        degree[*j] += 1;
-        let anchored = fixed[*i] || fixed[*j];
-        let moving = if fixed[*i] { *j } else { *i };
-        let damper = !anchored || to_fixed[moving].is_some_and(|(_, b)| b == k);
-        for g in kinds.groups(anchored, damper) {
-            pairs.push([*i, *j]);
-            group_kinds.push(g);
-            cols[*i] += g.width();
-            cols[*j] += g.width();
+        let mut pairs: Vec<[usize; 2]> = Vec::new();
+        let mut group_kinds: Vec<select::GroupKind> = Vec::new();
+        let (mut degree, mut cols) = (vec![0; n], vec![0; n]);
+        for (k, ([i, j], _)) in within.iter().enumerate() {
+            degree[*i] += 1;
+            degree[*j] += 1;
+            let anchored = fixed[*i] || fixed[*j];
+            let moving = if fixed[*i] { *j } else { *i };
+            let damper = !anchored || to_fixed[moving].is_some_and(|(_, b)| b == k);
+            for g in kinds.groups(anchored, damper) {
+                pairs.push([*i, *j]);
+                group_kinds.push(g);
+                cols[*i] += g.width();
+                cols[*j] += g.width();
+            }
         }
-    }
-    check_candidates(
-        row_frames,
-        accel.is_some(),
-        (&degree, &cols),
-        &free,
-        radius,
-        place,
-    )?;
-    let kind_name = |p: usize| match group_kinds[p] {
-        select::GroupKind::Damper => "damper",
-        select::GroupKind::Spring if pairs[p].iter().any(|&i| fixed[i]) => "anchor",
-        select::GroupKind::Spring => "spring",
-    };
-    if pairs.is_empty() {
-        return Err(bad(
-            "max_range",
-            format!("no pair of particles is closer than {radius} m"),
-        ));
+        check_candidates(row_frames, noisy, (&degree, &cols), free, radius, place)?;
+        if pairs.is_empty() {
+            return Err(bad(
+                "max_range",
+                format!("no pair of particles is closer than {radius} m"),
+            ));
+        }
+        Ok(Candidates {
+            radius,
+            within,
+            pairs,
+            group_kinds,
+            fixed_choices,
+        })
     }
 
-    // Stages 2–3: local systems and selection.
-    let locals = select::build(traj, dt, &free, &pairs, &group_kinds, accel.as_ref());
+    /// The kind of group `p`, as the report names it.
+    fn kind_name(&self, p: usize, fixed: &[bool]) -> &'static str {
+        match self.group_kinds[p] {
+            select::GroupKind::Damper => "damper",
+            select::GroupKind::Spring if self.pairs[p].iter().any(|&i| fixed[i]) => "anchor",
+            select::GroupKind::Spring => "spring",
+        }
+    }
+
+    /// The kept dampers to a fixed particle whose moving end had a choice of fixed ones.
+    fn damper_ends_undetermined(&self, kept: &[usize], fixed: &[bool]) -> Vec<Undetermined> {
+        let mut out = Vec::new();
+        for &p in kept {
+            let [i, j] = self.pairs[p];
+            let moving = if fixed[i] { j } else { i };
+            if self.group_kinds[p] == select::GroupKind::Damper
+                && (fixed[i] || fixed[j])
+                && self.fixed_choices[moving] > 1
+            {
+                out.push(Undetermined {
+                    what: "links".into(),
+                    particles: vec![moving],
+                    links: vec![self.pairs[p]],
+                    why: format!(
+                        "a damper from a moving particle to a fixed one pulls -Z v whichever \
+                         fixed particle it ends on: the end is one of the {} fixed candidates",
+                        self.fixed_choices[moving]
+                    ),
+                });
+            }
+        }
+        out
+    }
+}
+
+/// The backward selection over the candidate groups, with gravity given, shared by every
+/// particle (from a first selection without it), or per particle when not determined apart
+/// from the links (noted).
+fn select_links(
+    data: &Positions<'_>,
+    cand: &Candidates,
+    locals: &[select::Local],
+    opt: &DiscoverOptions,
+    notes: &mut Vec<String>,
+) -> Result<select::Selection, CostError> {
+    let (dt, noise) = (data.dt, data.noise);
     // The least residual variance per row: rounding, or the position noise carried into the
     // accelerations (σ² Σg²/dt⁴): a pair is then tested against the noise the data are
     // known to carry, not against a residual it may have fitted.
-    let noise_floor = accel
+    let noise_floor = data
+        .accel
         .as_ref()
         .map_or(0.0, |a| noise * noise * a.gain / dt.powi(4));
-    let floor = select::rounding_floor(traj, dt).max(noise_floor);
+    let floor = select::rounding_floor(data.used(), dt).max(noise_floor);
     let threshold = opt.threshold_scale;
-    let noise_model = accel.as_ref().map(|a| select::Noise {
+    let noise_model = data.accel.as_ref().map(|a| select::Noise {
         variance: noise * noise,
         dt,
         accel_autocorrelation: a.accel_autocorrelation.clone(),
         smooth_autocorrelation: a.smooth_autocorrelation.clone(),
     });
+    let num_pairs = cand.pairs.len();
     let gravity = match opt.gravity {
         Some(g) => Some(Vector3::from(g)),
         None => {
             let first = select::select(
-                &locals,
-                pairs.len(),
+                locals,
+                num_pairs,
                 threshold,
                 floor,
                 None,
                 noise_model.as_ref(),
             );
-            let g = select::shared_gravity(&locals, &first.fits, &first.active);
+            let g = select::shared_gravity(locals, &first.fits, &first.active);
             if g.is_none() {
                 notes.push(
                     "gravity is not determined apart from the links (every particle's links \
@@ -529,81 +834,29 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
             g
         }
     };
-    let mut sel = select::select(
-        &locals,
-        pairs.len(),
+    Ok(select::select(
+        locals,
+        num_pairs,
         threshold,
         floor,
         gravity,
         noise_model.as_ref(),
-    );
-    let kept: Vec<usize> = (0..pairs.len()).filter(|&p| sel.active[p]).collect();
-    if kept.is_empty() {
-        return Err(bad(
-            "trajectory",
-            "no candidate pair explains the motion (no link found)",
-        ));
-    }
-    // Where each kept pair sits in the locals.
-    let mut at: Vec<Vec<(usize, usize)>> = vec![Vec::new(); pairs.len()];
-    for (l, loc) in locals.iter().enumerate() {
-        for (q, &p) in loc.pairs.iter().enumerate() {
-            if sel.active[p] {
-                at[p].push((l, q));
-            }
-        }
-    }
+    ))
+}
 
-    // Stage 4: masses.
-    let mut undetermined = Vec::new();
-    for &p in &kept {
-        let [i, j] = pairs[p];
-        let moving = if fixed[i] { j } else { i };
-        if group_kinds[p] == select::GroupKind::Damper
-            && (fixed[i] || fixed[j])
-            && fixed_choices[moving] > 1
-        {
-            undetermined.push(Undetermined {
-                what: "links".into(),
-                particles: vec![moving],
-                links: vec![pairs[p]],
-                why: format!(
-                    "a damper from a moving particle to a fixed one pulls -Z v whichever fixed \
-                     particle it ends on: the end is one of the {} fixed candidates",
-                    fixed_choices[moving]
-                ),
-            });
-        }
-    }
-    let mut mass_groups: Vec<Vec<usize>> = Vec::new();
-    let masses = match &opt.masses {
-        Some(ms) => ms.clone(),
-        None => {
-            let (m, groups) = masses_from_ratios(
-                &locals,
-                &sel.fits,
-                &kept,
-                &pairs,
-                &at,
-                &free,
-                opt.total_mass.unwrap_or(1.0),
-            )?;
-            if groups.len() > 1 {
-                notes.push(format!(
-                    "the links split the moving particles into {} groups without a link \
-                     between two moving particles: their mass ratios come only from the \
-                     catalogue refit (shared types)",
-                    groups.len()
-                ));
-                mass_groups = groups;
-            }
-            m
-        }
-    };
-
-    // Per-link θ (inverse-variance mean of its ends' estimates) and gravity.
+/// Per kept link, θ from its ends' local estimates (each `β = θ/m` scaled by its particle's
+/// mass): their inverse-variance mean, with its standard error (a spring's rest length from
+/// `K l0` and `K`).
+fn link_estimates(
+    kept: &[usize],
+    group_kinds: &[select::GroupKind],
+    at: &[Vec<(usize, usize)>],
+    locals: &[select::Local],
+    sel: &select::Selection,
+    masses: &[f64],
+) -> Vec<Estimate> {
     let mut estimates = Vec::with_capacity(kept.len());
-    for &p in &kept {
+    for &p in kept {
         let width = group_kinds[p].width();
         let (mut sw, mut swx) = (Vector3::zeros(), Vector3::zeros());
         for &(l, q) in &at[p] {
@@ -638,6 +891,17 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
             ],
         });
     }
+    estimates
+}
+
+/// Gravity: the given one, or the particles' estimates weighted by `m²/σ²` (0 when smaller
+/// than its own noise).
+fn mean_gravity(
+    locals: &[select::Local],
+    sel: &select::Selection,
+    masses: &[f64],
+    given: Option<[f64; 3]>,
+) -> Vector3<f64> {
     let mut g = Vector3::zeros();
     let mut wsum = 0.0;
     for (l, f) in sel.fits.iter().enumerate() {
@@ -657,56 +921,78 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
     }
     // Given gravity is the scene's as given (the weighted mean of equal values drifted by an
     // ulp: -9.810000000000002).
-    if let Some(given) = opt.gravity {
+    if let Some(given) = given {
         g = Vector3::from(given);
     }
-    // The local factors and fits are done with: freed before the refit, whose own memory
-    // would otherwise come on top (6,000 particles: 0.93 GB peak with them, 0.62 GB without).
-    drop(locals);
-    drop(at);
-    sel.fits = Vec::new();
+    g
+}
 
-    // Stage 5: types, springs (and anchors) and dampers apart.
-    let is_damper = |e: usize| group_kinds[kept[e]] == select::GroupKind::Damper;
-    let springs: Vec<usize> = (0..kept.len()).filter(|&e| !is_damper(e)).collect();
-    let dampers: Vec<usize> = (0..kept.len()).filter(|&e| is_damper(e)).collect();
-    let pick = |of: &[usize]| of.iter().map(|&e| estimates[e]).collect::<Vec<_>>();
-    let cl = cluster::cluster(&pick(&springs), opt.type_tolerance);
-    let cl_damper = cluster::cluster(&pick(&dampers), opt.type_tolerance);
-    let mut type_of = vec![String::new(); kept.len()];
-    for (s, &e) in springs.iter().enumerate() {
-        type_of[e] = format!("t{}", cl.of[s]);
-    }
-    for (s, &e) in dampers.iter().enumerate() {
-        type_of[e] = format!("d{}", cl_damper.of[s]);
-    }
-    let z_floor = springs
-        .iter()
-        .map(|&e| estimates[e].value[2].abs())
-        .sum::<f64>()
-        / springs.len().max(1) as f64;
+/// The kept links' types: springs (and anchors) and dampers clustered apart.
+struct Types {
+    springs: cluster::Clusters,
+    dampers: cluster::Clusters,
+    /// Per kept link, its type's name (`t…` or `d…`).
+    type_of: Vec<String>,
+    /// The springs' mean |Z|: a damping below its noise and a millionth of it is 0.
+    z_floor: f64,
+}
 
-    // Stage 6: the scene, refitted at catalogue level by the exact solver.
-    let mut scene = Scene::new(dt);
+impl Types {
+    fn cluster(
+        kept: &[usize],
+        group_kinds: &[select::GroupKind],
+        estimates: &[Estimate],
+        tolerance: f64,
+    ) -> Self {
+        let is_damper = |e: usize| group_kinds[kept[e]] == select::GroupKind::Damper;
+        let springs: Vec<usize> = (0..kept.len()).filter(|&e| !is_damper(e)).collect();
+        let dampers: Vec<usize> = (0..kept.len()).filter(|&e| is_damper(e)).collect();
+        let pick = |of: &[usize]| of.iter().map(|&e| estimates[e]).collect::<Vec<_>>();
+        let cl = cluster::cluster(&pick(&springs), tolerance);
+        let cl_damper = cluster::cluster(&pick(&dampers), tolerance);
+        let mut type_of = vec![String::new(); kept.len()];
+        for (s, &e) in springs.iter().enumerate() {
+            type_of[e] = format!("t{}", cl.of[s]);
+        }
+        for (s, &e) in dampers.iter().enumerate() {
+            type_of[e] = format!("d{}", cl_damper.of[s]);
+        }
+        let z_floor = springs
+            .iter()
+            .map(|&e| estimates[e].value[2].abs())
+            .sum::<f64>()
+            / springs.len().max(1) as f64;
+        Types {
+            springs: cl,
+            dampers: cl_damper,
+            type_of,
+            z_floor,
+        }
+    }
+
+    fn count(&self) -> usize {
+        self.springs.centres.len() + self.dampers.centres.len()
+    }
+}
+
+/// The proposed scene: every particle at its initial state (masses unknown within a decade
+/// unless given), one link type per cluster (boxes a decade either side of its centre), the
+/// kept links.
+fn proposed_scene(
+    data: &Positions<'_>,
+    masses: &[f64],
+    g: Vector3<f64>,
+    types: &Types,
+    kept: &[usize],
+    pairs: &[[usize; 2]],
+    opt: &DiscoverOptions,
+) -> Result<Scene, CostError> {
+    let mut scene = Scene::new(data.dt);
     scene.gravity = [g.x, g.y, g.z];
-    for i in 0..n {
-        // A fixed particle at its maximum-likelihood position under noise, the mean over every
-        // raw frame (frame 0 alone is off by the full noise σ, biasing every link anchored
-        // on it); a moving one at the take's first frame: smoothed by the end-point form of
-        // the smoothing when it ran (the smoothed trajectory starts h frames in), else raw.
-        let smoothed_start = smoothing.and_then(|h| smooth::start_positions(raw, i, h));
-        let (pos, xm1) = match smoothed_start {
-            _ if fixed[i] => (fixed_position(raw, i), raw.pos(0, i)),
-            Some(start) => start,
-            // x(-1) by quadratic extrapolation of frames 0–2.
-            None => (
-                traj.pos(0, i),
-                traj.pos(0, i) * 3.0 - traj.pos(1, i) * 3.0 + traj.pos(2, i),
-            ),
-        };
-        let vel = (pos - xm1) / dt;
-        let m = masses[i];
-        let mass = if fixed[i] || opt.masses.is_some() {
+    for (i, &m) in masses.iter().enumerate() {
+        let (pos, vel) = data.initial_state(i);
+        let fixed = data.fixed[i];
+        let mass = if fixed || opt.masses.is_some() {
             Param::Known(m)
         } else {
             Param::Unknown(Bounds {
@@ -717,7 +1003,7 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
         };
         let mut particle = Particle::new(m, [pos.x, pos.y, pos.z]);
         particle.mass = mass;
-        if fixed[i] {
+        if fixed {
             particle = particle.fixed();
         } else {
             particle = particle.with_vel([vel.x, vel.y, vel.z]);
@@ -727,7 +1013,8 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
     // Boxes a decade either side; a non-positive estimate (noise) gets the box of the
     // catalogue's typical value, which the exact solver may still clamp onto.
     let typical = |c: usize| {
-        let v: Vec<f64> = cl
+        let v: Vec<f64> = types
+            .springs
             .centres
             .iter()
             .map(|e| e.value[c])
@@ -752,9 +1039,9 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
             init: Some(v),
         })
     };
-    for (t, c) in cl.centres.iter().enumerate() {
+    for (t, c) in types.springs.centres.iter().enumerate() {
         let [k, l0, z] = c.value;
-        let z_zero = z.abs() <= cluster::SIGMAS * c.se[2] + 1e-6 * z_floor;
+        let z_zero = z.abs() <= cluster::SIGMAS * c.se[2] + 1e-6 * types.z_floor;
         scene.add_type(
             LinkType::new(format!("t{t}"), LinkKind::Spring)
                 .with("stiffness", width(k, k_typ))
@@ -769,33 +1056,54 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
                 ),
         );
     }
-    for (t, c) in cl_damper.centres.iter().enumerate() {
+    for (t, c) in types.dampers.centres.iter().enumerate() {
         scene.add_type(
             LinkType::new(format!("d{t}"), LinkKind::Damper)
                 .with("damping", width(c.value[2], z_typ)),
         );
     }
     for (e, &p) in kept.iter().enumerate() {
-        scene.add_link(&type_of[e], &pairs[p]);
+        scene.add_link(&types.type_of[e], &pairs[p]);
     }
     scene.validate()?;
+    Ok(scene)
+}
+
+/// The catalogue refit's answer.
+struct Refit {
+    scene: Scene,
+    cost: f64,
+    rmse: f64,
+    solver: ExactReport,
+}
+
+/// The proposed scene refitted at catalogue level by the exact solver on the short cost (the
+/// masses scaled to the given total); when it cannot run, the per-link estimates are kept
+/// (noted).
+fn refit(
+    scene: &Scene,
+    traj: &Trajectory,
+    dt: f64,
+    opt: &DiscoverOptions,
+    types: usize,
+    notes: &mut Vec<String>,
+) -> Result<Refit, CostError> {
     let traj_dt = traj.clone().with_dt(dt);
-    let mut problem = Problem::new(&scene, &traj_dt, CostKind::Short)?;
+    let mut problem = Problem::new(scene, &traj_dt, CostKind::Short)?;
     if opt.masses.is_none() {
         problem = problem.with_total_mass(opt.total_mass.unwrap_or(1.0))?;
     }
-    let refit = if cl.centres.len() + cl_damper.centres.len() <= MAX_REFIT_TYPES {
+    let refit = if types <= MAX_REFIT_TYPES {
         least_squares::solve(&problem)
     } else {
         Err(format!(
-            "{} types: above {MAX_REFIT_TYPES}, the links are unlikely to be springs of a few \
-             types (other link kinds?)",
-            cl.centres.len() + cl_damper.centres.len()
+            "{types} types: above {MAX_REFIT_TYPES}, the links are unlikely to be springs of a \
+             few types (other link kinds?)"
         ))
     };
     let (final_scene, cost, solver) = match refit {
         Ok(sol) => (
-            problem.space.scene_with(&scene, &sol.genome),
+            problem.space.scene_with(scene, &sol.genome),
             sol.cost,
             sol.report,
         ),
@@ -808,82 +1116,20 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
             s.set_param_values(&p);
             let genome = problem.space.genome_of(&p);
             let mut sc = problem.scratch();
-            let mut local = vec![0.0; n];
+            let mut local = vec![0.0; scene.num_particles()];
             let c = problem.evaluate(&genome, &mut sc, &mut local);
             (
-                problem.space.scene_with(&scene, &genome),
+                problem.space.scene_with(scene, &genome),
                 c,
                 ExactReport::default(),
             )
         }
     };
-    let rmse = problem.rmse(cost);
-    undetermined.extend(undetermined_mass_groups(
-        &mass_groups,
-        &scene,
-        &solver,
-        &free,
-    ));
-
-    let links = kept
-        .iter()
-        .enumerate()
-        .map(|(e, &p)| {
-            let est = &estimates[e];
-            LinkScore {
-                particles: pairs[p],
-                kind: kind_name(p),
-                type_name: type_of[e].clone(),
-                stiffness: est.value[0],
-                rest_length: est.value[1],
-                damping: est.value[2],
-                stiffness_se: est.se[0],
-                rest_length_se: est.se[1],
-                damping_se: est.se[2],
-                score: sel.score[p],
-                threshold: sel.threshold[p],
-            }
-        })
-        .collect();
-    let mut near: Vec<NearMiss> = (0..pairs.len())
-        .filter(|&p| !sel.active[p])
-        .map(|p| NearMiss {
-            particles: pairs[p],
-            kind: kind_name(p),
-            score: sel.score[p],
-            threshold: sel.threshold[p],
-        })
-        .collect();
-    near.sort_by(|a, b| (b.score / b.threshold).total_cmp(&(a.score / a.threshold)));
-    near.truncate(20);
-    notes.push(format!(
-        "{} candidate pairs within {radius:.6} m ({} candidate links), {} links kept after {} \
-         rounds, {} types",
-        cands.len(),
-        pairs.len(),
-        kept.len(),
-        sel.rounds,
-        cl.centres.len() + cl_damper.centres.len()
-    ));
-    Ok(Discovery {
+    Ok(Refit {
         scene: final_scene,
-        links,
-        near_misses: near,
-        radius,
-        candidates: cands.len(),
-        candidate_pairs: (0..pairs.len())
-            .filter(|&p| group_kinds[p] == select::GroupKind::Spring)
-            .map(|p| pairs[p])
-            .collect(),
-        rounds: sel.rounds,
         cost,
-        rmse,
+        rmse: problem.rmse(cost),
         solver,
-        undetermined,
-        data_warnings,
-        noise_level: noise,
-        estimated_noise: opt.noise_level.is_none(),
-        notes,
     })
 }
 
