@@ -1,5 +1,6 @@
 //! The matrix-free output-error estimate on Provot's cloth (issue 16's large-scene benchmark):
-//! `cargo run --release -p cordis-es --example oe_cloth -- [side] [frames] [seeds] [rel_noise] [damping] [limit]`.
+//! `cargo run --release -p cordis-es --example oe_cloth -- [side] [frames] [seeds] [rel_noise] [damping] [limit]`
+//! (`seeds`: a count n for seeds 0..n, or a range `a..b`).
 //!
 //! `limit` is `without` (default: the cloth without its Provot limit `max_elongation`, the
 //! benchmark as first measured) or `with` (the example's own cloth, τc = 0.1 on the structural
@@ -27,7 +28,12 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let side: usize = args.get(1).map_or(32, |s| s.parse().unwrap());
     let frames: usize = args.get(2).map_or(100, |s| s.parse().unwrap());
-    let seeds: u64 = args.get(3).map_or(3, |s| s.parse().unwrap());
+    // `seeds`: a count n (seeds 0..n) or a range `a..b`.
+    let seeds: std::ops::Range<u64> = match args.get(3).map(|s| s.split_once("..")) {
+        None => 0..3,
+        Some(Some((a, b))) => a.parse().unwrap()..b.parse().unwrap(),
+        Some(None) => 0..args[3].parse().unwrap(),
+    };
     let rel: f64 = args.get(4).map_or(1e-3, |s| s.parse().unwrap());
     let damping_known = match args.get(5).map_or("unknown", String::as_str) {
         "known" => true,
@@ -48,7 +54,7 @@ fn main() {
     let traj = truth.simulate(frames).unwrap();
     let sigma = rel * traj.scale();
     let tv = truth.param_values();
-    for seed in 0..seeds {
+    for seed in seeds {
         let noisy = add_noise(&traj, sigma, seed);
         let mut guess = with_unknown_boxes(&truth, 25.0, seed);
         if damping_known {

@@ -32,7 +32,9 @@ pub(crate) struct CgWork {
 }
 
 /// Solves `(H + λ diag(scale)) x = rhs` on the coordinates not held (held ones stay 0) by
-/// PCG; returns the iterations and whether the relative residual reached `set.tol`.
+/// PCG; returns the iterations and whether the relative residual reached `set.tol`. `watch`
+/// sees every iterate and stops the solve by returning true (the residual then counts as not
+/// reached).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn pcg(
     mf: &Mf<'_, '_>,
@@ -46,6 +48,7 @@ pub(crate) fn pcg(
     deflation: Option<&Deflation>,
     cg: &mut CgWork,
     work: &mut Work,
+    watch: &mut dyn FnMut(&[f64]) -> bool,
 ) -> (usize, bool) {
     let len = rhs.len();
     let CgWork { r, z, p, ap } = cg;
@@ -86,6 +89,9 @@ pub(crate) fn pcg(
         }
         if dot(r, r).sqrt() <= set.tol * bnorm {
             return (it, true);
+        }
+        if watch(x) {
+            return (it, false);
         }
         pre.apply(r, z);
         let rz_new = dot(r, z);
