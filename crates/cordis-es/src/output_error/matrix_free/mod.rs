@@ -92,7 +92,8 @@
 //!   the last window, [`WINDOW_CHI2`] = 1 (or [`WINDOW_FTOL`], or [`WINDOW_ITERATIONS`]) on the
 //!   others, whose only job is to bring the next into the basin. On the last window the
 //!   criterion is confirmed by the undamped Gauss–Newton decrement `gᵀH⁻¹g ≤ χ² σ̂²` (one CG
-//!   solve at λ ≈ 0): a damped or truncated step gains little along a poorly determined
+//!   solve at λ ≈ 0, stopped once its monotone model decrease exceeds the criterion or has
+//!   settled below it): a damped or truncated step gains little along a poorly determined
 //!   parameter however far the optimum is. The dense criteria
 //!   (ftol 1e-10) spend most iterations creeping along parameters held at their bounds;
 //! - the preconditioner's θ columns refreshed every [`COLUMNS_EVERY`] accepted steps.
