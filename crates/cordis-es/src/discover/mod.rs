@@ -351,7 +351,7 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
     notes.push(format!(
         "{} candidate pairs within {:.6} m ({} candidate links), {} links kept after {} \
          rounds, {} types",
-        cand.within.len(),
+        cand.within,
         cand.radius,
         cand.pairs.len(),
         kept.len(),
@@ -363,7 +363,7 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
         links,
         near_misses: near,
         radius: cand.radius,
-        candidates: cand.within.len(),
+        candidates: cand.within,
         candidate_pairs: (0..cand.pairs.len())
             .filter(|&p| cand.group_kinds[p] == select::GroupKind::Spring)
             .map(|p| cand.pairs[p])
@@ -653,8 +653,8 @@ impl<'a> Positions<'a> {
 /// spring and a damper).
 struct Candidates {
     radius: f64,
-    /// The candidate pairs within the radius, with their distance.
-    within: Vec<([usize; 2], f64)>,
+    /// How many candidate pairs lie within the radius.
+    within: usize,
     /// Per group: its pair and kind.
     pairs: Vec<[usize; 2]>,
     group_kinds: Vec<select::GroupKind>,
@@ -742,7 +742,7 @@ impl Candidates {
         }
         Ok(Candidates {
             radius,
-            within,
+            within: within.len(),
             pairs,
             group_kinds,
             fixed_choices,

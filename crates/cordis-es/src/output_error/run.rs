@@ -105,8 +105,8 @@ pub struct Progress {
     /// Reweighting rounds of the current window.
     reweights: usize,
     /// The last accepted steps of the last stage of a matrix-free fit: they deflate its
-    /// standard-error solves ([`matrix_free::standard_errors::theta_inverse`]). Empty on the dense path and in
-    /// checkpoints from before.
+    /// standard-error solves ([`matrix_free::standard_errors::theta_inverse`]). Empty on the
+    /// dense path and in checkpoints from before.
     #[serde(with = "nested_bits", default)]
     last_steps: Vec<Vec<f64>>,
 }

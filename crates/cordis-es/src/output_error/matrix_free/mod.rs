@@ -102,9 +102,10 @@
 //!
 //! Standard errors for θ: the θ block of `H⁻¹` by nθ PCG solves `H x_k = e_k` (run together,
 //! as wide as the solves still running, deflated by the last window's last accepted steps),
-//! scaled by `σ̂²`, each stopped when its variance has settled ([`standard_errors::theta_inverse`]). A solve that does not converge leaves its unknown's standard
-//! error NaN (not computed), never a guessed number. The undetermined directions of the full system
-//! are not computed on this path (no eigendecomposition of a 6,000-wide H).
+//! scaled by `σ̂²`, each stopped when its variance has settled
+//! ([`standard_errors::theta_inverse`]). A solve that does not converge leaves its unknown's
+//! standard error NaN (not computed), never a guessed number. The undetermined directions of
+//! the full system are not computed on this path (no eigendecomposition of a 6,000-wide H).
 
 // Index loops mirror the row-major `(3i + c)·w + col` layout the passes address.
 #![allow(clippy::needless_range_loop)]

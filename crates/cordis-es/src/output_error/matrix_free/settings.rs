@@ -35,8 +35,8 @@ pub const FINAL_CHI2: f64 = 1e-2;
 pub const STDERR_CG_TOL: f64 = 1e-6;
 
 /// Or a standard-error solve stops when its variance grew by less than this fraction over the
-/// last [`STDERR_DELAY`] iterations ([`super::standard_errors::theta_inverse`]): standard errors to ~0.05 %,
-/// correlations to ~3 %.
+/// last [`STDERR_DELAY`] iterations ([`super::standard_errors::theta_inverse`]): standard
+/// errors to ~0.05 %, correlations to ~3 %.
 pub const STDERR_FORM_TOL: f64 = 1e-3;
 
 /// The iterations over which that growth is measured (Strakoš and Tichý's delay).
@@ -61,5 +61,6 @@ pub const COLUMNS_EVERY: usize = 3;
 /// Accepted steps of a window kept to deflate the next solves ([`crate::linalg::deflation`]).
 pub const DEFLATE_STEPS: usize = 4;
 
-/// The longest pattern move tried, in multiples of the last two steps' sum ([`super::stage::pattern_move`]).
+/// The longest pattern move tried, in multiples of the last two steps' sum
+/// ([`super::stage::pattern_move`]).
 pub const PATTERN_MAX: f64 = 64.0;

@@ -139,6 +139,8 @@ pub(super) struct Lm {
     sens: crate::output_error::tangent::Sens,
     g0norm: Option<f64>,
     accepted: usize,
+    /// Observed coordinates in the window less the variables: σ̂² = cost / dof.
+    dof: f64,
 }
 
 impl Lm {
@@ -163,7 +165,19 @@ impl Lm {
             sens: Default::default(),
             g0norm: None,
             accepted: 0,
+            dof: mf
+                .lins
+                .iter()
+                .map(|l| l.observed)
+                .sum::<usize>()
+                .saturating_sub(len)
+                .max(1) as f64,
         }
+    }
+
+    /// The noise variance the cost implies, σ̂² (the window's observations are fixed).
+    fn sigma2(&self) -> f64 {
+        self.cost / self.dof
     }
 
     /// A rejected step: λ grows (Nielsen); true when it has grown past any use.
@@ -351,9 +365,7 @@ impl Lm {
         work: &mut Work,
     ) -> bool {
         let fit = mf.fit;
-        let observed: usize = mf.lins.iter().map(|l| l.observed).sum();
-        let s2 = self.cost / observed.saturating_sub(fit.len()).max(1) as f64;
-        let limit = chi2 * s2;
+        let limit = chi2 * self.sigma2();
         let held = fit.held(q, &DVector::from_column_slice(&self.g));
         let pre = Pre::new(mf, &self.cols, &self.scale, &held, NEWTON_LAMBDA);
         let rhs: Vec<f64> = self.g.iter().map(|x| -x).collect();
@@ -500,8 +512,7 @@ pub(crate) fn lm_stage(
             || (reduction <= rule.window_ftol * cost && predicted <= rule.window_ftol * cost);
         // The statistical criterion (module docs): a step that lowers the cost by less than
         // `chi2` σ̂² moves the estimate by less than √chi2 standard errors.
-        let observed: usize = mf.lins.iter().map(|l| l.observed).sum();
-        let s2 = cost / observed.saturating_sub(len).max(1) as f64;
+        let s2 = lm.sigma2();
         let chi2_gain = reduction <= rule.chi2 * s2 && predicted <= rule.chi2 * s2;
         q.copy_from_slice(&trial);
         remember(recent, &step);
