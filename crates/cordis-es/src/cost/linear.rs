@@ -85,237 +85,24 @@ impl LinearShortCost {
     }
 
     pub(crate) fn build(scene: &Scene, plan: &Plan, obs: &Observed) -> Option<Self> {
-        // Several worlds: per-particle dt and gravity on the main world only; the generic path
-        // handles them (such scenes couple worlds through nonlinear couplings anyway).
-        // A quadratic viscosity's θ (Z₂) has no entry here: the generic design takes it.
-        let quadratic = scene
-            .types
-            .iter()
-            .any(|t| t.optional_param(OptionalParam::DampingQuadratic).is_some());
-        if quadratic
-            || !plan.provot.links.is_empty()
-            || !plan.nonlinear_drags.particles.is_empty()
-            || plan.worlds.is_some()
-        {
+        if !linear_in_parameters(scene, plan) {
             return None;
         }
-        let layout = &plan.layout;
-        let mut pins = Vec::new();
-        for i in (0..plan.n).filter(|&i| plan.free[i]) {
-            match scene.particles[i].mass {
-                Param::Known(m) => pins.push((layout.mass_offset + i, m)),
-                Param::Unknown(_) => return None,
-            }
-        }
-        for (c, pairs) in plan.conditionals.iter().zip(&obs.pairs) {
-            pins.push((c.param + 3, pairs.as_ref()?.range));
-        }
-
-        // θ layout, and where each type's θ starts (indexed by the type's parameter offset).
-        let mut entries = Vec::new();
-        let mut sources = Vec::new();
-        let mut theta_at = vec![usize::MAX; layout.len];
-        for (t, ty) in scene.types.iter().enumerate() {
-            let o = layout.type_offsets[t];
-            let ti = t;
-            let these: &[(ThetaEntry, (usize, Option<usize>))] = match ty.kind {
-                LinkKind::Spring | LinkKind::Anchor | LinkKind::Conditional => &[
-                    (ThetaEntry::Stiffness { type_index: ti }, (o, None)),
-                    (
-                        ThetaEntry::StiffnessRestLength { type_index: ti },
-                        (o, Some(o + 1)),
-                    ),
-                    (ThetaEntry::Damping { type_index: ti }, (o + 2, None)),
-                ],
-                LinkKind::Damper | LinkKind::Drag => {
-                    &[(ThetaEntry::Damping { type_index: ti }, (o, None))]
-                }
-                LinkKind::Angle => &[
-                    (ThetaEntry::Stiffness { type_index: ti }, (o, None)),
-                    (
-                        ThetaEntry::StiffnessRestCos { type_index: ti },
-                        (o, Some(o + 1)),
-                    ),
-                ],
-                LinkKind::NonlinearDrag => &[], // no links (checked above): no effect
-                // A neuron's tanh makes the muscle force nonlinear in its weights.
-                LinkKind::Muscle => return None,
-                // A tendon's hidden state depends on the parameters through its feedback.
-                LinkKind::Tgr => return None,
-                _ => return None,
-            };
-            theta_at[o] = entries.len();
-            for &(e, src) in these {
-                entries.push(e);
-                sources.push(src);
-            }
-        }
-        let gravity_col = plan.has_gravity.then(|| {
-            let at = entries.len();
-            for axis in 0..3 {
-                entries.push(ThetaEntry::Gravity { axis });
-                sources.push((layout.gravity_offset + axis, None));
-            }
-            at
-        });
-        let dim = entries.len();
-
-        // Which θ entries touch each free particle.
-        let width = |t0: usize| {
-            (t0 + 1..=dim)
-                .find(|&k| k == dim || !same_type(&entries[t0], &entries[k]))
-                .unwrap_or(dim)
-                - t0
-        };
-        let mut touch: Vec<Vec<usize>> = vec![Vec::new(); plan.n];
-        let mut mark = |i: usize, param: usize| {
-            let t0 = theta_at[param];
-            touch[i].extend(t0..t0 + width(t0));
-        };
-        for_each_item(plan, |param, ps| ps.iter().for_each(|&i| mark(i, param)));
-        for c in &plan.conditionals {
-            for &i in c.a.iter().chain(c.b.iter().flatten()) {
-                mark(i as usize, c.param);
-            }
-        }
-        let mut particles = Vec::new();
-        let mut cols_start = vec![0];
-        let mut cols = Vec::new();
-        let mut form_of = vec![usize::MAX; plan.n];
-        for i in (0..plan.n).filter(|&i| plan.free[i]) {
-            let mut c = std::mem::take(&mut touch[i]);
-            if let Some(g) = gravity_col {
-                c.extend(g..g + 3);
-            }
-            c.sort_unstable();
-            c.dedup();
-            form_of[i] = particles.len();
-            particles.push(i);
-            cols.extend(c);
-            cols_start.push(cols.len());
-        }
-        let nl = particles.len();
-        let local_dim = |l: usize| cols_start[l + 1] - cols_start[l];
-        let mut forms_start = vec![0];
-        let mut row_start = vec![0];
-        for l in 0..nl {
-            forms_start.push(forms_start[l] + sqrt_form::packed_len(local_dim(l)));
-            row_start.push(row_start[l] + 3 * (local_dim(l) + 1));
-        }
-        let mut forms = vec![0.0; forms_start[nl]];
-
-        // Accumulate every frame's rows [φ | b] and rotate them into the local factors.
-        let dt2 = plan.dt * plan.dt;
-        let coef: Vec<f64> = (0..plan.n)
-            .map(|i| match scene.particles[i].mass {
-                Param::Known(m) if plan.free[i] => dt2 / m,
-                _ => 0.0,
-            })
-            .collect();
-        let mut acc = Acc {
-            form_of: &form_of,
-            cols_start: &cols_start,
-            cols: &cols,
-            row_start: &row_start,
-            coef: &coef,
-            phi: vec![0.0; row_start[nl]],
-        };
-        for t in 2..obs.frames {
-            acc.phi.fill(0.0);
-            let (x, v) = (obs.frame(t - 1), obs.velocity(t - 1));
-            let th = |param: usize| theta_at[param];
-            for r in &plan.springs.runs {
-                for &[i, j] in &plan.springs.pairs[r.start..r.end] {
-                    acc.spring(th(r.param), i as usize, j as usize, x, v);
-                }
-            }
-            for r in &plan.dampers.runs {
-                for &[i, j] in &plan.dampers.pairs[r.start..r.end] {
-                    let (i, j) = (i as usize, j as usize);
-                    let w = v[j] - v[i];
-                    acc.add(i, th(r.param), 0, w);
-                    acc.add(j, th(r.param), 0, -w);
-                }
-            }
-            let a = &plan.anchors;
-            for r in &a.runs {
-                for (&i, point) in a.particles[r.start..r.end]
-                    .iter()
-                    .zip(&a.points[r.start..r.end])
-                {
-                    let i = i as usize;
-                    let (u, len) = unit_and_length(&(point - x[i]));
-                    let s = (-v[i]).dot(&u);
-                    let t0 = th(r.param);
-                    acc.add(i, t0, 0, u * len);
-                    acc.add(i, t0, 1, -u);
-                    acc.add(i, t0, 2, u * s);
-                }
-            }
-            for r in &plan.drags.runs {
-                for &i in &plan.drags.particles[r.start..r.end] {
-                    acc.add(i as usize, th(r.param), 0, -v[i as usize]);
-                }
-            }
-            for r in &plan.angles.runs {
-                for &[i, j, k] in &plan.angles.triples[r.start..r.end] {
-                    acc.angle(th(r.param), [i as usize, j as usize, k as usize], x);
-                }
-            }
-            for (c, pairs) in plan.conditionals.iter().zip(&obs.pairs) {
-                let pairs = pairs.as_ref()?;
-                for &[i, j] in pairs.at(t - 1) {
-                    acc.spring(th(c.param), i as usize, j as usize, x, v);
-                }
-            }
-            let (x1, x2, x0) = (obs.frame(t - 1), obs.frame(t - 2), obs.frame(t));
-            for (l, &i) in particles.iter().enumerate() {
-                let p_l = local_dim(l);
-                let stride = p_l + 1;
-                let base = row_start[l];
-                let b = (x1[i] * 2.0 - x2[i]) - x0[i];
-                let gc = gravity_col.map(|g| acc.col(l, g));
-                for r in 0..3 {
-                    let row = &mut acc.phi[base + r * stride..base + (r + 1) * stride];
-                    row[p_l] = b[r];
-                    if let Some(gc) = gc {
-                        row[gc + r] += dt2;
-                    }
-                    let form = &mut forms[forms_start[l]..forms_start[l + 1]];
-                    sqrt_form::add_row(form, p_l, row);
-                }
-            }
-        }
-
-        // The global factor: the local factors' rows, spread over the whole θ.
-        let mut global = vec![0.0; sqrt_form::packed_len(dim)];
-        let mut row = vec![0.0; dim + 1];
-        for l in 0..nl {
-            let p_l = local_dim(l);
-            let c = &cols[cols_start[l]..cols_start[l + 1]];
-            let form = &forms[forms_start[l]..forms_start[l + 1]];
-            let mut at = 0;
-            for k in 0..=p_l {
-                row.fill(0.0);
-                for kk in k..p_l {
-                    row[c[kk]] = form[at + kk - k];
-                }
-                row[dim] = form[at + p_l - k];
-                at += p_l + 1 - k;
-                sqrt_form::add_row(&mut global, dim, &mut row);
-            }
-        }
-
+        let pins = pins(scene, plan, obs)?;
+        let theta = Theta::of(scene, plan)?;
+        let locals = Locals::new(plan, &theta);
+        let forms = locals.factors(scene, plan, obs, &theta)?;
+        let global = locals.global_factor(&forms, theta.entries.len());
         Some(LinearShortCost {
-            entries,
-            sources,
+            entries: theta.entries,
+            sources: theta.sources,
             pins,
-            param_len: layout.len,
+            param_len: plan.layout.len,
             n: plan.n,
-            particles,
-            cols_start,
-            cols,
-            forms_start,
+            particles: locals.particles,
+            cols_start: locals.cols_start,
+            cols: locals.cols,
+            forms_start: locals.forms_start,
             forms,
             global,
         })
@@ -459,6 +246,250 @@ fn same_type(a: &ThetaEntry, b: &ThetaEntry) -> bool {
     t(a) == t(b)
 }
 
+/// Whether the scene's force can be linear in its parameters here. Several worlds (per-particle
+/// dt and gravity on the main world only) take the generic path (such scenes couple worlds
+/// through nonlinear couplings anyway); a quadratic viscosity's θ (Z₂) has no entry here: the
+/// generic design takes it.
+fn linear_in_parameters(scene: &Scene, plan: &Plan) -> bool {
+    let quadratic = scene
+        .types
+        .iter()
+        .any(|t| t.optional_param(OptionalParam::DampingQuadratic).is_some());
+    !quadratic
+        && plan.provot.links.is_empty()
+        && plan.nonlinear_drags.particles.is_empty()
+        && plan.worlds.is_none()
+}
+
+/// The parameter values the forms are built with: every free particle's mass (`None` when one
+/// is unknown) and every conditional type's range (`None` when its pairs were not listed).
+fn pins(scene: &Scene, plan: &Plan, obs: &Observed) -> Option<Vec<(usize, f64)>> {
+    let mut pins = Vec::new();
+    for i in (0..plan.n).filter(|&i| plan.free[i]) {
+        match scene.particles[i].mass {
+            Param::Known(m) => pins.push((plan.layout.mass_offset + i, m)),
+            Param::Unknown(_) => return None,
+        }
+    }
+    for (c, pairs) in plan.conditionals.iter().zip(&obs.pairs) {
+        pins.push((c.param + 3, pairs.as_ref()?.range));
+    }
+    Some(pins)
+}
+
+/// The θ layout (module docs).
+struct Theta {
+    entries: Vec<ThetaEntry>,
+    sources: Vec<(usize, Option<usize>)>,
+    /// Where each type's θ starts, indexed by the type's parameter offset.
+    at: Vec<usize>,
+    /// The first of the three gravity entries, when the scene has gravity.
+    gravity: Option<usize>,
+}
+
+impl Theta {
+    /// `None` when a type's force is not linear in its parameters (muscles, TGRs).
+    fn of(scene: &Scene, plan: &Plan) -> Option<Theta> {
+        let layout = &plan.layout;
+        let mut entries = Vec::new();
+        let mut sources = Vec::new();
+        let mut at = vec![usize::MAX; layout.len];
+        for (t, ty) in scene.types.iter().enumerate() {
+            let o = layout.type_offsets[t];
+            let ti = t;
+            let these: &[(ThetaEntry, (usize, Option<usize>))] = match ty.kind {
+                LinkKind::Spring | LinkKind::Anchor | LinkKind::Conditional => &[
+                    (ThetaEntry::Stiffness { type_index: ti }, (o, None)),
+                    (
+                        ThetaEntry::StiffnessRestLength { type_index: ti },
+                        (o, Some(o + 1)),
+                    ),
+                    (ThetaEntry::Damping { type_index: ti }, (o + 2, None)),
+                ],
+                LinkKind::Damper | LinkKind::Drag => {
+                    &[(ThetaEntry::Damping { type_index: ti }, (o, None))]
+                }
+                LinkKind::Angle => &[
+                    (ThetaEntry::Stiffness { type_index: ti }, (o, None)),
+                    (
+                        ThetaEntry::StiffnessRestCos { type_index: ti },
+                        (o, Some(o + 1)),
+                    ),
+                ],
+                LinkKind::NonlinearDrag => &[], // no links (checked above): no effect
+                // A neuron's tanh makes the muscle force nonlinear in its weights.
+                LinkKind::Muscle => return None,
+                // A tendon's hidden state depends on the parameters through its feedback.
+                LinkKind::Tgr => return None,
+                _ => return None,
+            };
+            at[o] = entries.len();
+            for &(e, src) in these {
+                entries.push(e);
+                sources.push(src);
+            }
+        }
+        let gravity = plan.has_gravity.then(|| {
+            let at = entries.len();
+            for axis in 0..3 {
+                entries.push(ThetaEntry::Gravity { axis });
+                sources.push((layout.gravity_offset + axis, None));
+            }
+            at
+        });
+        Some(Theta {
+            entries,
+            sources,
+            at,
+            gravity,
+        })
+    }
+
+    /// The number of θ entries of the type whose first entry is `t0`.
+    fn width(&self, t0: usize) -> usize {
+        let dim = self.entries.len();
+        (t0 + 1..=dim)
+            .find(|&k| k == dim || !same_type(&self.entries[t0], &self.entries[k]))
+            .unwrap_or(dim)
+            - t0
+    }
+}
+
+/// The local forms' layout: one per free particle, over the θ entries that touch it.
+struct Locals {
+    /// Local form l belongs to particle `particles[l]` and covers the θ entries
+    /// `cols[cols_start[l]..cols_start[l + 1]]` (ascending).
+    particles: Vec<usize>,
+    cols_start: Vec<usize>,
+    cols: Vec<usize>,
+    /// Each particle's form (`usize::MAX` for fixed particles).
+    form_of: Vec<usize>,
+    /// Where each form's packed factor starts, and its frame rows in [`Acc::phi`].
+    forms_start: Vec<usize>,
+    row_start: Vec<usize>,
+}
+
+impl Locals {
+    fn new(plan: &Plan, theta: &Theta) -> Locals {
+        let mut touch: Vec<Vec<usize>> = vec![Vec::new(); plan.n];
+        let mut mark = |i: usize, param: usize| {
+            let t0 = theta.at[param];
+            touch[i].extend(t0..t0 + theta.width(t0));
+        };
+        for_each_item(plan, |param, ps| ps.iter().for_each(|&i| mark(i, param)));
+        for c in &plan.conditionals {
+            for &i in c.a.iter().chain(c.b.iter().flatten()) {
+                mark(i as usize, c.param);
+            }
+        }
+        let mut particles = Vec::new();
+        let mut cols_start = vec![0];
+        let mut cols = Vec::new();
+        let mut form_of = vec![usize::MAX; plan.n];
+        for i in (0..plan.n).filter(|&i| plan.free[i]) {
+            let mut c = std::mem::take(&mut touch[i]);
+            if let Some(g) = theta.gravity {
+                c.extend(g..g + 3);
+            }
+            c.sort_unstable();
+            c.dedup();
+            form_of[i] = particles.len();
+            particles.push(i);
+            cols.extend(c);
+            cols_start.push(cols.len());
+        }
+        let nl = particles.len();
+        let local_dim = |l: usize| cols_start[l + 1] - cols_start[l];
+        let mut forms_start = vec![0];
+        let mut row_start = vec![0];
+        for l in 0..nl {
+            forms_start.push(forms_start[l] + sqrt_form::packed_len(local_dim(l)));
+            row_start.push(row_start[l] + 3 * (local_dim(l) + 1));
+        }
+        Locals {
+            particles,
+            cols_start,
+            cols,
+            form_of,
+            forms_start,
+            row_start,
+        }
+    }
+
+    fn local_dim(&self, l: usize) -> usize {
+        self.cols_start[l + 1] - self.cols_start[l]
+    }
+
+    /// Every frame's rows `[φ | b]` rotated into the local factors (packed, one after the
+    /// other). `None` when a conditional type's pairs were not listed.
+    fn factors(
+        &self,
+        scene: &Scene,
+        plan: &Plan,
+        obs: &Observed,
+        theta: &Theta,
+    ) -> Option<Vec<f64>> {
+        let nl = self.particles.len();
+        let mut forms = vec![0.0; self.forms_start[nl]];
+        let dt2 = plan.dt * plan.dt;
+        let coef: Vec<f64> = (0..plan.n)
+            .map(|i| match scene.particles[i].mass {
+                Param::Known(m) if plan.free[i] => dt2 / m,
+                _ => 0.0,
+            })
+            .collect();
+        let mut acc = Acc {
+            locals: self,
+            coef: &coef,
+            phi: vec![0.0; self.row_start[nl]],
+        };
+        for t in 2..obs.frames {
+            acc.phi.fill(0.0);
+            acc.links(plan, obs, t - 1, &theta.at)?;
+            let (x1, x2, x0) = (obs.frame(t - 1), obs.frame(t - 2), obs.frame(t));
+            for (l, &i) in self.particles.iter().enumerate() {
+                let p_l = self.local_dim(l);
+                let stride = p_l + 1;
+                let base = self.row_start[l];
+                let b = (x1[i] * 2.0 - x2[i]) - x0[i];
+                let gc = theta.gravity.map(|g| acc.col(l, g));
+                for r in 0..3 {
+                    let row = &mut acc.phi[base + r * stride..base + (r + 1) * stride];
+                    row[p_l] = b[r];
+                    if let Some(gc) = gc {
+                        row[gc + r] += dt2;
+                    }
+                    let form = &mut forms[self.forms_start[l]..self.forms_start[l + 1]];
+                    sqrt_form::add_row(form, p_l, row);
+                }
+            }
+        }
+        Some(forms)
+    }
+
+    /// The global factor: the local factors' rows, spread over the whole θ (`dim` entries).
+    fn global_factor(&self, forms: &[f64], dim: usize) -> Vec<f64> {
+        let mut global = vec![0.0; sqrt_form::packed_len(dim)];
+        let mut row = vec![0.0; dim + 1];
+        for l in 0..self.particles.len() {
+            let p_l = self.local_dim(l);
+            let c = &self.cols[self.cols_start[l]..self.cols_start[l + 1]];
+            let form = &forms[self.forms_start[l]..self.forms_start[l + 1]];
+            let mut at = 0;
+            for k in 0..=p_l {
+                row.fill(0.0);
+                for kk in k..p_l {
+                    row[c[kk]] = form[at + kk - k];
+                }
+                row[dim] = form[at + p_l - k];
+                at += p_l + 1 - k;
+                sqrt_form::add_row(&mut global, dim, &mut row);
+            }
+        }
+        global
+    }
+}
+
 /// Calls `visit(type param offset, particles)` for every listed link instance of the plan.
 fn for_each_item(plan: &Plan, mut visit: impl FnMut(usize, &[usize])) {
     for r in &plan.springs.runs {
@@ -490,10 +521,7 @@ fn for_each_item(plan: &Plan, mut visit: impl FnMut(usize, &[usize])) {
 
 /// One frame's rows `[φ | b]` of every free particle, 3 rows (x, y, z) each.
 struct Acc<'a> {
-    form_of: &'a [usize],
-    cols_start: &'a [usize],
-    cols: &'a [usize],
-    row_start: &'a [usize],
+    locals: &'a Locals,
     /// dt²/m_i (0 for fixed particles).
     coef: &'a [f64],
     phi: Vec<f64>,
@@ -502,19 +530,71 @@ struct Acc<'a> {
 impl Acc<'_> {
     /// Local column of θ entry `theta` in form l.
     fn col(&self, l: usize, theta: usize) -> usize {
-        let c = &self.cols[self.cols_start[l]..self.cols_start[l + 1]];
+        let c = &self.locals.cols[self.locals.cols_start[l]..self.locals.cols_start[l + 1]];
         c.binary_search(&theta).unwrap_or(0)
+    }
+
+    /// Every link's force per unit of its θ entries at frame `f` (`theta_at`: where each
+    /// type's θ starts). `None` when a conditional type's pairs were not listed.
+    fn links(&mut self, plan: &Plan, obs: &Observed, f: usize, theta_at: &[usize]) -> Option<()> {
+        let (x, v) = (obs.frame(f), obs.velocity(f));
+        let th = |param: usize| theta_at[param];
+        for r in &plan.springs.runs {
+            for &[i, j] in &plan.springs.pairs[r.start..r.end] {
+                self.spring(th(r.param), i as usize, j as usize, x, v);
+            }
+        }
+        for r in &plan.dampers.runs {
+            for &[i, j] in &plan.dampers.pairs[r.start..r.end] {
+                let (i, j) = (i as usize, j as usize);
+                let w = v[j] - v[i];
+                self.add(i, th(r.param), 0, w);
+                self.add(j, th(r.param), 0, -w);
+            }
+        }
+        let a = &plan.anchors;
+        for r in &a.runs {
+            for (&i, point) in a.particles[r.start..r.end]
+                .iter()
+                .zip(&a.points[r.start..r.end])
+            {
+                let i = i as usize;
+                let (u, len) = unit_and_length(&(point - x[i]));
+                let s = (-v[i]).dot(&u);
+                let t0 = th(r.param);
+                self.add(i, t0, 0, u * len);
+                self.add(i, t0, 1, -u);
+                self.add(i, t0, 2, u * s);
+            }
+        }
+        for r in &plan.drags.runs {
+            for &i in &plan.drags.particles[r.start..r.end] {
+                self.add(i as usize, th(r.param), 0, -v[i as usize]);
+            }
+        }
+        for r in &plan.angles.runs {
+            for &[i, j, k] in &plan.angles.triples[r.start..r.end] {
+                self.angle(th(r.param), [i as usize, j as usize, k as usize], x);
+            }
+        }
+        for (c, pairs) in plan.conditionals.iter().zip(&obs.pairs) {
+            let pairs = pairs.as_ref()?;
+            for &[i, j] in pairs.at(f) {
+                self.spring(th(c.param), i as usize, j as usize, x, v);
+            }
+        }
+        Some(())
     }
 
     /// Adds force direction `w` (force per unit of θ entry `t0 + k`) on particle i.
     fn add(&mut self, i: usize, t0: usize, k: usize, w: Vec3) {
-        let l = self.form_of[i];
+        let l = self.locals.form_of[i];
         if l == usize::MAX {
             return;
         }
         let c = self.col(l, t0) + k;
-        let stride = self.cols_start[l + 1] - self.cols_start[l] + 1;
-        let base = self.row_start[l];
+        let stride = self.locals.local_dim(l) + 1;
+        let base = self.locals.row_start[l];
         let coef = self.coef[i];
         for r in 0..3 {
             self.phi[base + r * stride + c] += coef * w[r];

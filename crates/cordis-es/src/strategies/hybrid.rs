@@ -172,86 +172,167 @@ pub fn solve(problem: &Problem) -> Result<Solution, String> {
 /// [`solve`], with the range sweeps only where `sweeps` allows them (false: always the
 /// coarse-to-fine grid, as before the sweeps existed; kept to check one against the other).
 fn solve_with(problem: &Problem, sweeps: bool) -> Result<Solution, String> {
-    exact::supported(problem)?;
-    let cols = exact::generic_cols(&problem.scene)?;
-    let split = exact::split(problem);
-    exact::check_scale(problem, &split, &cols)?;
-    let weighting = if split.free_masses {
-        Weighting::Force
-    } else {
-        Weighting::Position
-    };
-    let space = &problem.space;
-    // Continuous nonlinear unknowns (a TGR's K, its tendon): searched by a 1-D profile search
-    // (`profile`), in their internal coordinates; the others over observed intervals.
-    let (interval_dims, conts): (Vec<usize>, Vec<usize>) = split
-        .nonlinear
-        .iter()
-        .partition(|&&k| matches!(space.unknowns[k].role, Role::Range | Role::Speed));
-    let dims: Vec<(usize, Vec<f64>, bool)> = interval_dims
-        .iter()
-        .map(|&k| candidates(problem, k).map(|(c, thinned)| (k, c, thinned)))
-        .collect::<Result<_, _>>()?;
-    // Internal coordinates of the continuous unknowns.
-    let mut vals: Vec<f64> = conts
-        .iter()
-        .map(|&k| {
-            let u = &space.unknowns[k];
-            let (lo, hi) = u.internal_bounds();
-            u.to_internal(space.base[u.slot]).clamp(lo, hi)
+    let outer = Outer::new(problem)?;
+    if sweeps
+        && !outer.provot
+        && range_sweep::applies(
+            problem,
+            outer.cols.len(),
+            &outer.split.nonlinear,
+            outer.split.free_masses,
+        )
+    {
+        return outer.by_sweeps();
+    }
+    outer.by_grid()
+}
+
+/// An interval unknown: its index, its sorted observed values, whether they were thinned.
+type Dim = (usize, Vec<f64>, bool);
+
+/// A point of the outer search: an interval index per interval unknown, an internal
+/// coordinate per continuous one.
+type Point = (Vec<usize>, Vec<f64>);
+
+/// The outer problem: the exact solvers' split of the unknowns and the nonlinear ones to
+/// search.
+struct Outer<'a> {
+    problem: &'a Problem,
+    cols: Vec<exact::Col>,
+    split: exact::Split,
+    weighting: Weighting,
+    /// The unknowns searched over observed intervals (v_max, ranges).
+    dims: Vec<Dim>,
+    /// The continuous nonlinear unknowns (a TGR's K, its tendon): 1-D profile searches in
+    /// their internal coordinates.
+    conts: Vec<usize>,
+    /// With Provot limits candidates drop different rows: they are compared by the problem's
+    /// own cost.
+    provot: bool,
+}
+
+impl<'a> Outer<'a> {
+    fn new(problem: &'a Problem) -> Result<Self, String> {
+        exact::supported(problem)?;
+        let cols = exact::generic_cols(&problem.scene)?;
+        let split = exact::split(problem);
+        exact::check_scale(problem, &split, &cols)?;
+        let weighting = if split.free_masses {
+            Weighting::Force
+        } else {
+            Weighting::Position
+        };
+        let space = &problem.space;
+        let (interval_dims, conts): (Vec<usize>, Vec<usize>) = split
+            .nonlinear
+            .iter()
+            .partition(|&&k| matches!(space.unknowns[k].role, Role::Range | Role::Speed));
+        let dims: Vec<Dim> = interval_dims
+            .iter()
+            .map(|&k| candidates(problem, k).map(|(c, thinned)| (k, c, thinned)))
+            .collect::<Result<_, _>>()?;
+        let provot = provot_rows::applies(&problem.objective);
+        Ok(Outer {
+            problem,
+            cols,
+            split,
+            weighting,
+            dims,
+            conts,
+            provot,
         })
-        .collect();
-    let params_at = |at: &[usize], vals: &[f64]| {
+    }
+
+    /// The interval holding each interval unknown's starting value.
+    fn start_intervals(&self) -> Vec<usize> {
+        let space = &self.problem.space;
+        self.dims
+            .iter()
+            .map(|(k, c, _)| c.partition_point(|&v| v < space.base[space.unknowns[*k].slot]))
+            .collect()
+    }
+
+    /// The continuous unknowns' starting values, in internal coordinates.
+    fn start_values(&self) -> Vec<f64> {
+        let space = &self.problem.space;
+        self.conts
+            .iter()
+            .map(|&k| {
+                let u = &space.unknowns[k];
+                let (lo, hi) = u.internal_bounds();
+                u.to_internal(space.base[u.slot]).clamp(lo, hi)
+            })
+            .collect()
+    }
+
+    /// The scene's parameters at intervals `at` (their middles) and continuous values `vals`.
+    fn params_at(&self, at: &[usize], vals: &[f64]) -> Vec<f64> {
+        let space = &self.problem.space;
         let mut p = space.base.clone();
-        for ((k, c, _), &j) in dims.iter().zip(at) {
+        for ((k, c, _), &j) in self.dims.iter().zip(at) {
             let u = &space.unknowns[*k];
             let (lo, hi) = interval(c, u.min, u.max, j);
             p[u.slot] = 0.5 * (lo + hi);
         }
-        for (&k, &z) in conts.iter().zip(vals) {
+        for (&k, &z) in self.conts.iter().zip(vals) {
             let u = &space.unknowns[k];
             p[u.slot] = u.from_internal(z);
         }
         p
-    };
-    let provot = provot_rows::applies(&problem.objective);
-    let score = |(at, vals): &(Vec<usize>, Vec<f64>)| -> f64 {
-        let p = params_at(at, vals);
-        if provot {
-            // Masks differ between candidates: compare them by the problem's own cost.
+    }
+
+    /// The inner solve of the linear unknowns on `system` at parameters `p`.
+    fn spec<'s>(&'s self, system: &'s exact::System, p: Vec<f64>) -> Spec<'s> {
+        Spec {
+            problem: self.problem,
+            system,
+            p,
+            linear: self.split.linear.clone(),
+            weighting: self.weighting,
+        }
+    }
+
+    /// The inner least-squares minimum at a point (the generic assembly).
+    fn score(&self, (at, vals): &Point) -> f64 {
+        let problem = self.problem;
+        let p = self.params_at(at, vals);
+        if self.provot {
             let mut r = ExactReport::default();
-            return match provot_rows::solve(problem, &cols, p, &split, &mut r) {
+            return match provot_rows::solve(problem, &self.cols, p, &self.split, &mut r) {
                 Ok((_, cost)) if cost.is_finite() => cost,
                 _ => f64::INFINITY,
             };
         }
-        let system = exact::assemble(&problem.objective, &problem.scene, &cols, &p);
-        let spec = Spec {
-            problem,
-            system: &system,
-            p,
-            linear: split.linear.clone(),
-            weighting,
-        };
-        match exact::solve(&spec) {
+        let system = exact::assemble(&problem.objective, &problem.scene, &self.cols, &p);
+        match exact::solve(&self.spec(&system, p)) {
             Ok(o) if o.residual.is_finite() => o.residual,
             _ => f64::INFINITY,
         }
-    };
-    if sweeps
-        && !provot
-        && range_sweep::applies(problem, cols.len(), &split.nonlinear, split.free_masses)
-    {
+    }
+
+    /// [`Self::score`] on the cached typed design.
+    fn score_design(&self, d: &mut Design, (at, vals): &Point) -> f64 {
+        let problem = self.problem;
+        let p = self.params_at(at, vals);
+        d.update(&problem.objective, &problem.scene, &p);
+        let system = d.system();
+        match exact::solve(&self.spec(&system, p)) {
+            Ok(o) => d.residual(&problem.scene, &o.params, self.weighting),
+            _ => f64::INFINITY,
+        }
+    }
+
+    /// Ranges only, masses known, no Provot limit: coordinate descent by range sweeps.
+    fn by_sweeps(&self) -> Result<Solution, String> {
+        let problem = self.problem;
+        let dims = &self.dims;
         let mut sweeper = Sweeper::new(
             problem,
-            &cols,
-            &split.linear,
+            &self.cols,
+            &self.split.linear,
             dims.iter().map(|(k, c, _)| (*k, c.clone())).collect(),
         )?;
-        let mut at: Vec<usize> = dims
-            .iter()
-            .map(|(k, c, _)| c.partition_point(|&v| v < space.base[space.unknowns[*k].slot]))
-            .collect();
+        let mut at = self.start_intervals();
         let mut best = sweeper.exact(&at);
         let mut bounds = Vec::new();
         // A dim swept with every other interval as now would give the same answer.
@@ -292,125 +373,190 @@ fn solve_with(problem: &Problem, sweeps: bool) -> Result<Solution, String> {
             dims.len()
         );
         let system = sweeper.system_at(&at);
-        let solution = finish(
-            problem,
-            &cols,
-            &split,
-            (&dims, &at),
-            &[],
-            note,
-            Some(system),
-        );
-        return solution.map(|s| at_cap(s, capped));
+        let solution = self.finish(&at, &[], note, Some(system));
+        solution.map(|s| at_cap(s, capped))
     }
-    // With continuous unknowns, the cached typed design when every column has one: the same
-    // inner solve at a fraction of the cost (see `crate::exact::design`); serial, it is ~15 µs.
-    let mut design = if conts.is_empty() || provot {
-        None
-    } else {
-        Design::new(&problem.objective, &problem.scene, &cols)
-    };
-    let score_design = |d: &mut Design, (at, vals): &(Vec<usize>, Vec<f64>)| -> f64 {
-        let p = params_at(at, vals);
-        d.update(&problem.objective, &problem.scene, &p);
-        let system = d.system();
-        let spec = Spec {
-            problem,
-            system: &system,
-            p,
-            linear: split.linear.clone(),
-            weighting,
+
+    /// Coordinate descent: a coarse-to-fine grid over each interval unknown, a profile search
+    /// over each continuous one.
+    fn by_grid(&self) -> Result<Solution, String> {
+        let problem = self.problem;
+        // With continuous unknowns, the cached typed design when every column has one: the
+        // same inner solve at a fraction of the cost (see `crate::exact::design`); serial, it
+        // is ~15 µs.
+        let design = if self.conts.is_empty() || self.provot {
+            None
+        } else {
+            Design::new(&problem.objective, &problem.scene, &self.cols)
         };
-        match exact::solve(&spec) {
-            Ok(o) => d.residual(&problem.scene, &o.params, weighting),
-            _ => f64::INFINITY,
+        let mut scores = Scores {
+            outer: self,
+            design,
+            cache: HashMap::new(),
+            evals: 0,
+        };
+        let mut at = self.start_intervals();
+        let mut vals = self.start_values();
+        let capped = self.descend(&mut at, &mut vals, &mut scores);
+        let evals = scores.evals;
+        problem.set_evals(problem.evals() + evals);
+        let note = format!(
+            "variable projection: {evals} inner least-squares solves over {} nonlinear unknowns",
+            self.dims.len() + self.conts.len()
+        );
+        // The answer from an orthogonal factor of the rows (not the normal equations): the
+        // design's own rows when it has them, else (in `finish`) the generic assembly.
+        let system = scores.design.as_mut().map(|d| {
+            d.update(
+                &problem.objective,
+                &problem.scene,
+                &self.params_at(&at, &vals),
+            );
+            d.qr_system()
+        });
+        let conts: Vec<(usize, f64)> = self.conts.iter().copied().zip(vals).collect();
+        self.finish(&at, &conts, note, system)
+            .map(|s| at_cap(s, capped))
+    }
+
+    /// The descent of [`Self::by_grid`] from `at`, `vals`; true when it was still moving at
+    /// its [`MAX_CYCLES`] cap.
+    ///
+    /// It stops when an interval search at settled continuous values moves nothing: a
+    /// full-box profile search depends only on the other unknowns, so one pass settles one
+    /// continuous unknown (several must also stand still through a pass). A repeated profile
+    /// search at unchanged intervals finds its grid in the cache: only Brent's steps cost.
+    fn descend(&self, at: &mut Vec<usize>, vals: &mut Vec<f64>, scores: &mut Scores) -> bool {
+        let space = &self.problem.space;
+        let mut settled = self.conts.is_empty();
+        for _ in 0..MAX_CYCLES {
+            let before = at.clone();
+            for d in 0..self.dims.len() {
+                let n = self.dims[d].1.len() + 1;
+                let base = at.clone();
+                at[d] = search(n, |js| {
+                    let points = js
+                        .iter()
+                        .map(|&j| {
+                            let mut a = base.clone();
+                            a[d] = j;
+                            (a, vals.clone())
+                        })
+                        .collect();
+                    scores.batch(points)
+                });
+            }
+            if *at == before && settled {
+                return false;
+            }
+            let vals_before = vals.clone();
+            for c in 0..self.conts.len() {
+                let u = &space.unknowns[self.conts[c]];
+                let (lo, hi) = u.internal_bounds();
+                let base = vals.clone();
+                vals[c] = profile::minimize(lo, hi, profile::TOL, |zs| {
+                    let points = zs
+                        .iter()
+                        .map(|&z| {
+                            let mut v = base.clone();
+                            v[c] = z;
+                            (at.clone(), v)
+                        })
+                        .collect();
+                    scores.batch(points)
+                })
+                .0;
+            }
+            settled = self.conts.len() <= 1 || *vals == vals_before;
         }
-    };
-    type Point = (Vec<usize>, Vec<f64>);
-    let key = |(a, v): &Point| (a.clone(), v.iter().map(|x| x.to_bits()).collect::<Vec<_>>());
-    let mut cache: HashMap<(Vec<usize>, Vec<u64>), f64> = HashMap::new();
-    let mut evals = 0u64;
-    let mut score_batch = |points: Vec<Point>| -> Vec<f64> {
+        true
+    }
+
+    /// The answer at the chosen intervals `at` and values of the continuous unknowns `conts`
+    /// ((unknown, internal coordinate)): the intervals' middles, the linear unknowns solved
+    /// there (on `system`, the short cost's system at that point, when the caller has it).
+    fn finish(
+        &self,
+        at: &[usize],
+        conts: &[(usize, f64)],
+        note: String,
+        system: Option<exact::System>,
+    ) -> Result<Solution, String> {
+        let problem = self.problem;
+        let space = &problem.space;
+        let mut report = ExactReport::default();
+        report.notes.push(note);
+        for ((k, c, thinned), &j) in self.dims.iter().zip(at) {
+            let u = &space.unknowns[*k];
+            let (lo, hi) = interval(c, u.min, u.max, j);
+            report.notes.push(format!(
+                "{}: every value in ({lo:.9e}, {hi:.9e}) fits the data equally ({} observed \
+                 values in the box{}); reported the middle",
+                u.name,
+                c.len(),
+                if *thinned { ", evenly subsampled" } else { "" }
+            ));
+        }
+        for &(k, z) in conts {
+            let u = &space.unknowns[k];
+            report.notes.push(format!(
+                "{}: least profile cost at {:.12e} (1-D search over the box: {} grid points, \
+                 then Brent)",
+                u.name,
+                u.from_internal(z),
+                profile::GRID
+            ));
+        }
+        let vals: Vec<f64> = conts.iter().map(|&(_, z)| z).collect();
+        let p = self.params_at(at, &vals);
+        let (genome, cost) = if self.provot {
+            provot_rows::solve(problem, &self.cols, p, &self.split, &mut report)?
+        } else {
+            let system = system.unwrap_or_else(|| {
+                exact::assemble(&problem.objective, &problem.scene, &self.cols, &p)
+            });
+            exact::solve_linear(problem, &system, p, &self.split, &mut report)?
+        };
+        Ok(Solution {
+            genome,
+            cost,
+            report,
+        })
+    }
+}
+
+/// The grid descent's scores: each point solved once (cached by its bits), on the typed
+/// design when there is one (serial), else the points of a batch in parallel.
+struct Scores<'o, 'a> {
+    outer: &'o Outer<'a>,
+    design: Option<Design>,
+    cache: HashMap<(Vec<usize>, Vec<u64>), f64>,
+    /// Inner solves run (cache misses).
+    evals: u64,
+}
+
+impl Scores<'_, '_> {
+    fn key((a, v): &Point) -> (Vec<usize>, Vec<u64>) {
+        (a.clone(), v.iter().map(|x| x.to_bits()).collect())
+    }
+
+    fn batch(&mut self, points: Vec<Point>) -> Vec<f64> {
         let todo: Vec<&Point> = points
             .iter()
-            .filter(|a| !cache.contains_key(&key(a)))
+            .filter(|a| !self.cache.contains_key(&Self::key(a)))
             .collect();
-        evals += todo.len() as u64;
-        let scores: Vec<f64> = match &mut design {
-            Some(d) => todo.iter().map(|a| score_design(d, a)).collect(),
-            None if todo.len() > 1 => todo.par_iter().map(|a| score(a)).collect(),
-            None => todo.iter().map(|a| score(a)).collect(),
+        self.evals += todo.len() as u64;
+        let outer = self.outer;
+        let scores: Vec<f64> = match &mut self.design {
+            Some(d) => todo.iter().map(|a| outer.score_design(d, a)).collect(),
+            None if todo.len() > 1 => todo.par_iter().map(|a| outer.score(a)).collect(),
+            None => todo.iter().map(|a| outer.score(a)).collect(),
         };
         for (a, v) in todo.into_iter().zip(scores) {
-            cache.insert(key(a), v);
+            self.cache.insert(Self::key(a), v);
         }
-        points.iter().map(|a| cache[&key(a)]).collect()
-    };
-    // Start in the interval holding each unknown's starting value.
-    let mut at: Vec<usize> = dims
-        .iter()
-        .map(|(k, c, _)| c.partition_point(|&v| v < space.base[space.unknowns[*k].slot]))
-        .collect();
-    // The descent stops when an interval search at settled continuous values moves nothing:
-    // a full-box profile search depends only on the other unknowns, so one pass settles one
-    // continuous unknown (several must also stand still through a pass). A repeated profile
-    // search at unchanged intervals finds its grid in the cache: only Brent's steps cost.
-    let mut settled = conts.is_empty();
-    let mut capped = true;
-    for _ in 0..MAX_CYCLES {
-        let before = at.clone();
-        for d in 0..dims.len() {
-            let n = dims[d].1.len() + 1;
-            let base = at.clone();
-            at[d] = search(n, |js| {
-                let points = js
-                    .iter()
-                    .map(|&j| {
-                        let mut a = base.clone();
-                        a[d] = j;
-                        (a, vals.clone())
-                    })
-                    .collect();
-                score_batch(points)
-            });
-        }
-        if at == before && settled {
-            capped = false;
-            break;
-        }
-        let vals_before = vals.clone();
-        for c in 0..conts.len() {
-            let u = &space.unknowns[conts[c]];
-            let (lo, hi) = u.internal_bounds();
-            let base = vals.clone();
-            vals[c] = profile::minimize(lo, hi, profile::TOL, |zs| {
-                let points = zs
-                    .iter()
-                    .map(|&z| {
-                        let mut v = base.clone();
-                        v[c] = z;
-                        (at.clone(), v)
-                    })
-                    .collect();
-                score_batch(points)
-            })
-            .0;
-        }
-        settled = conts.len() <= 1 || vals == vals_before;
+        points.iter().map(|a| self.cache[&Self::key(a)]).collect()
     }
-    problem.set_evals(problem.evals() + evals);
-    let note = format!(
-        "variable projection: {evals} inner least-squares solves over {} nonlinear unknowns",
-        dims.len() + conts.len()
-    );
-    // The answer from an orthogonal factor of the rows (not the normal equations): the
-    // design's own rows when it has them, else (in `finish`) the generic assembly.
-    let system = design.as_mut().map(|d| {
-        d.update(&problem.objective, &problem.scene, &params_at(&at, &vals));
-        d.qr_system()
-    });
-    let conts: Vec<(usize, f64)> = conts.iter().copied().zip(vals).collect();
-    finish(problem, &cols, &split, (&dims, &at), &conts, note, system).map(|s| at_cap(s, capped))
 }
 
 /// The solution, marked unconverged when the coordinate descent was still moving at its
@@ -423,69 +569,6 @@ fn at_cap(mut s: Solution, capped: bool) -> Solution {
         ));
     }
     s
-}
-
-/// An interval unknown: its index, its sorted observed values, whether they were thinned.
-type Dim = (usize, Vec<f64>, bool);
-
-/// The answer at the chosen intervals `at` of `dims` and values of the continuous unknowns
-/// `conts` ((unknown, internal coordinate)): the intervals' middles, the linear unknowns
-/// solved there (on `system`, the short cost's system at that point, when the caller has it).
-fn finish(
-    problem: &Problem,
-    cols: &[exact::Col],
-    split: &exact::Split,
-    (dims, at): (&[Dim], &[usize]),
-    conts: &[(usize, f64)],
-    note: String,
-    system: Option<exact::System>,
-) -> Result<Solution, String> {
-    let space = &problem.space;
-    let mut report = ExactReport::default();
-    report.notes.push(note);
-    for ((k, c, thinned), &j) in dims.iter().zip(at) {
-        let u = &space.unknowns[*k];
-        let (lo, hi) = interval(c, u.min, u.max, j);
-        report.notes.push(format!(
-            "{}: every value in ({lo:.9e}, {hi:.9e}) fits the data equally ({} observed values \
-             in the box{}); reported the middle",
-            u.name,
-            c.len(),
-            if *thinned { ", evenly subsampled" } else { "" }
-        ));
-    }
-    for &(k, z) in conts {
-        let u = &space.unknowns[k];
-        report.notes.push(format!(
-            "{}: least profile cost at {:.12e} (1-D search over the box: {} grid points, then \
-             Brent)",
-            u.name,
-            u.from_internal(z),
-            profile::GRID
-        ));
-    }
-    let mut p = space.base.clone();
-    for ((k, c, _), &j) in dims.iter().zip(at) {
-        let u = &space.unknowns[*k];
-        let (lo, hi) = interval(c, u.min, u.max, j);
-        p[u.slot] = 0.5 * (lo + hi);
-    }
-    for &(k, z) in conts {
-        let u = &space.unknowns[k];
-        p[u.slot] = u.from_internal(z);
-    }
-    let (genome, cost) = if provot_rows::applies(&problem.objective) {
-        provot_rows::solve(problem, cols, p, split, &mut report)?
-    } else {
-        let system =
-            system.unwrap_or_else(|| exact::assemble(&problem.objective, &problem.scene, cols, &p));
-        exact::solve_linear(problem, &system, p, split, &mut report)?
-    };
-    Ok(Solution {
-        genome,
-        cost,
-        report,
-    })
 }
 
 /// The `hybrid` strategy: everything happens in generation 0.
