@@ -133,17 +133,7 @@ pub fn link_test(
     d: &Discovery,
     opt: &DiscoverOptions,
 ) -> Result<LinkTest, CostError> {
-    if !d.undetermined.is_empty() {
-        let what: Vec<String> = d.undetermined.iter().map(|u| u.line()).collect();
-        return Err(CostError::invalid(
-            "link_test",
-            format!(
-                "the discovery did not determine everything ({}): refused rather than test a \
-                 graph on a scale the data do not decide",
-                what.join("; ")
-            ),
-        ));
-    }
+    refuse_undetermined(d)?;
     let dt = d.scene.dt;
     let (scene, reference) = candidate_scene(d, opt.masses.is_none() && opt.total_mass.is_some());
     scene.validate()?;
@@ -151,57 +141,8 @@ pub fn link_test(
     if opt.gravity.is_none() {
         super::identify::with_gravity(&scene, &mut space, usize::MAX);
     }
-    let layout = scene.param_layout();
     let take = Take::complete(&traj.clone().with_dt(dt));
-    let fit = |values: &[f64], first_window: usize| {
-        let config = Config {
-            start: Some(space.genome_of(values)),
-            first_window,
-            noise_level: opt.noise_level,
-            dense_max_columns: usize::MAX,
-            ..Config::default()
-        };
-        output_error::estimate(&scene, &space, std::slice::from_ref(&take), &config)
-    };
-    let discovered = scene.param_values();
-    let mut no_force = discovered.clone();
-    for c in 0..d.candidate_pairs.len() {
-        no_force[layout.type_offsets[c]] = 0.0;
-        no_force[layout.type_offsets[c] + 2] = 0.0;
-    }
-    let (whole, growing) = (take.frames(), Config::default().first_window);
-    // The discovered network (its links' values, no force on the other pairs) over growing
-    // windows; when a window's optimum runs away on the next (three unknowns per pair fitted to
-    // 16 noisy frames can be: generated networks of 5 moving particles at 1e-3), over the whole
-    // take at once, where every step stays stable; then from no spring force at all. The short
-    // cost's own minimum over every candidate's three unknowns diverged on the soft block.
-    let attempts: [(&[f64], usize, &'static str); 3] = [
-        (
-            &discovered,
-            growing,
-            "the discovered network, growing windows",
-        ),
-        (
-            &discovered,
-            whole,
-            "the discovered network, the whole take at once",
-        ),
-        (&no_force, whole, "no spring force, the whole take at once"),
-    ];
-    let mut failed = None;
-    let mut fitted = None;
-    for (values, window, start) in attempts {
-        match fit(values, window) {
-            Ok(e) => {
-                fitted = Some((e, start));
-                break;
-            }
-            Err(err) => failed = failed.or(Some(err)),
-        }
-    }
-    let Some((e, start)) = fitted else {
-        return Err(failed.expect("three attempts"));
-    };
+    let (e, start) = fit_every_candidate(&scene, &space, &take, d.candidate_pairs.len(), opt)?;
     let scale = match (reference, opt.total_mass) {
         (Some(_), Some(total)) => total / super::identify::moving_mass(&scene, &e.params),
         _ => 1.0,
@@ -214,55 +155,7 @@ pub fn link_test(
         e.sigma,
         d.candidate_pairs.len(),
     )?;
-    let se_of = |slot: usize| {
-        space
-            .unknowns
-            .iter()
-            .position(|u| u.slot == slot)
-            .map_or(f64::INFINITY, |a| sd[a])
-    };
-    let z: Vec<f64> = (0..d.candidate_pairs.len())
-        .map(|c| {
-            let slot = layout.type_offsets[c];
-            let (k, sk) = (e.params[slot], se_of(slot));
-            match sk.is_finite() && sk > 0.0 && k > 0.0 {
-                true => k / sk,
-                false => 0.0,
-            }
-        })
-        .collect();
-    let z_cut = benjamini_hochberg(&z, FALSE_DISCOVERY_RATE);
-    let threshold = z_cut * z_cut * opt.threshold_scale;
-    let fixed: Vec<bool> = scene.particles.iter().map(|p| p.fixed).collect();
-    let pairs: Vec<TestedPair> = d
-        .candidate_pairs
-        .iter()
-        .enumerate()
-        .map(|(c, &[i, j])| {
-            let slot = layout.type_offsets[c];
-            let (k, l0, zd) = (e.params[slot], e.params[slot + 1], e.params[slot + 2]);
-            let (sk, sl, sz) = (se_of(slot), se_of(slot + 1), se_of(slot + 2));
-            let score = z[c] * z[c];
-            TestedPair {
-                particles: [i, j],
-                kind: if fixed[i] || fixed[j] {
-                    "anchor"
-                } else {
-                    "spring"
-                },
-                stiffness: k * scale,
-                rest_length: l0,
-                damping: zd * scale,
-                stiffness_se: sk * scale,
-                rest_length_se: sl,
-                damping_se: sz * scale,
-                p_value: upper_tail(z[c]),
-                score,
-                threshold,
-                kept: !e.above_noise && score > threshold,
-            }
-        })
-        .collect();
+    let pairs = tested_pairs(d, &scene, &space, (&e, &sd), scale, opt.threshold_scale);
     let report = |pairs: Vec<TestedPair>| LinkTestReport {
         applied: !e.above_noise,
         kept: pairs.iter().filter(|p| p.kept).count(),
@@ -291,6 +184,7 @@ pub fn link_test(
             report: report(pairs),
         });
     }
+    let layout = scene.param_layout();
     let mut fitted = fitted_gauge;
     let mut p = fitted.param_values();
     for (i, particle) in scene.particles.iter().enumerate() {
@@ -304,6 +198,141 @@ pub fn link_test(
         discovery,
         report: report(pairs),
     })
+}
+
+/// A discovery with undetermined parts is refused: the test would run on a scale the data do
+/// not decide.
+fn refuse_undetermined(d: &Discovery) -> Result<(), CostError> {
+    if d.undetermined.is_empty() {
+        return Ok(());
+    }
+    let what: Vec<String> = d.undetermined.iter().map(|u| u.line()).collect();
+    Err(CostError::invalid(
+        "link_test",
+        format!(
+            "the discovery did not determine everything ({}): refused rather than test a graph \
+             on a scale the data do not decide",
+            what.join("; ")
+        ),
+    ))
+}
+
+/// The output-error fit of every candidate pair's K, l0 and Z (the first `candidates` types
+/// of `scene`) and where it started from: the discovered network (its links' values, no force
+/// on the other pairs) over growing windows; when a window's optimum runs away on the next
+/// (three unknowns per pair fitted to 16 noisy frames can be: generated networks of 5 moving
+/// particles at 1e-3), over the whole take at once, where every step stays stable; then from
+/// no spring force at all. The short cost's own minimum over every candidate's three unknowns
+/// diverged on the soft block. The first attempt's error when none succeeds.
+fn fit_every_candidate(
+    scene: &Scene,
+    space: &ParameterSpace,
+    take: &Take,
+    candidates: usize,
+    opt: &DiscoverOptions,
+) -> Result<(output_error::Estimate, &'static str), CostError> {
+    let layout = scene.param_layout();
+    let fit = |values: &[f64], first_window: usize| {
+        let config = Config {
+            start: Some(space.genome_of(values)),
+            first_window,
+            noise_level: opt.noise_level,
+            dense_max_columns: usize::MAX,
+            ..Config::default()
+        };
+        output_error::estimate(scene, space, std::slice::from_ref(take), &config)
+    };
+    let discovered = scene.param_values();
+    let mut no_force = discovered.clone();
+    for c in 0..candidates {
+        no_force[layout.type_offsets[c]] = 0.0;
+        no_force[layout.type_offsets[c] + 2] = 0.0;
+    }
+    let (whole, growing) = (take.frames(), Config::default().first_window);
+    let attempts: [(&[f64], usize, &'static str); 3] = [
+        (
+            &discovered,
+            growing,
+            "the discovered network, growing windows",
+        ),
+        (
+            &discovered,
+            whole,
+            "the discovered network, the whole take at once",
+        ),
+        (&no_force, whole, "no spring force, the whole take at once"),
+    ];
+    let mut failed = None;
+    for (values, window, start) in attempts {
+        match fit(values, window) {
+            Ok(e) => return Ok((e, start)),
+            Err(err) => failed = failed.or(Some(err)),
+        }
+    }
+    Err(failed.expect("three attempts"))
+}
+
+/// Each candidate pair's test: its stiffness over its standard error (`sd`, per unknown of
+/// `space`), kept above the Benjamini–Hochberg cut at [`FALSE_DISCOVERY_RATE`] (its square
+/// times `threshold_scale`) when the fit reached the noise; stiffness and damping in the mass
+/// scale `scale`.
+fn tested_pairs(
+    d: &Discovery,
+    scene: &Scene,
+    space: &ParameterSpace,
+    (e, sd): (&output_error::Estimate, &[f64]),
+    scale: f64,
+    threshold_scale: f64,
+) -> Vec<TestedPair> {
+    let layout = scene.param_layout();
+    let se_of = |slot: usize| {
+        space
+            .unknowns
+            .iter()
+            .position(|u| u.slot == slot)
+            .map_or(f64::INFINITY, |a| sd[a])
+    };
+    let z: Vec<f64> = (0..d.candidate_pairs.len())
+        .map(|c| {
+            let slot = layout.type_offsets[c];
+            let (k, sk) = (e.params[slot], se_of(slot));
+            match sk.is_finite() && sk > 0.0 && k > 0.0 {
+                true => k / sk,
+                false => 0.0,
+            }
+        })
+        .collect();
+    let z_cut = benjamini_hochberg(&z, FALSE_DISCOVERY_RATE);
+    let threshold = z_cut * z_cut * threshold_scale;
+    let fixed: Vec<bool> = scene.particles.iter().map(|p| p.fixed).collect();
+    d.candidate_pairs
+        .iter()
+        .enumerate()
+        .map(|(c, &[i, j])| {
+            let slot = layout.type_offsets[c];
+            let (k, l0, zd) = (e.params[slot], e.params[slot + 1], e.params[slot + 2]);
+            let (sk, sl, sz) = (se_of(slot), se_of(slot + 1), se_of(slot + 2));
+            let score = z[c] * z[c];
+            TestedPair {
+                particles: [i, j],
+                kind: if fixed[i] || fixed[j] {
+                    "anchor"
+                } else {
+                    "spring"
+                },
+                stiffness: k * scale,
+                rest_length: l0,
+                damping: zd * scale,
+                stiffness_se: sk * scale,
+                rest_length_se: sl,
+                damping_se: sz * scale,
+                p_value: upper_tail(z[c]),
+                score,
+                threshold,
+                kept: !e.above_noise && score > threshold,
+            }
+        })
+        .collect()
 }
 
 /// The false discovery rate of the test: the expected share of kept pairs that are not links
