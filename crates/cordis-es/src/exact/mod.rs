@@ -64,7 +64,7 @@ use serde::{Deserialize, Serialize};
 use self::row_mask::RowMask;
 use crate::cost::{CostKind, LinearShortCost, Objective, ThetaEntry};
 use crate::error::CostError;
-use crate::linalg::equilibrated::lsq;
+use crate::linalg::equilibrated::{lsq, Lsq};
 pub(crate) use crate::linalg::givens::Factor;
 use crate::problem::space::Role;
 use crate::problem::Problem;
@@ -684,25 +684,73 @@ pub(crate) struct Outcome {
 /// Solves a [`Spec`]: see the module docs (undetermined unknowns held, out-of-box ones clamped,
 /// re-solving after each). `Err` when the numbers are not finite.
 pub(crate) fn solve(spec: &Spec) -> Result<Outcome, String> {
-    let space = &spec.problem.space;
-    let scene = &spec.problem.scene;
-    let layout = scene.param_layout();
-    let start = &spec.p;
-    let mut p = start.clone();
-    let mut held = vec![false; space.unknowns.len()];
-    let mut out = Outcome::default();
-    let by_slot: HashMap<usize, usize> = spec
-        .linear
-        .iter()
-        .map(|&k| (space.unknowns[k].slot, k))
-        .collect();
-    let free_particles: Vec<usize> = spec.problem.objective.free.clone();
+    let mut set = ActiveSet::new(spec);
     for _ in 0..=spec.linear.len() + 1 {
+        let (red, xs, total) = set.system();
+        if set.hold_unobserved_mass(&xs) {
+            continue;
+        }
+        let sol = lsq(&xs.d, &xs.rhs).ok_or("the least-squares system is not finite")?;
+        if set.hold_null_space(&sol, &red) {
+            continue;
+        }
+        set.note_conditioning(&sol, &red);
+        let residual = set.take_values(&red, &xs, &sol, total);
+        if set.clamp_worst() {
+            continue;
+        }
+        let mut out = set.out;
+        out.residual = residual;
+        out.params = set.p;
+        return Ok(out);
+    }
+    Err("the least-squares solve did not settle (every unknown held)".into())
+}
+
+/// The active set of [`solve`]: the parameters so far, the linear unknowns held (at their
+/// start) because the data do not determine them or their box stopped them, and what the
+/// outcome will say of them.
+struct ActiveSet<'s> {
+    spec: &'s Spec<'s>,
+    layout: cordis_core::ParamLayout,
+    /// The unknown of each linear unknown's parameter slot.
+    by_slot: HashMap<usize, usize>,
+    held: Vec<bool>,
+    p: Vec<f64>,
+    out: Outcome,
+}
+
+impl<'s> ActiveSet<'s> {
+    fn new(spec: &'s Spec<'s>) -> Self {
+        let space = &spec.problem.space;
+        let by_slot: HashMap<usize, usize> = spec
+            .linear
+            .iter()
+            .map(|&k| (space.unknowns[k].slot, k))
+            .collect();
+        ActiveSet {
+            spec,
+            layout: spec.problem.scene.param_layout(),
+            by_slot,
+            held: vec![false; space.unknowns.len()],
+            p: spec.p.clone(),
+            out: Outcome::default(),
+        }
+    }
+
+    /// The reduced least-squares system over the unknowns not held, and the moving mass the
+    /// free masses share when the total is known.
+    fn system(&self) -> (Reduction, XiSystem, Option<f64>) {
+        let spec = self.spec;
+        let space = &spec.problem.space;
+        let scene = &spec.problem.scene;
+        let layout = &self.layout;
+        let p = &self.p;
         let mut free = vec![false; p.len()];
         let mut free_mass = vec![false; scene.num_particles()];
         for &k in &spec.linear {
             let u = &space.unknowns[k];
-            if held[k] {
+            if self.held[k] {
                 continue;
             }
             if u.role == Role::Mass {
@@ -711,64 +759,101 @@ pub(crate) fn solve(spec: &Spec) -> Result<Outcome, String> {
                 free[u.slot] = true;
             }
         }
-        let red = reduce(scene, &spec.system.cols, &p, &free);
+        let red = reduce(scene, &spec.system.cols, p, &free);
         let mass = |i: usize| (!free_mass[i]).then(|| p[layout.mass_offset + i]);
         let total = space.total_mass.map(|m| {
-            m - free_particles
+            m - spec
+                .problem
+                .objective
+                .free
                 .iter()
                 .filter(|&&i| !free_mass[i])
                 .map(|&i| p[layout.mass_offset + i])
                 .sum::<f64>()
         });
         let xs = xi_system(spec.system, &red, spec.weighting, &mass, total);
+        (red, xs, total)
+    }
 
-        // A mass with no acceleration information at all (rows independent of it).
+    /// Holds linear unknown `k` at its start.
+    fn hold(&mut self, k: usize) {
+        let slot = self.spec.problem.space.unknowns[k].slot;
+        self.held[k] = true;
+        self.p[slot] = self.spec.p[slot];
+    }
+
+    /// Holds a mass with no acceleration information at all (rows independent of it).
+    fn hold_unobserved_mass(&mut self, xs: &XiSystem) -> bool {
         let rho_max = xs.masses.iter().map(|m| m.rho.abs()).fold(0.0, f64::max);
-        if let Some(m) = xs
+        let Some(m) = xs
             .masses
             .iter()
             .find(|m| m.rho.abs() <= RANK_TOL * rho_max || m.rho.is_nan())
-        {
-            let k = by_slot[&(layout.mass_offset + m.particle)];
-            held[k] = true;
-            p[space.unknowns[k].slot] = start[space.unknowns[k].slot];
-            push_unique(&mut out.undetermined, &space.unknowns[k].name);
-            continue;
-        }
+        else {
+            return false;
+        };
+        let k = self.by_slot[&(self.layout.mass_offset + m.particle)];
+        self.hold(k);
+        push_unique(
+            &mut self.out.undetermined,
+            &self.spec.problem.space.unknowns[k].name,
+        );
+        true
+    }
 
-        let sol = lsq(&xs.d, &xs.rhs).ok_or("the least-squares system is not finite")?;
-        let name_of = |j: usize| &space.unknowns[by_slot[&red.xi[j].slot]].name;
-        if !sol.null.is_empty() {
-            for v in &sol.null {
-                let big = v.amax();
-                for j in 0..v.len() {
-                    if v[j].abs() >= 0.2 * big {
-                        push_unique(&mut out.undetermined, name_of(j));
-                    }
-                }
-                let j = v.iamax();
-                let k = by_slot[&red.xi[j].slot];
-                if !held[k] {
-                    held[k] = true;
-                    p[space.unknowns[k].slot] = start[space.unknowns[k].slot];
+    /// The unknown of the reduced system's column j.
+    fn name_of(&self, red: &Reduction, j: usize) -> &'s str {
+        &self.spec.problem.space.unknowns[self.by_slot[&red.xi[j].slot]].name
+    }
+
+    /// Names the unknowns of every null direction and holds each one's largest.
+    fn hold_null_space(&mut self, sol: &Lsq, red: &Reduction) -> bool {
+        if sol.null.is_empty() {
+            return false;
+        }
+        for v in &sol.null {
+            let big = v.amax();
+            for j in 0..v.len() {
+                if v[j].abs() >= 0.2 * big {
+                    let name = self.name_of(red, j);
+                    push_unique(&mut self.out.undetermined, name);
                 }
             }
-            continue;
+            let k = self.by_slot[&red.xi[v.iamax()].slot];
+            if !self.held[k] {
+                self.hold(k);
+            }
         }
-        out.condition = sol.condition;
-        out.poorly.clear();
+        true
+    }
+
+    /// The design's condition, and the unknowns of its weakest direction when it is poor.
+    fn note_conditioning(&mut self, sol: &Lsq, red: &Reduction) {
+        self.out.condition = sol.condition;
+        self.out.poorly.clear();
         if sol.condition > POOR_CONDITION {
             if let Some(v) = &sol.weakest {
                 let big = v.amax();
                 for j in 0..v.len() {
                     if v[j].abs() >= 0.2 * big {
-                        push_unique(&mut out.poorly, name_of(j));
+                        let name = self.name_of(red, j);
+                        push_unique(&mut self.out.poorly, name);
                     }
                 }
             }
         }
+    }
 
-        // Values: direct ones first, then rest lengths and cosines as (K·l0)/K.
+    /// Puts the solution in the parameters (direct values first, then rest lengths and
+    /// cosines as (K·l0)/K, then the free masses) and returns its residual.
+    fn take_values(
+        &mut self,
+        red: &Reduction,
+        xs: &XiSystem,
+        sol: &Lsq,
+        total: Option<f64>,
+    ) -> f64 {
+        let p = &mut self.p;
         for (j, x) in red.xi.iter().enumerate() {
             if x.per.is_none() {
                 p[x.slot] = sol.xi[j];
@@ -792,18 +877,23 @@ pub(crate) fn solve(spec: &Spec) -> Result<Outcome, String> {
             });
             for m in &xs.masses {
                 let e = gamma.map_or(0.0, |g| g / m.rho / w2);
-                p[layout.mass_offset + m.particle] = (e - m.s.dot(&sol.xi) - m.c) / m.rho;
+                p[self.layout.mass_offset + m.particle] = (e - m.s.dot(&sol.xi) - m.c) / m.rho;
             }
         }
+        residual
+    }
 
-        // The worst box violation, in internal coordinates per box width.
+    /// Clamps the unknown furthest outside its box (in internal coordinates per box width)
+    /// to it and holds it there.
+    fn clamp_worst(&mut self) -> bool {
+        let space = &self.spec.problem.space;
         let mut worst: Option<(usize, f64)> = None;
-        for &k in &spec.linear {
-            if held[k] {
+        for &k in &self.spec.linear {
+            if self.held[k] {
                 continue;
             }
             let u = &space.unknowns[k];
-            let v = p[u.slot];
+            let v = self.p[u.slot];
             let (lo, hi) = u.internal_bounds();
             let excess = if v.is_nan() || (u.log && v <= 0.0) {
                 f64::INFINITY
@@ -815,23 +905,20 @@ pub(crate) fn solve(spec: &Spec) -> Result<Outcome, String> {
                 worst = Some((k, excess));
             }
         }
-        if let Some((k, _)) = worst {
-            let u = &space.unknowns[k];
-            let v = p[u.slot];
-            p[u.slot] = if v.is_nan() || (u.log && v <= 0.0) {
-                u.min
-            } else {
-                u.from_internal(u.to_internal(v))
-            };
-            held[k] = true;
-            push_unique(&mut out.clamped, &u.name);
-            continue;
-        }
-        out.residual = residual;
-        out.params = p;
-        return Ok(out);
+        let Some((k, _)) = worst else {
+            return false;
+        };
+        let u = &space.unknowns[k];
+        let v = self.p[u.slot];
+        self.p[u.slot] = if v.is_nan() || (u.log && v <= 0.0) {
+            u.min
+        } else {
+            u.from_internal(u.to_internal(v))
+        };
+        self.held[k] = true;
+        push_unique(&mut self.out.clamped, &u.name);
+        true
     }
-    Err("the least-squares solve did not settle (every unknown held)".into())
 }
 
 fn push_unique(v: &mut Vec<String>, s: &str) {
