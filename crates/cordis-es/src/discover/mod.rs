@@ -1292,7 +1292,62 @@ fn masses_from_ratios(
     total: f64,
 ) -> Result<(Vec<f64>, Vec<Vec<usize>>), CostError> {
     let n = free.len();
-    // Edges (i, j, log ρ, weight).
+    let edges = ratio_edges(locals, fits, kept, pairs, at);
+    // Connected components of the free particles.
+    let mut parent: Vec<usize> = (0..n).collect();
+    for &(i, j, _, _) in &edges {
+        let (a, b) = (find_root(&mut parent, i), find_root(&mut parent, j));
+        parent[a] = b;
+    }
+    let x = log_masses(n, &edges);
+    // Each group of particles joined by links is centred on its own (log) mean: between
+    // groups the ratios are unknown here (the catalogue refit, whose types are shared, can
+    // still find them).
+    let mut sum: std::collections::HashMap<usize, (f64, f64)> = Default::default();
+    for i in (0..n).filter(|&i| free[i]) {
+        let e = sum.entry(find_root(&mut parent, i)).or_default();
+        e.0 += x[i];
+        e.1 += 1.0;
+    }
+    let mut m: Vec<f64> = (0..n)
+        .map(|i| {
+            if free[i] {
+                let (s, c) = sum[&find_root(&mut parent, i)];
+                (x[i] - s / c).exp()
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let s: f64 = (0..n).filter(|&i| free[i]).map(|i| m[i]).sum();
+    for i in (0..n).filter(|&i| free[i]) {
+        m[i] *= total / s;
+    }
+    if m.iter().any(|v| !v.is_finite()) {
+        return Err(bad("masses", "the mass ratios are not finite"));
+    }
+    let mut by_root: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
+    for i in (0..n).filter(|&i| free[i]) {
+        by_root
+            .entry(find_root(&mut parent, i))
+            .or_default()
+            .push(i);
+    }
+    let mut groups: Vec<Vec<usize>> = by_root.into_values().collect();
+    groups.sort();
+    Ok((m, groups))
+}
+
+/// One edge `(i, j, log ρ, weight)` per kept link both of whose ends were fitted: ρ = m_j/m_i
+/// from the two ends' coefficients of the link, weighted by the inverse of its log's variance
+/// (weights floored at 1e-8 of the largest).
+fn ratio_edges(
+    locals: &[select::Local],
+    fits: &[select::Fit],
+    kept: &[usize],
+    pairs: &[[usize; 2]],
+    at: &[Vec<(usize, usize)>],
+) -> Vec<(usize, usize, f64, f64)> {
     let mut edges = Vec::new();
     for &p in kept {
         if at[p].len() != 2 {
@@ -1324,23 +1379,25 @@ fn masses_from_ratios(
     for e in &mut edges {
         e.3 = e.3.max(1e-8 * wmax);
     }
-    // Connected components of the free particles.
-    let mut parent: Vec<usize> = (0..n).collect();
-    fn find(p: &mut [usize], mut x: usize) -> usize {
-        while p[x] != x {
-            p[x] = p[p[x]];
-            x = p[x];
-        }
-        x
+    edges
+}
+
+/// The root of `x`'s component (union–find with path halving).
+fn find_root(parent: &mut [usize], mut x: usize) -> usize {
+    while parent[x] != x {
+        parent[x] = parent[parent[x]];
+        x = parent[x];
     }
-    for &(i, j, _, _) in &edges {
-        let (a, b) = (find(&mut parent, i), find(&mut parent, j));
-        parent[a] = b;
-    }
-    // (i ← j) x_j - x_i = r: Laplacian L x = Bᵀ W r, solved by preconditioned CG.
+    x
+}
+
+/// The log masses `x` of the `n` particles that best fit the edges' log ratios,
+/// `x_j − x_i ≈ r` weighted: the graph Laplacian `L x = Bᵀ W r`, by Jacobi-preconditioned CG
+/// (each component's level is arbitrary: the caller centres it).
+fn log_masses(n: usize, edges: &[(usize, usize, f64, f64)]) -> Vec<f64> {
     let mut diag = vec![0.0; n];
     let mut rhs = vec![0.0; n];
-    for &(i, j, r, w) in &edges {
+    for &(i, j, r, w) in edges {
         diag[i] += w;
         diag[j] += w;
         rhs[j] += w * r;
@@ -1348,7 +1405,7 @@ fn masses_from_ratios(
     }
     let apply = |x: &[f64], out: &mut [f64]| {
         out.iter_mut().for_each(|v| *v = 0.0);
-        for &(i, j, _, w) in &edges {
+        for &(i, j, _, w) in edges {
             let d = w * (x[j] - x[i]);
             out[j] += d;
             out[i] -= d;
@@ -1390,39 +1447,7 @@ fn masses_from_ratios(
             d[k] = z[k] + beta * d[k];
         }
     }
-    // Each group of particles joined by links is centred on its own (log) mean: between
-    // groups the ratios are unknown here (the catalogue refit, whose types are shared, can
-    // still find them).
-    let mut sum: std::collections::HashMap<usize, (f64, f64)> = Default::default();
-    for i in (0..n).filter(|&i| free[i]) {
-        let e = sum.entry(find(&mut parent, i)).or_default();
-        e.0 += x[i];
-        e.1 += 1.0;
-    }
-    let mut m: Vec<f64> = (0..n)
-        .map(|i| {
-            if free[i] {
-                let (s, c) = sum[&find(&mut parent, i)];
-                (x[i] - s / c).exp()
-            } else {
-                1.0
-            }
-        })
-        .collect();
-    let s: f64 = (0..n).filter(|&i| free[i]).map(|i| m[i]).sum();
-    for i in (0..n).filter(|&i| free[i]) {
-        m[i] *= total / s;
-    }
-    if m.iter().any(|v| !v.is_finite()) {
-        return Err(bad("masses", "the mass ratios are not finite"));
-    }
-    let mut by_root: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
-    for i in (0..n).filter(|&i| free[i]) {
-        by_root.entry(find(&mut parent, i)).or_default().push(i);
-    }
-    let mut groups: Vec<Vec<usize>> = by_root.into_values().collect();
-    groups.sort();
-    Ok((m, groups))
+    x
 }
 
 #[cfg(test)]
