@@ -85,7 +85,7 @@ impl LinearShortCost {
     }
 
     pub(crate) fn build(scene: &Scene, plan: &Plan, obs: &Observed) -> Option<Self> {
-        if !linear_in_parameters(scene, plan) {
+        if !short_form_applies(scene, plan) {
             return None;
         }
         let pins = pins(scene, plan, obs)?;
@@ -246,11 +246,12 @@ fn same_type(a: &ThetaEntry, b: &ThetaEntry) -> bool {
     t(a) == t(b)
 }
 
-/// Whether the scene's force can be linear in its parameters here. Several worlds (per-particle
+/// Whether the scene's kinds and plan allow the precomputed form (unknown masses, muscles
+/// and TGRs are refused later, by [`pins`] and [`Theta::of`]). Several worlds (per-particle
 /// dt and gravity on the main world only) take the generic path (such scenes couple worlds
 /// through nonlinear couplings anyway); a quadratic viscosity's θ (Z₂) has no entry here: the
 /// generic design takes it.
-fn linear_in_parameters(scene: &Scene, plan: &Plan) -> bool {
+fn short_form_applies(scene: &Scene, plan: &Plan) -> bool {
     let quadratic = scene
         .types
         .iter()
@@ -288,7 +289,8 @@ struct Theta {
 }
 
 impl Theta {
-    /// `None` when a type's force is not linear in its parameters (muscles, TGRs).
+    /// `None` when a type has no entries here: muscles and TGRs (their force is not linear
+    /// in their parameters) and any kind not listed.
     fn of(scene: &Scene, plan: &Plan) -> Option<Theta> {
         let layout = &plan.layout;
         let mut entries = Vec::new();

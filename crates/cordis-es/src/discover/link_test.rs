@@ -142,7 +142,7 @@ pub fn link_test(
         super::identify::with_gravity(&scene, &mut space, usize::MAX);
     }
     let take = Take::complete(&traj.clone().with_dt(dt));
-    let (e, start) = fit_every_candidate(&scene, &space, &take, d.candidate_pairs.len(), opt)?;
+    let (e, start) = fit_candidates_jointly(&scene, &space, &take, d.candidate_pairs.len(), opt)?;
     let scale = match (reference, opt.total_mass) {
         (Some(_), Some(total)) => total / super::identify::moving_mass(&scene, &e.params),
         _ => 1.0,
@@ -217,14 +217,15 @@ fn refuse_undetermined(d: &Discovery) -> Result<(), CostError> {
     ))
 }
 
-/// The output-error fit of every candidate pair's K, l0 and Z (the first `candidates` types
-/// of `scene`) and where it started from: the discovered network (its links' values, no force
-/// on the other pairs) over growing windows; when a window's optimum runs away on the next
-/// (three unknowns per pair fitted to 16 noisy frames can be: generated networks of 5 moving
-/// particles at 1e-3), over the whole take at once, where every step stays stable; then from
-/// no spring force at all. The short cost's own minimum over every candidate's three unknowns
-/// diverged on the soft block. The first attempt's error when none succeeds.
-fn fit_every_candidate(
+/// One output-error fit of every candidate pair's K, l0 and Z together (the first
+/// `candidates` types of `scene`) and where it started from, tried from three starts: the
+/// discovered network (its links' values, no force on the other pairs) over growing windows;
+/// when a window's optimum runs away on the next (three unknowns per pair fitted to 16 noisy
+/// frames can be: generated networks of 5 moving particles at 1e-3), over the whole take at
+/// once, where every step stays stable; then from no spring force at all. The short cost's own
+/// minimum over every candidate's three unknowns diverged on the soft block. The first
+/// attempt's error when none succeeds.
+fn fit_candidates_jointly(
     scene: &Scene,
     space: &ParameterSpace,
     take: &Take,

@@ -1338,7 +1338,8 @@ fn masses_from_ratios(
     Ok((m, groups))
 }
 
-/// One edge `(i, j, log ρ, weight)` per kept link both of whose ends were fitted: ρ = m_j/m_i
+/// One edge `(i, j, log ρ, weight)` per kept link both of whose ends were fitted and whose
+/// ratio is positive and finite: ρ = m_j/m_i
 /// from the two ends' coefficients of the link, weighted by the inverse of its log's variance
 /// (weights floored at 1e-8 of the largest).
 fn ratio_edges(

@@ -707,9 +707,9 @@ pub(crate) fn solve(spec: &Spec) -> Result<Outcome, String> {
     Err("the least-squares solve did not settle (every unknown held)".into())
 }
 
-/// The active set of [`solve`]: the parameters so far, the linear unknowns held (at their
-/// start) because the data do not determine them or their box stopped them, and what the
-/// outcome will say of them.
+/// The active set of [`solve`]: the parameters so far, the linear unknowns held — at their
+/// start when the data do not determine them, at their box's edge when it stopped them — and
+/// what the outcome will say of them.
 struct ActiveSet<'s> {
     spec: &'s Spec<'s>,
     layout: cordis_core::ParamLayout,

@@ -281,7 +281,7 @@ impl<'a> Outer<'a> {
         p
     }
 
-    /// The inner solve of the linear unknowns on `system` at parameters `p`.
+    /// The inner problem at parameters `p` on `system`: the linear unknowns to solve for.
     fn spec<'s>(&'s self, system: &'s exact::System, p: Vec<f64>) -> Spec<'s> {
         Spec {
             problem: self.problem,
@@ -292,7 +292,8 @@ impl<'a> Outer<'a> {
         }
     }
 
-    /// The inner least-squares minimum at a point (the generic assembly).
+    /// The inner least-squares minimum at a point (the generic assembly), or with Provot
+    /// limits the problem's own cost after the inner solve ([`provot_rows::solve`]).
     fn score(&self, (at, vals): &Point) -> f64 {
         let problem = self.problem;
         let p = self.params_at(at, vals);
@@ -507,8 +508,11 @@ impl<'a> Outer<'a> {
                 profile::GRID
             ));
         }
-        let vals: Vec<f64> = conts.iter().map(|&(_, z)| z).collect();
-        let p = self.params_at(at, &vals);
+        let mut p = self.params_at(at, &[]);
+        for &(k, z) in conts {
+            let u = &space.unknowns[k];
+            p[u.slot] = u.from_internal(z);
+        }
         let (genome, cost) = if self.provot {
             provot_rows::solve(problem, &self.cols, p, &self.split, &mut report)?
         } else {
