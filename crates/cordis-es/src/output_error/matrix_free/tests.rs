@@ -13,6 +13,7 @@ use super::stage::{approx_diag, pattern_move, step_deflation, Lm};
 use super::standard_errors::{theta_inverse, StderrStop, STDERR_STOP};
 use super::*;
 use crate::identify::{add_noise, with_unknown_boxes};
+use crate::linalg::deflation::Deflation;
 use crate::linalg::dot;
 use crate::space::ParameterSpace;
 
@@ -389,21 +390,25 @@ fn a_solve_deflated_by_earlier_steps_reaches_the_same_step_in_fewer_iterations()
         max_iterations: 2000,
     };
     let mut cg = CgWork::default();
+    let mut solve = |x: &mut [f64], deflation: Option<&Deflation>, work: &mut Work| {
+        let (mf, pre, scale, held, rhs) = (&mf, &pre, &scale, &held, &rhs);
+        pcg(
+            mf,
+            pre,
+            scale,
+            held,
+            lambda,
+            rhs,
+            x,
+            set,
+            deflation,
+            &mut cg,
+            work,
+            &mut |_| false,
+        )
+    };
     let mut plain = vec![0.0; len];
-    let (its_plain, ok) = pcg(
-        &mf,
-        &pre,
-        &scale,
-        &held,
-        lambda,
-        &rhs,
-        &mut plain,
-        set,
-        None,
-        &mut cg,
-        &mut work,
-        &mut |_| false,
-    );
+    let (its_plain, ok) = solve(&mut plain, None, &mut work);
     assert!(ok);
     // Earlier "steps": the solution seen through two perturbed copies, as the last steps
     // of a window approximate the next one.
@@ -418,20 +423,7 @@ fn a_solve_deflated_by_earlier_steps_reaches_the_same_step_in_fewer_iterations()
     let d = step_deflation(&mf, &recent, &scale, &held, lambda, &mut work).unwrap();
     assert_eq!(d.dim(), 2);
     let mut deflated = vec![0.0; len];
-    let (its_deflated, ok) = pcg(
-        &mf,
-        &pre,
-        &scale,
-        &held,
-        lambda,
-        &rhs,
-        &mut deflated,
-        set,
-        Some(&d),
-        &mut cg,
-        &mut work,
-        &mut |_| false,
-    );
+    let (its_deflated, ok) = solve(&mut deflated, Some(&d), &mut work);
     assert!(ok);
     let scale_x = plain.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     for a in 0..len {
