@@ -104,8 +104,10 @@
 //! as wide as the solves still running, deflated by the last window's last accepted steps),
 //! scaled by `σ̂²`, each stopped when its variance has settled
 //! ([`standard_errors::theta_inverse`]). A solve that does not converge leaves its unknown's
-//! standard error NaN (not computed), never a guessed number. The undetermined directions of
-//! the full system are not computed on this path (no eigendecomposition of a 6,000-wide H).
+//! standard error NaN (not computed), never a guessed number. The undetermined directions are
+//! those of the θ block `H_θθ` ([`standard_errors::theta_undetermined`]: each is one of the
+//! full system; a parameter only the initial states compensate is not found without an
+//! eigendecomposition of a 6,000-wide H or the profiled information, and the note says so).
 
 // Index loops mirror the row-major `(3i + c)·w + col` layout the passes address.
 #![allow(clippy::needless_range_loop)]

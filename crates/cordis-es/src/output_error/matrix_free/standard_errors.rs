@@ -10,6 +10,7 @@ use super::preconditioner::Pre;
 use super::settings::{DENSE_MAX_COLUMNS, STDERR_CG_TOL, STDERR_DELAY, STDERR_FORM_TOL};
 use super::stage::approx_diag;
 use crate::linalg::deflation::Deflation;
+use crate::output_error::uncertainty;
 
 /// How a standard-error solve `H x = e_k` is judged converged ([`theta_inverse`]).
 #[derive(Clone, Copy, Debug)]
@@ -31,7 +32,7 @@ pub(crate) const STDERR_STOP: StderrStop = StderrStop {
 };
 
 /// The θ block of `H⁻¹` (internal coordinates) by nθ PCG solves `H x_k = e_k`, at the
-/// linearisation `mf` holds, run together (every product as wide as the solves still running:
+/// linearisation `mf` holds (`cols`: its θ columns, [`Mf::theta_columns`]), run together (every product as wide as the solves still running:
 /// the passes read the stored linearisation once for all of them). Columns whose solve did not
 /// converge are NaN.
 ///
@@ -54,6 +55,7 @@ pub(crate) const STDERR_STOP: StderrStop = StderrStop {
 /// same standard errors to 3 digits (BENCHMARKS.md, "Lean passes").
 pub(crate) fn theta_inverse(
     mf: &Mf<'_, '_>,
+    cols: &DMatrix<f64>,
     stop: StderrStop,
     recycled: &[Vec<f64>],
     cgc: &mut CgCounts,
@@ -65,12 +67,11 @@ pub(crate) fn theta_inverse(
     if nt == 0 {
         return out;
     }
-    let cols = mf.theta_columns(work);
-    let scale = approx_diag(mf, &cols);
+    let scale = approx_diag(mf, cols);
     let held = vec![false; len];
     // A tiny damping in the preconditioner only (the operator is H itself): hidden particles'
     // empty local blocks stay invertible.
-    let pre = Pre::new(mf, &cols, &scale, &held, 1e-12);
+    let pre = Pre::new(mf, cols, &scale, &held, 1e-12);
     let w = nt;
     // Row-major len × w: column k solves H x = e_k.
     let mut x = vec![0.0; len * w];
@@ -188,6 +189,40 @@ pub(crate) fn theta_inverse(
     out
 }
 
+/// The directions of θ the data do not determine even with every initial state known: the
+/// eigen-test of the dense path ([`uncertainty::covariance`]: eigenvalues of the equilibrated
+/// matrix below [`uncertainty::RANK_TOL`] of the largest, named by the unknowns carrying ≥ 0.3
+/// of the unit vector) on the θ block `H_θθ` of the θ columns `cols` (exact; indices into θ).
+///
+/// Such a direction is one of the whole fit: `vᵀH_θθv = ‖W J_θ v‖² = 0` makes `J_θ v = 0` on
+/// every observed coordinate, so `H (v, 0) = 0`. The converse does not hold: a parameter the
+/// initial states alone can compensate is undetermined with `H_θθ` regular; finding it takes
+/// the profiled information `H_θθ − H_θs H_ss⁻¹ H_sθ`, nθ solves with the states' block that
+/// converge slowly on large scenes (BENCHMARKS.md, "The bound is exact"), which the fit does not
+/// run. The estimate's note says so.
+pub(crate) fn theta_undetermined(cols: &DMatrix<f64>) -> Vec<Vec<usize>> {
+    let nt = cols.ncols();
+    if nt == 0 {
+        return Vec::new();
+    }
+    let block = cols.rows(0, nt);
+    let sym = (block + block.transpose()) * 0.5;
+    uncertainty::covariance(&sym, 1.0).1
+}
+
+/// Marks the unknowns of `undetermined` as not determined in a physical covariance: an
+/// infinite variance, no covariance with the others (as the dense path reports them).
+pub(crate) fn mark_undetermined(covariance: &mut DMatrix<f64>, undetermined: &[Vec<usize>]) {
+    let n = covariance.nrows();
+    for &a in undetermined.iter().flatten() {
+        for b in 0..n {
+            covariance[(a, b)] = 0.0;
+            covariance[(b, a)] = 0.0;
+        }
+        covariance[(a, a)] = f64::INFINITY;
+    }
+}
+
 /// The Cramér–Rao standard deviations (physical units) of the unknowns at `q` (the truth) for
 /// Gaussian noise `sigma` (m) per unit-weight coordinate over `window` frames: `σ² [H⁻¹]_θθ`
 /// by [`theta_inverse`] (its default stop: variances to ~0.1 %; NaN where a solve did not
@@ -206,8 +241,17 @@ pub(crate) fn cramer_rao_sd(
             "the true model diverges",
         ));
     }
-    let inv = theta_inverse(&mf, STDERR_STOP, &[], &mut CgCounts::default(), &mut work);
-    let cov = theta_covariance(&inv, sigma * sigma, &fitter.chain(q));
+    let cols = mf.theta_columns(&mut work);
+    let inv = theta_inverse(
+        &mf,
+        &cols,
+        STDERR_STOP,
+        &[],
+        &mut CgCounts::default(),
+        &mut work,
+    );
+    let mut cov = theta_covariance(&inv, sigma * sigma, &fitter.chain(q));
+    mark_undetermined(&mut cov, &theta_undetermined(&cols));
     Ok((0..fitter.theta()).map(|a| cov[(a, a)].sqrt()).collect())
 }
 
@@ -254,18 +298,22 @@ pub(crate) fn finish(
     let dof = observed.saturating_sub(variables).max(1);
     let sigma2 = cost / dof as f64;
     let dim = fitter.theta();
-    let solves_before = cgc.unconverged;
-    let inv = theta_inverse(&mf, STDERR_STOP, last_steps, &mut cgc, &mut work);
-    let covariance = theta_covariance(&inv, sigma2, &fitter.chain(&q));
+    let cols = mf.theta_columns(&mut work);
+    let undetermined = theta_undetermined(&cols);
+    let inv = theta_inverse(&mf, &cols, STDERR_STOP, last_steps, &mut cgc, &mut work);
+    let mut covariance = theta_covariance(&inv, sigma2, &fitter.chain(&q));
+    mark_undetermined(&mut covariance, &undetermined);
     let correlation = crate::output_error::uncertainty::correlation(&covariance);
     let params = fitter.params(&q);
     let (stderr, intervals) = crate::output_error::summary::spread(fitter, &params, &covariance);
     let states = crate::output_error::summary::take_states(fitter, &q);
-    let missing = cgc.unconverged - solves_before;
+    // Solves that did not settle, the undetermined unknowns' apart (those are reported as such).
+    let missing = (0..dim).filter(|&a| covariance[(a, a)].is_nan()).count();
     let note = format!(
         "{start}; matrix-free Gauss–Newton ({variables} variables > {DENSE_MAX_COLUMNS} dense \
          columns): {} CG solves, {} iterations, {} short of tolerance; standard errors from \
-         {dim} CG solves of H{}; undetermined directions not computed",
+         {dim} CG solves of H{}; undetermined directions from the parameters' own block of H \
+         (trade-offs with the initial states alone not tested)",
         cgc.solves,
         cgc.iterations,
         cgc.unconverged,
@@ -288,7 +336,10 @@ pub(crate) fn finish(
         intervals,
         covariance,
         correlation,
-        undetermined: Vec::new(),
+        undetermined: undetermined
+            .iter()
+            .map(|d| d.iter().map(|&a| fitter.unknowns[a].name.clone()).collect())
+            .collect(),
         converged: end == StageEnd::Converged,
         above_noise: false,
         end: crate::output_error::summary::end_text(end),

@@ -503,47 +503,55 @@ fn dense_optimum(s: &Setup, fit: &Fitter<'_>) -> Vec<f64> {
     qd
 }
 
-#[test]
-fn matrix_free_fit_reaches_the_dense_fits_estimate() {
-    let s = setup(1e-3);
-    let fit = fitter(&s);
-    let set = TIGHT;
-    let config = super::super::Config::default();
-    let qd = dense_optimum(&s, &fit);
+/// The matrix-free fit from `q0` (growing windows, [`TIGHT`] settings) and its estimate; with
+/// the last window's last accepted steps.
+fn matrix_free_fit(fit: &Fitter<'_>, q0: &[f64]) -> (crate::output_error::Estimate, Vec<Vec<f64>>) {
     let never = || false;
-    let mut qm = s.q.clone();
-    let (mut mcounts, mut cgc) = (Counts::default(), CgCounts::default());
+    let mut q = q0.to_vec();
+    let (mut counts, mut cgc) = (Counts::default(), CgCounts::default());
     let mut steps = Vec::new();
     let longest = fit.takes.iter().map(Take::frames).max().unwrap();
-    let (end, windows) = super::super::grow_windows(&fit, &mut qm, &config, &mut |q, w| {
+    let config = super::super::Config::default();
+    let (end, windows) = super::super::grow_windows(fit, &mut q, &config, &mut |q, w| {
         super::stage(
-            &fit,
+            fit,
             q,
             w,
             longest,
-            set,
-            &mut mcounts,
+            TIGHT,
+            &mut counts,
             &mut cgc,
             &mut steps,
             &never,
         )
     })
     .unwrap();
+    let noise_level = fit
+        .takes
+        .iter()
+        .map(super::super::start::noise_level)
+        .collect();
     let e = super::finish(
-        &fit,
-        qm,
-        mcounts,
+        fit,
+        q,
+        counts,
         cgc,
         end,
         windows,
-        fit.takes
-            .iter()
-            .map(super::super::start::noise_level)
-            .collect(),
+        noise_level,
         "test".into(),
         &steps,
     )
     .unwrap();
+    (e, steps)
+}
+
+#[test]
+fn matrix_free_fit_reaches_the_dense_fits_estimate() {
+    let s = setup(1e-3);
+    let fit = fitter(&s);
+    let qd = dense_optimum(&s, &fit);
+    let (e, steps) = matrix_free_fit(&fit, &s.q);
     let nt = fit.theta();
     let moved = (0..nt).map(|a| (qd[a] - s.q[a]).abs()).fold(0.0, f64::max);
     assert!(moved > 1e-3, "the dense fit did not move from its start");
@@ -583,8 +591,16 @@ fn matrix_free_fit_reaches_the_dense_fits_estimate() {
     };
     // Without and with the fit's last steps deflating the solves (exact on any subspace).
     assert!(!steps.is_empty(), "the last stage kept no step");
+    let cols = mf.theta_columns(&mut work);
     for recycled in [&[][..], &steps[..]] {
-        let inv = theta_inverse(&mf, exact, recycled, &mut CgCounts::default(), &mut work);
+        let inv = theta_inverse(
+            &mf,
+            &cols,
+            exact,
+            recycled,
+            &mut CgCounts::default(),
+            &mut work,
+        );
         for a in 0..nt {
             for b in 0..nt {
                 let scale = (hinv[(a, a)] * hinv[(b, b)]).sqrt();
@@ -601,6 +617,7 @@ fn matrix_free_fit_reaches_the_dense_fits_estimate() {
         // within 0.5 %), covariances within 0.1 of their scale (correlations within 0.1).
         let inv = theta_inverse(
             &mf,
+            &cols,
             STDERR_STOP,
             recycled,
             &mut CgCounts::default(),
@@ -663,4 +680,52 @@ fn the_newton_confirmation_stops_once_the_decrement_decides() {
         at_start.unconverged, 0,
         "a decided refusal counted as unconverged"
     );
+}
+
+/// Guards the matrix-free path's undetermined directions: a spring type no link uses has an
+/// unknown stiffness the motion cannot see. The fit names it (by the unknown's own name), gives
+/// it an infinite standard error and no correlation, and still gives every other unknown a
+/// finite one — as the dense path reports such a parameter.
+#[test]
+fn an_unknown_no_motion_sees_is_named_undetermined_on_the_matrix_free_path() {
+    let spare = |k: Param| {
+        cordis_core::LinkType::new("unused", cordis_core::LinkKind::Spring)
+            .with("stiffness", k)
+            .with("rest_length", 0.1)
+    };
+    let mut truth = truth();
+    truth.add_type(spare(Param::Known(3.0)));
+    let mut guess = with_unknown_boxes(&truth, 25.0, 3);
+    let touch = guess.types.iter_mut().find(|t| t.name == "touch").unwrap();
+    touch.params[3] = Param::Known(touch.params[3].value());
+    let unused = guess.types.len() - 1;
+    guess.types[unused] = spare(Param::Unknown(Bounds {
+        min: 0.5,
+        max: 20.0,
+        init: None,
+    }));
+    let s = setup_of(&truth, &guess, 40, 1e-3);
+    let fit = fitter(&s);
+    let (e, _) = matrix_free_fit(&fit, &s.q);
+    let a = fit
+        .unknowns
+        .iter()
+        .position(|u| u.name.contains("unused"))
+        .expect("the spare type's stiffness is an unknown");
+    assert_eq!(e.undetermined, vec![vec![fit.unknowns[a].name.clone()]]);
+    assert_eq!(e.stderr[a], f64::INFINITY);
+    for b in 0..fit.theta() {
+        if b != a {
+            assert!(
+                e.stderr[b].is_finite() && e.stderr[b] > 0.0,
+                "{}: {}",
+                fit.unknowns[b].name,
+                e.stderr[b]
+            );
+            assert_eq!(e.correlation[(a, b)], 0.0);
+        }
+    }
+    assert!(e
+        .start
+        .contains("undetermined directions from the parameters' own block"));
 }
