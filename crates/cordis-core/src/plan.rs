@@ -105,249 +105,42 @@ impl Plan {
         scene.validate()?;
         let layout = scene.param_layout();
         let off = &layout.type_offsets;
-        let mut spring_items = Vec::new();
-        let mut damper_items = Vec::new();
-        let mut anchor_items = Vec::new();
-        let mut drag_items = Vec::new();
-        let mut nl_items = Vec::new();
-        let mut angle_items = Vec::new();
-        let mut plane_items = Vec::new();
         let worlds = WorldSteps::of(scene);
-        let dt_of = |i: usize| worlds.as_ref().map_or(scene.dt, |w| w.dt[i]);
-        let mut muscle_items = Vec::new();
-        let mut tgr_items = Vec::new();
-        let mut controlled_items = Vec::new();
-        let mut quad_items = Vec::new();
-        let mut pos_items = Vec::new();
-        let mut force_items = Vec::new();
-        let mut provot = ProvotPass::default();
-        let mut needs_velocity = false;
-        let damping_matters = |t: usize| {
-            let ty = &scene.types[t];
-            ty.param("damping").is_some_and(|z| !z.is_known_zero())
-                || ty
-                    .optional_param(OptionalParam::DampingQuadratic)
-                    .is_some_and(|z| !z.is_known_zero())
-        };
-        let quadratic_slot = |t: usize| {
-            scene.types[t]
-                .optional_index(OptionalParam::DampingQuadratic)
-                .map(|k| off[t] + k)
-        };
-        for (li, l) in scene.links.iter().enumerate() {
-            let t = l.type_index;
-            let ty = &scene.types[t];
-            let ps: Vec<u32> = l.particles.iter().map(|&i| i as u32).collect();
-            match ty.kind {
-                LinkKind::Spring => {
-                    spring_items.push((t, [ps[0], ps[1]]));
-                    needs_velocity |= damping_matters(t);
-                    if let Some(k) = ty.optional_index(OptionalParam::MaxElongation) {
-                        provot.links.push(ProvotLink {
-                            i: ps[0],
-                            j: ps[1],
-                            param: off[t],
-                            tau: off[t] + k,
-                        });
-                    }
-                }
-                LinkKind::Damper => {
-                    damper_items.push((t, [ps[0], ps[1]]));
-                    needs_velocity = true;
-                }
-                LinkKind::Anchor => {
-                    let point = l
-                        .point
-                        .or(ty.point)
-                        .unwrap_or(scene.particles[l.particles[0]].pos);
-                    anchor_items.push((t, (ps[0], Vec3::from(point))));
-                    needs_velocity |= damping_matters(t);
-                }
-                LinkKind::Drag => {
-                    drag_items.push((t, ps[0]));
-                    needs_velocity = true;
-                }
-                LinkKind::NonlinearDrag => {
-                    nl_items.push((t, ps[0]));
-                    needs_velocity = true;
-                }
-                LinkKind::Angle => angle_items.push((t, [ps[0], ps[1], ps[2]])),
-                LinkKind::Plane => {
-                    plane_items.push((t, (ps[0], dt_of(l.particles[0]))));
-                    let friction_matters = ty.param("friction").is_some_and(|m| !m.is_known_zero());
-                    needs_velocity |= damping_matters(t) || friction_matters;
-                }
-                LinkKind::Muscle => {
-                    muscle_items.push((t, ([ps[0], ps[1]], li)));
-                    // Rates feed the damping and the neurons' rate weights.
-                    needs_velocity |=
-                        damping_matters(t) || ty.w_rate().iter().any(|w| !w.is_known_zero());
-                }
-                LinkKind::Conditional => unreachable!("validated: conditional types have no links"),
-                LinkKind::Tgr
-                | LinkKind::Quadripole
-                | LinkKind::PositionTransmitter
-                | LinkKind::ForceTransmitter => unreachable!("validated: couplings are not links"),
-            }
-        }
-        for c in &scene.couplings {
-            let t = c.type_index;
-            let ps: Vec<u32> = c.particles.iter().map(|&i| i as u32).collect();
-            match scene.types[t].kind {
-                LinkKind::Tgr => {
-                    let key = (t, scene.world_of(c.particles[0]));
-                    match c.controller {
-                        None => tgr_items.push((key, [ps[0], ps[1]])),
-                        Some(cd) => {
-                            controlled_items.push((key, ([ps[0], ps[1]], cd.map(|i| i as u32))))
-                        }
-                    }
-                    needs_velocity |= damping_matters(t);
-                }
-                LinkKind::Quadripole => quad_items.push((t, [ps[0], ps[1], ps[2], ps[3]])),
-                LinkKind::PositionTransmitter => pos_items.push((t, [ps[0], ps[1], ps[2], ps[3]])),
-                LinkKind::ForceTransmitter => {
-                    let src = &scene.links[c.source.expect("validated: a source")];
-                    let ends = [src.particles[0] as u32, src.particles[1] as u32];
-                    force_items.push((t, ([ps[0], ps[1]], (ends, off[src.type_index]))));
-                    // The source's tension reads its rate when its damping may be non-zero.
-                    needs_velocity |= damping_matters(src.type_index);
-                }
-                k => unreachable!("validated: `{k}` is not a coupling kind"),
-            }
-        }
-        let (runs, pairs) = runs_by_type(&spring_items, off);
+        let mut items = Items::default();
+        items.add_links(scene, off, worlds.as_ref());
+        items.add_couplings(scene, off);
+        let (runs, pairs) = runs_by_type(&items.springs, off);
         let type_of_run = |r: &crate::forces::Run| off.iter().position(|&o| o == r.param);
         let springs = SpringPass {
             quadratic: runs
                 .iter()
-                .map(|r| type_of_run(r).and_then(quadratic_slot))
+                .map(|r| type_of_run(r).and_then(|t| quadratic_slot(scene, off, t)))
                 .collect(),
             runs,
             pairs,
         };
-        let (runs, pairs) = runs_by_type(&damper_items, off);
+        let (runs, pairs) = runs_by_type(&items.dampers, off);
         let dampers = DamperPass { runs, pairs };
-        let (runs, items) = runs_by_type(&anchor_items, off);
+        let (runs, anchored) = runs_by_type(&items.anchors, off);
         let anchors = AnchorPass {
             runs,
-            particles: items.iter().map(|a| a.0).collect(),
-            points: items.iter().map(|a| a.1).collect(),
+            particles: anchored.iter().map(|a| a.0).collect(),
+            points: anchored.iter().map(|a| a.1).collect(),
         };
-        let (runs, particles) = runs_by_type(&drag_items, off);
+        let (runs, particles) = runs_by_type(&items.drags, off);
         let drags = DragPass { runs, particles };
-        let (runs, particles) = runs_by_type(&nl_items, off);
+        let (runs, particles) = runs_by_type(&items.nonlinear_drags, off);
         let nonlinear_drags = NonlinearDragPass { runs, particles };
-        let (runs, triples) = runs_by_type(&angle_items, off);
+        let (runs, triples) = runs_by_type(&items.angles, off);
         let angles = AnglePass { runs, triples };
-        let planes = plane_pass(scene, &plane_items, off, layout.mass_offset);
-        let muscles = muscle_pass(scene, &muscle_items, off);
-        let (runs, tgr_worlds, pairs) = runs_by_type_and_world(&tgr_items, off);
-        let signal_of = |r: &crate::forces::Run| {
-            let t = off
-                .iter()
-                .position(|&o| o == r.param)
-                .expect("a run's type");
-            let name = scene.types[t].signal.as_deref()?;
-            Some(
-                scene
-                    .signal_index(name)
-                    .expect("validated: the signal exists"),
-            )
-        };
-        let (c_runs, c_worlds, c_items) = runs_by_type_and_world(&controlled_items, off);
-        // A run's tendon start: the slots of its type's `tendon_position` and `tendon_velocity`
-        // (absent: 0, at rest at the anchor).
-        let initial_of = |r: &crate::forces::Run| {
-            let t = off
-                .iter()
-                .position(|&o| o == r.param)
-                .expect("a run's type");
-            let slot = |w| scene.types[t].optional_index(w).map(|k| off[t] + k);
-            [
-                slot(OptionalParam::TendonPosition),
-                slot(OptionalParam::TendonVelocity),
-            ]
-        };
-        let stateful = Stateful {
-            signals: scene.signals.clone(),
-            tgrs: TgrPass {
-                signals: runs
-                    .iter()
-                    .map(|r| signal_of(r).expect("validated: an undriven tgr has a signal"))
-                    .collect(),
-                dts: tgr_worlds.iter().map(|&w| scene.world_dt(w)).collect(),
-                initial: runs.iter().map(initial_of).collect(),
-                runs,
-                pairs,
-            },
-            controlled_tgrs: ControlledTgrPass {
-                signals: c_runs.iter().map(signal_of).collect(),
-                dts: c_worlds.iter().map(|&w| scene.world_dt(w)).collect(),
-                initial: c_runs.iter().map(initial_of).collect(),
-                pairs: c_items.iter().map(|i| i.0).collect(),
-                controllers: c_items.iter().map(|i| i.1).collect(),
-                runs: c_runs,
-            },
-            quadripoles: {
-                let (runs, quads) = runs_by_type(&quad_items, off);
-                QuadripolePass { runs, quads }
-            },
-            position_transmitters: {
-                let (runs, quads) = runs_by_type(&pos_items, off);
-                QuadripolePass { runs, quads }
-            },
-            force_transmitters: {
-                let (runs, items) = runs_by_type(&force_items, off);
-                ForceTransmitterPass {
-                    runs,
-                    pairs: items.iter().map(|i| i.0).collect(),
-                    sources: items.iter().map(|i| i.1).collect(),
-                }
-            },
-        };
-
-        let members = |g: &str| -> Vec<u32> {
-            (0..scene.particles.len() as u32)
-                .filter(|&i| scene.particles[i as usize].group.as_deref() == Some(g))
-                .collect()
-        };
-        let mut conditionals = Vec::new();
-        for (t, ty) in scene.types.iter().enumerate() {
-            if ty.kind != LinkKind::Conditional {
-                continue;
-            }
-            needs_velocity |= damping_matters(t);
-            let a = members(&ty.groups[0]);
-            let b = match ty.groups.get(1) {
-                Some(g) if *g != ty.groups[0] => Some(members(g)),
-                _ => None,
-            };
-            conditionals.push(ConditionalPass {
-                param: off[t],
-                quadratic: quadratic_slot(t),
-                a,
-                b,
-            });
-        }
-
-        let free: Vec<bool> = scene.particles.iter().map(|p| !p.fixed).collect();
-        let x0: Vec<Vec3> = scene.particles.iter().map(|p| Vec3::from(p.pos)).collect();
-        let x_minus1 = scene
-            .particles
-            .iter()
-            .enumerate()
-            .map(|(i, p)| {
-                let x = Vec3::from(p.pos);
-                if p.fixed {
-                    x
-                } else {
-                    // Each particle's own world dt: v0 is a velocity in its world's time.
-                    let dt = worlds.as_ref().map_or(scene.dt, |w| w.dt[i]);
-                    x - Vec3::from(p.vel) * dt
-                }
-            })
-            .collect();
+        let planes = plane_pass(scene, &items.planes, off, layout.mass_offset);
+        let muscles = muscle_pass(scene, &items.muscles, off);
+        let stateful = items.stateful(scene, off);
+        let conditionals = conditional_passes(scene, off);
+        let needs_velocity = items.needs_velocity
+            || (0..scene.types.len())
+                .any(|t| scene.types[t].kind == LinkKind::Conditional && damping_matters(scene, t));
+        let (free, x0, x_minus1) = start_positions(scene, worlds.as_ref());
         let runaway = start_runaway(scene, &x0, worlds.as_ref());
         Ok(Plan {
             n: scene.particles.len(),
@@ -367,7 +160,7 @@ impl Plan {
             muscles,
             conditionals,
             stateful,
-            provot,
+            provot: items.provot,
             needs_velocity,
             has_gravity: scene.gravity != [0.0; 3],
             runaway,
@@ -652,6 +445,269 @@ impl Plan {
             (0..self.n).find(|&i| !runaway.within(&x_prev[i], limit))
         }
     }
+}
+
+/// A type's damping (linear or quadratic) may be non-zero: its pass reads velocities.
+fn damping_matters(scene: &Scene, t: usize) -> bool {
+    let ty = &scene.types[t];
+    ty.param("damping").is_some_and(|z| !z.is_known_zero())
+        || ty
+            .optional_param(OptionalParam::DampingQuadratic)
+            .is_some_and(|z| !z.is_known_zero())
+}
+
+/// The parameter slot of a type's quadratic damping, if it has one.
+fn quadratic_slot(scene: &Scene, off: &[usize], t: usize) -> Option<usize> {
+    scene.types[t]
+        .optional_index(OptionalParam::DampingQuadratic)
+        .map(|k| off[t] + k)
+}
+
+/// A tendon's type and world.
+type TypeWorld = (usize, usize);
+
+/// A controlled tendon's ends and its controller's particles.
+type Controlled = ([u32; 2], [u32; 2]);
+
+/// A force transmitter's source: its link's ends and its type's parameter offset.
+type SourceLink = ([u32; 2], usize);
+
+/// The scene's links and couplings sorted by kind, each with its type (and world, for the
+/// tendons), before they are grouped into runs; whether some pass reads velocities.
+#[derive(Default)]
+struct Items {
+    springs: Vec<(usize, [u32; 2])>,
+    dampers: Vec<(usize, [u32; 2])>,
+    anchors: Vec<(usize, (u32, Vec3))>,
+    drags: Vec<(usize, u32)>,
+    nonlinear_drags: Vec<(usize, u32)>,
+    angles: Vec<(usize, [u32; 3])>,
+    /// A plane's particle and that particle's world dt.
+    planes: Vec<(usize, (u32, f64))>,
+    /// A muscle's ends and its link index.
+    muscles: Vec<(usize, ([u32; 2], usize))>,
+    tgrs: Vec<(TypeWorld, [u32; 2])>,
+    controlled: Vec<(TypeWorld, Controlled)>,
+    quadripoles: Vec<(usize, [u32; 4])>,
+    position_transmitters: Vec<(usize, [u32; 4])>,
+    force_transmitters: Vec<(usize, ([u32; 2], SourceLink))>,
+    provot: ProvotPass,
+    needs_velocity: bool,
+}
+
+impl Items {
+    /// Every link, by kind (a spring with a `max_elongation` also gets its Provot limit).
+    fn add_links(&mut self, scene: &Scene, off: &[usize], worlds: Option<&WorldSteps>) {
+        let dt_of = |i: usize| worlds.map_or(scene.dt, |w| w.dt[i]);
+        for (li, l) in scene.links.iter().enumerate() {
+            let t = l.type_index;
+            let ty = &scene.types[t];
+            let ps: Vec<u32> = l.particles.iter().map(|&i| i as u32).collect();
+            match ty.kind {
+                LinkKind::Spring => {
+                    self.springs.push((t, [ps[0], ps[1]]));
+                    self.needs_velocity |= damping_matters(scene, t);
+                    if let Some(k) = ty.optional_index(OptionalParam::MaxElongation) {
+                        self.provot.links.push(ProvotLink {
+                            i: ps[0],
+                            j: ps[1],
+                            param: off[t],
+                            tau: off[t] + k,
+                        });
+                    }
+                }
+                LinkKind::Damper => {
+                    self.dampers.push((t, [ps[0], ps[1]]));
+                    self.needs_velocity = true;
+                }
+                LinkKind::Anchor => {
+                    let point = l
+                        .point
+                        .or(ty.point)
+                        .unwrap_or(scene.particles[l.particles[0]].pos);
+                    self.anchors.push((t, (ps[0], Vec3::from(point))));
+                    self.needs_velocity |= damping_matters(scene, t);
+                }
+                LinkKind::Drag => {
+                    self.drags.push((t, ps[0]));
+                    self.needs_velocity = true;
+                }
+                LinkKind::NonlinearDrag => {
+                    self.nonlinear_drags.push((t, ps[0]));
+                    self.needs_velocity = true;
+                }
+                LinkKind::Angle => self.angles.push((t, [ps[0], ps[1], ps[2]])),
+                LinkKind::Plane => {
+                    self.planes.push((t, (ps[0], dt_of(l.particles[0]))));
+                    let friction_matters = ty.param("friction").is_some_and(|m| !m.is_known_zero());
+                    self.needs_velocity |= damping_matters(scene, t) || friction_matters;
+                }
+                LinkKind::Muscle => {
+                    self.muscles.push((t, ([ps[0], ps[1]], li)));
+                    // Rates feed the damping and the neurons' rate weights.
+                    self.needs_velocity |=
+                        damping_matters(scene, t) || ty.w_rate().iter().any(|w| !w.is_known_zero());
+                }
+                LinkKind::Conditional => unreachable!("validated: conditional types have no links"),
+                LinkKind::Tgr
+                | LinkKind::Quadripole
+                | LinkKind::PositionTransmitter
+                | LinkKind::ForceTransmitter => unreachable!("validated: couplings are not links"),
+            }
+        }
+    }
+
+    /// Every coupling, by kind.
+    fn add_couplings(&mut self, scene: &Scene, off: &[usize]) {
+        for c in &scene.couplings {
+            let t = c.type_index;
+            let ps: Vec<u32> = c.particles.iter().map(|&i| i as u32).collect();
+            match scene.types[t].kind {
+                LinkKind::Tgr => {
+                    let key = (t, scene.world_of(c.particles[0]));
+                    match c.controller {
+                        None => self.tgrs.push((key, [ps[0], ps[1]])),
+                        Some(cd) => self
+                            .controlled
+                            .push((key, ([ps[0], ps[1]], cd.map(|i| i as u32)))),
+                    }
+                    self.needs_velocity |= damping_matters(scene, t);
+                }
+                LinkKind::Quadripole => self.quadripoles.push((t, [ps[0], ps[1], ps[2], ps[3]])),
+                LinkKind::PositionTransmitter => self
+                    .position_transmitters
+                    .push((t, [ps[0], ps[1], ps[2], ps[3]])),
+                LinkKind::ForceTransmitter => {
+                    let src = &scene.links[c.source.expect("validated: a source")];
+                    let ends = [src.particles[0] as u32, src.particles[1] as u32];
+                    self.force_transmitters
+                        .push((t, ([ps[0], ps[1]], (ends, off[src.type_index]))));
+                    // The source's tension reads its rate when its damping may be non-zero.
+                    self.needs_velocity |= damping_matters(scene, src.type_index);
+                }
+                k => unreachable!("validated: `{k}` is not a coupling kind"),
+            }
+        }
+    }
+
+    /// The passes with state carried between steps: tendons (driven by a signal or by a
+    /// controller), quadripoles and transmitters.
+    fn stateful(&self, scene: &Scene, off: &[usize]) -> Stateful {
+        let type_of = |r: &crate::forces::Run| {
+            off.iter()
+                .position(|&o| o == r.param)
+                .expect("a run's type")
+        };
+        let signal_of = |r: &crate::forces::Run| {
+            let name = scene.types[type_of(r)].signal.as_deref()?;
+            Some(
+                scene
+                    .signal_index(name)
+                    .expect("validated: the signal exists"),
+            )
+        };
+        // A run's tendon start: the slots of its type's `tendon_position` and `tendon_velocity`
+        // (absent: 0, at rest at the anchor).
+        let initial_of = |r: &crate::forces::Run| {
+            let t = type_of(r);
+            let slot = |w| scene.types[t].optional_index(w).map(|k| off[t] + k);
+            [
+                slot(OptionalParam::TendonPosition),
+                slot(OptionalParam::TendonVelocity),
+            ]
+        };
+        let (runs, tgr_worlds, pairs) = runs_by_type_and_world(&self.tgrs, off);
+        let (c_runs, c_worlds, c_items) = runs_by_type_and_world(&self.controlled, off);
+        let (q_runs, quads) = runs_by_type(&self.quadripoles, off);
+        let (p_runs, p_quads) = runs_by_type(&self.position_transmitters, off);
+        let (f_runs, f_items) = runs_by_type(&self.force_transmitters, off);
+        Stateful {
+            signals: scene.signals.clone(),
+            tgrs: TgrPass {
+                signals: runs
+                    .iter()
+                    .map(|r| signal_of(r).expect("validated: an undriven tgr has a signal"))
+                    .collect(),
+                dts: tgr_worlds.iter().map(|&w| scene.world_dt(w)).collect(),
+                initial: runs.iter().map(initial_of).collect(),
+                runs,
+                pairs,
+            },
+            controlled_tgrs: ControlledTgrPass {
+                signals: c_runs.iter().map(signal_of).collect(),
+                dts: c_worlds.iter().map(|&w| scene.world_dt(w)).collect(),
+                initial: c_runs.iter().map(initial_of).collect(),
+                pairs: c_items.iter().map(|i| i.0).collect(),
+                controllers: c_items.iter().map(|i| i.1).collect(),
+                runs: c_runs,
+            },
+            quadripoles: QuadripolePass {
+                runs: q_runs,
+                quads,
+            },
+            position_transmitters: QuadripolePass {
+                runs: p_runs,
+                quads: p_quads,
+            },
+            force_transmitters: ForceTransmitterPass {
+                runs: f_runs,
+                pairs: f_items.iter().map(|i| i.0).collect(),
+                sources: f_items.iter().map(|i| i.1).collect(),
+            },
+        }
+    }
+}
+
+/// One pass per conditional type, over the members of its group (or its two groups).
+fn conditional_passes(scene: &Scene, off: &[usize]) -> Vec<ConditionalPass> {
+    let members = |g: &str| -> Vec<u32> {
+        (0..scene.particles.len() as u32)
+            .filter(|&i| scene.particles[i as usize].group.as_deref() == Some(g))
+            .collect()
+    };
+    let mut conditionals = Vec::new();
+    for (t, ty) in scene.types.iter().enumerate() {
+        if ty.kind != LinkKind::Conditional {
+            continue;
+        }
+        let a = members(&ty.groups[0]);
+        let b = match ty.groups.get(1) {
+            Some(g) if *g != ty.groups[0] => Some(members(g)),
+            _ => None,
+        };
+        conditionals.push(ConditionalPass {
+            param: off[t],
+            quadratic: quadratic_slot(scene, off, t),
+            a,
+            b,
+        });
+    }
+    conditionals
+}
+
+/// Which particles move, `x(0)`, and `x(-1) = x(0) − v0 dt` (each particle's own world dt: v0
+/// is a velocity in its world's time; a fixed particle's `x(-1)` is its `x(0)`).
+fn start_positions(
+    scene: &Scene,
+    worlds: Option<&WorldSteps>,
+) -> (Vec<bool>, Vec<Vec3>, Vec<Vec3>) {
+    let free: Vec<bool> = scene.particles.iter().map(|p| !p.fixed).collect();
+    let x0: Vec<Vec3> = scene.particles.iter().map(|p| Vec3::from(p.pos)).collect();
+    let x_minus1 = scene
+        .particles
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let x = Vec3::from(p.pos);
+            if p.fixed {
+                x
+            } else {
+                let dt = worlds.map_or(scene.dt, |w| w.dt[i]);
+                x - Vec3::from(p.vel) * dt
+            }
+        })
+        .collect();
+    (free, x0, x_minus1)
 }
 
 /// The plane pass: instances grouped by type, each run with its type's surface (the normal
