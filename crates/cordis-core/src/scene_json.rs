@@ -414,6 +414,60 @@ fn string(v: &Value, place: &str) -> Result<String> {
 }
 
 fn read_scene(v: &Value) -> Result<Scene> {
+    let root = scene_root(v)?;
+    let dt = number(
+        root.get("dt")
+            .ok_or_else(|| err("dt", "missing: the time step in s is required"))?,
+        "dt",
+    )?;
+    let mut scene = Scene::new(dt);
+    if let Some(g) = root.get("gravity") {
+        scene.gravity = vector3(g, "gravity")?;
+    }
+    if let Some(worlds) = root.get("worlds") {
+        for (name, wv) in named(worlds, "worlds")? {
+            scene.worlds.push(read_world(name, wv)?);
+        }
+    }
+    let particles = match root.get("particles") {
+        Some(a) => array(a, "particles")?,
+        None => return Err(err("particles", "missing: a scene needs particles")),
+    };
+    for (i, pv) in particles.iter().enumerate() {
+        scene.particles.push(read_particle(i, pv)?);
+    }
+    if let Some(signals) = root.get("signals") {
+        for (name, sv) in named(signals, "signals")? {
+            scene.signals.push(read_signal(name, sv)?);
+        }
+    }
+    let mut weights_given = Vec::new();
+    if let Some(types) = root.get("types") {
+        for (name, tv) in named(types, "types")? {
+            let (t, has_weights) = read_type(name, tv)?;
+            scene.types.push(t);
+            weights_given.push(has_weights);
+        }
+    }
+    if let Some(links) = root.get("links") {
+        for (i, lv) in array(links, "links")?.iter().enumerate() {
+            let link = read_link(&scene, i, lv)?;
+            scene.links.push(link);
+        }
+    }
+    if let Some(couplings) = root.get("couplings") {
+        for (i, cv) in array(couplings, "couplings")?.iter().enumerate() {
+            let coupling = read_coupling(&scene, i, cv)?;
+            scene.couplings.push(coupling);
+        }
+    }
+    zero_unweighted_muscles(&mut scene, weights_given);
+    Ok(scene)
+}
+
+/// The scene's top-level object (only its known keys), with `format`, when given, this
+/// reader's.
+fn scene_root(v: &Value) -> Result<&Map<String, Value>> {
     let root = as_object(
         v,
         "",
@@ -441,168 +495,129 @@ fn read_scene(v: &Value) -> Result<Scene> {
             return Err(err("format", format!("expected \"{FORMAT}\", got \"{f}\"")));
         }
     }
+    Ok(root)
+}
+
+/// A top-level object of named entries (`worlds`, `signals`, `types`).
+fn named<'a>(v: &'a Value, key: &str) -> Result<&'a Map<String, Value>> {
+    match v {
+        Value::Object(o) => Ok(o),
+        other => Err(err(
+            key,
+            format!("expected an object of named {key}, got {}", kind_of(other)),
+        )),
+    }
+}
+
+/// A top-level array (`particles`, `links`, `couplings`).
+fn array<'a>(v: &'a Value, key: &str) -> Result<&'a Vec<Value>> {
+    match v {
+        Value::Array(a) => Ok(a),
+        other => Err(err(
+            key,
+            format!("expected an array, got {}", kind_of(other)),
+        )),
+    }
+}
+
+/// `worlds.<name>`: a world's time step (s).
+fn read_world(name: &str, wv: &Value) -> Result<World> {
+    let at = format!("worlds.{name}");
+    let o = as_object(wv, &at, &["dt"])?;
     let dt = number(
-        root.get("dt")
-            .ok_or_else(|| err("dt", "missing: the time step in s is required"))?,
-        "dt",
+        o.get("dt")
+            .ok_or_else(|| err(&at, "missing `dt`: the world's time step in s"))?,
+        &join(&at, "dt"),
     )?;
-    let mut scene = Scene::new(dt);
-    if let Some(g) = root.get("gravity") {
-        scene.gravity = vector3(g, "gravity")?;
+    Ok(World {
+        name: name.to_string(),
+        dt,
+    })
+}
+
+/// `particles[i]`: mass (kg, a parameter), position and velocity (m, m/s), and whether it is
+/// fixed, its group and its world.
+fn read_particle(i: usize, pv: &Value) -> Result<Particle> {
+    let at = format!("particles[{i}]");
+    let o = as_object(pv, &at, &["mass", "pos", "vel", "fixed", "group", "world"])?;
+    let mass = param(
+        o.get("mass").ok_or_else(|| err(&at, "missing `mass`"))?,
+        &join(&at, "mass"),
+    )?;
+    let pos = vector3(
+        o.get("pos").ok_or_else(|| err(&at, "missing `pos`"))?,
+        &join(&at, "pos"),
+    )?;
+    let mut p = Particle::new(1.0, pos);
+    p.mass = mass;
+    if let Some(vel) = o.get("vel") {
+        p.vel = vector3(vel, &join(&at, "vel"))?;
     }
-    if let Some(worlds) = root.get("worlds") {
-        let Value::Object(worlds) = worlds else {
-            return Err(err(
-                "worlds",
-                format!(
-                    "expected an object of named worlds, got {}",
-                    kind_of(worlds)
-                ),
-            ));
-        };
-        for (name, wv) in worlds {
-            let at = format!("worlds.{name}");
-            let o = as_object(wv, &at, &["dt"])?;
-            let dt = number(
-                o.get("dt")
-                    .ok_or_else(|| err(&at, "missing `dt`: the world's time step in s"))?,
-                &join(&at, "dt"),
-            )?;
-            scene.worlds.push(World {
-                name: name.clone(),
-                dt,
-            });
-        }
+    if let Some(f) = o.get("fixed") {
+        p.fixed = f.as_bool().ok_or_else(|| {
+            err(
+                &join(&at, "fixed"),
+                format!("expected true or false, got {f}"),
+            )
+        })?;
     }
-    let particles = match root.get("particles") {
-        Some(Value::Array(a)) => a,
-        Some(other) => {
-            return Err(err(
-                "particles",
-                format!("expected an array, got {}", kind_of(other)),
-            ))
-        }
-        None => return Err(err("particles", "missing: a scene needs particles")),
-    };
-    for (i, pv) in particles.iter().enumerate() {
-        let at = format!("particles[{i}]");
-        let o = as_object(pv, &at, &["mass", "pos", "vel", "fixed", "group", "world"])?;
-        let mass = param(
-            o.get("mass").ok_or_else(|| err(&at, "missing `mass`"))?,
-            &join(&at, "mass"),
-        )?;
-        let pos = vector3(
-            o.get("pos").ok_or_else(|| err(&at, "missing `pos`"))?,
-            &join(&at, "pos"),
-        )?;
-        let mut p = Particle::new(1.0, pos);
-        p.mass = mass;
-        if let Some(vel) = o.get("vel") {
-            p.vel = vector3(vel, &join(&at, "vel"))?;
-        }
-        if let Some(f) = o.get("fixed") {
-            p.fixed = f.as_bool().ok_or_else(|| {
-                err(
-                    &join(&at, "fixed"),
-                    format!("expected true or false, got {f}"),
-                )
-            })?;
-        }
-        if let Some(g) = o.get("group") {
-            p.group = Some(string(g, &join(&at, "group"))?);
-        }
-        if let Some(w) = o.get("world") {
-            // `"main"` is the default: store it as `None` so a scene round-trips.
-            p = p.in_world(string(w, &join(&at, "world"))?);
-        }
-        scene.particles.push(p);
+    if let Some(g) = o.get("group") {
+        p.group = Some(string(g, &join(&at, "group"))?);
     }
-    if let Some(signals) = root.get("signals") {
-        let Value::Object(signals) = signals else {
-            return Err(err(
-                "signals",
-                format!(
-                    "expected an object of named signals, got {}",
-                    kind_of(signals)
-                ),
-            ));
-        };
-        for (name, sv) in signals {
-            scene.signals.push(read_signal(name, sv)?);
-        }
+    if let Some(w) = o.get("world") {
+        // `"main"` is the default: store it as `None` so a scene round-trips.
+        p = p.in_world(string(w, &join(&at, "world"))?);
     }
-    let mut weights_given = Vec::new();
-    if let Some(types) = root.get("types") {
-        let Value::Object(types) = types else {
-            return Err(err(
-                "types",
-                format!("expected an object of named types, got {}", kind_of(types)),
-            ));
-        };
-        for (name, tv) in types {
-            let (t, has_weights) = read_type(name, tv)?;
-            scene.types.push(t);
-            weights_given.push(has_weights);
-        }
-    }
-    if let Some(links) = root.get("links") {
-        let Value::Array(links) = links else {
-            return Err(err(
-                "links",
-                format!("expected an array, got {}", kind_of(links)),
-            ));
-        };
-        for (i, lv) in links.iter().enumerate() {
-            let at = format!("links[{i}]");
-            let o = as_object(lv, &at, &["type", "particles", "point", "observes"])?;
-            let type_index = type_ref(&scene, o, &at)?;
-            let particles = particle_list(o, &at)?;
-            let point = o
-                .get("point")
-                .map(|p| vector3(p, &join(&at, "point")))
-                .transpose()?;
-            let observes = o
-                .get("observes")
-                .map(|v| indices(v, &join(&at, "observes")))
-                .transpose()?;
-            scene.links.push(Link {
-                type_index,
-                particles,
-                point,
-                observes,
-            });
-        }
-    }
-    if let Some(couplings) = root.get("couplings") {
-        let Value::Array(couplings) = couplings else {
-            return Err(err(
-                "couplings",
-                format!("expected an array, got {}", kind_of(couplings)),
-            ));
-        };
-        for (i, cv) in couplings.iter().enumerate() {
-            let at = format!("couplings[{i}]");
-            let o = as_object(cv, &at, &["type", "particles", "source", "controller"])?;
-            let type_index = type_ref(&scene, o, &at)?;
-            let particles = particle_list(o, &at)?;
-            let source = o
-                .get("source")
-                .map(|v| link_index(v, &join(&at, "source")))
-                .transpose()?;
-            let controller = o
-                .get("controller")
-                .map(|v| dipole(v, &join(&at, "controller")))
-                .transpose()?;
-            scene.couplings.push(Coupling {
-                type_index,
-                particles,
-                source,
-                controller,
-            });
-        }
-    }
-    // A muscle type without weights gets zero weights, as many as its first instance observes
-    // (a plain spring until identification gives them values).
+    Ok(p)
+}
+
+/// `links[i]`: its type (among `scene`'s), particles, anchor point and observed links.
+fn read_link(scene: &Scene, i: usize, lv: &Value) -> Result<Link> {
+    let at = format!("links[{i}]");
+    let o = as_object(lv, &at, &["type", "particles", "point", "observes"])?;
+    let type_index = type_ref(scene, o, &at)?;
+    let particles = particle_list(o, &at)?;
+    let point = o
+        .get("point")
+        .map(|p| vector3(p, &join(&at, "point")))
+        .transpose()?;
+    let observes = o
+        .get("observes")
+        .map(|v| indices(v, &join(&at, "observes")))
+        .transpose()?;
+    Ok(Link {
+        type_index,
+        particles,
+        point,
+        observes,
+    })
+}
+
+/// `couplings[i]`: its type (among `scene`'s), particles, source link and controller.
+fn read_coupling(scene: &Scene, i: usize, cv: &Value) -> Result<Coupling> {
+    let at = format!("couplings[{i}]");
+    let o = as_object(cv, &at, &["type", "particles", "source", "controller"])?;
+    let type_index = type_ref(scene, o, &at)?;
+    let particles = particle_list(o, &at)?;
+    let source = o
+        .get("source")
+        .map(|v| link_index(v, &join(&at, "source")))
+        .transpose()?;
+    let controller = o
+        .get("controller")
+        .map(|v| dipole(v, &join(&at, "controller")))
+        .transpose()?;
+    Ok(Coupling {
+        type_index,
+        particles,
+        source,
+        controller,
+    })
+}
+
+/// A muscle type without weights (`weights_given[t]` false) gets zero weights, as many as its
+/// first instance observes (a plain spring until identification gives them values).
+fn zero_unweighted_muscles(scene: &mut Scene, weights_given: Vec<bool>) {
     for (t, given) in weights_given.into_iter().enumerate() {
         if given || scene.types[t].kind != LinkKind::Muscle {
             continue;
@@ -613,7 +628,6 @@ fn read_scene(v: &Value) -> Result<Scene> {
         let zeros = vec![Param::Known(0.0); m];
         scene.types[t] = scene.types[t].clone().with_weights(&zeros, &zeros);
     }
-    Ok(scene)
 }
 
 /// A link index (a non-negative integer).

@@ -9,7 +9,7 @@
 //! parser indexes and subtracts header fields unchecked, so the header fields it trusts are
 //! checked here first (a file that still makes it panic is reported as malformed, not a crash).
 
-use super::markers::{list_names, Imported, InputFormat, Units};
+use super::markers::{list_names, to_metres, Imported, InputFormat, Units};
 use crate::error::{printable, CordisError, Result};
 use crate::Observations;
 
@@ -176,11 +176,7 @@ pub(crate) fn parse_c3d(name: &str, bytes: &[u8], units: Option<Units>) -> Resul
         } else {
             file_units.name().to_string()
         },
-        if factor == 1.0 {
-            String::new()
-        } else {
-            format!(" → m (×{factor})")
-        }
+        to_metres(factor)
     );
     Ok(Imported {
         observations,

@@ -319,6 +319,15 @@ fn read_npy(name: &str, bytes: &[u8]) -> Result<(Observations, String)> {
     }
 }
 
+/// The mapping's note of a unit conversion: empty for metres, ` → m (×factor)` otherwise.
+pub(crate) fn to_metres(factor: f64) -> String {
+    if factor == 1.0 {
+        String::new()
+    } else {
+        format!(" → m (×{factor})")
+    }
+}
+
 /// `names` as printed in a mapping: the first few, then how many more.
 pub(crate) fn list_names(names: &[String]) -> String {
     const SHOWN: usize = 6;

@@ -15,7 +15,7 @@
 //! `NumMarkers` are checked against the rows and the names of line 4. A marker's cells that
 //! are empty (or absent at the end of a row, as some writers leave them) are missing.
 
-use super::markers::{list_names, Imported, InputFormat, Units};
+use super::markers::{list_names, to_metres, Imported, InputFormat, Units};
 use crate::error::{printable, CordisError, Result};
 use crate::Observations;
 
@@ -36,86 +36,166 @@ fn cells(line: &str) -> Vec<&str> {
 /// the header's when given.
 pub(crate) fn parse_trc(name: &str, text: &str, units: Option<Units>) -> Result<Imported> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let lines: Vec<(usize, &str)> = text.lines().enumerate().map(|(k, l)| (k + 1, l)).collect();
-    let place = |line: usize| format!("{name}:{line}");
-    let line = |k: usize| -> Result<(usize, &str)> {
-        lines.get(k).copied().ok_or_else(|| {
+    let lines = Lines {
+        name,
+        lines: text.lines().enumerate().map(|(k, l)| (k + 1, l)).collect(),
+    };
+    let header = read_header(&lines, units)?;
+    let num_markers = header.names.len();
+    let mut data = read_rows(&lines, &header)?;
+    let frames = data.len() / (3 * num_markers);
+    // A marker whose X, Y or Z alone is missing is missing whole: a partial point is not one.
+    for p in data.chunks_exact_mut(3) {
+        if p.iter().any(|v| v.is_nan()) {
+            p.fill(f64::NAN);
+        }
+    }
+    let mut observations = Observations::from_flat(frames, num_markers, data)?;
+    let rate = header.rate;
+    observations.dt = Some(1.0 / rate);
+    let factor = header.units.metres();
+    let mapping = format!(
+        "{num_markers} markers: {}; DataRate {rate} Hz → dt {} s; Units {}{}",
+        list_names(&header.names),
+        1.0 / rate,
+        header.units.name(),
+        to_metres(factor)
+    );
+    Ok(Imported {
+        observations,
+        format: InputFormat::Trc,
+        labels: header.names,
+        mapping,
+    })
+}
+
+/// The file's lines, numbered from 1, and the places errors name (`name:line`).
+struct Lines<'a> {
+    name: &'a str,
+    lines: Vec<(usize, &'a str)>,
+}
+
+impl<'a> Lines<'a> {
+    fn place(&self, line: usize) -> String {
+        format!("{}:{line}", self.name)
+    }
+
+    /// Header line `k` (from 0) with its number; an error when the file ends before it.
+    fn header(&self, k: usize) -> Result<(usize, &'a str)> {
+        self.lines.get(k).copied().ok_or_else(|| {
             fail(
-                name.into(),
+                self.name.into(),
                 format!(
                     "the file ends after {} lines: a TRC header has 5 (PathFileType, keys, values, names, axes)",
-                    lines.len()
+                    self.lines.len()
                 ),
             )
         })
-    };
-    let (l1, first) = line(0)?;
+    }
+}
+
+/// What the header announces: the rate (Hz), the rows, the length unit and the markers' names.
+struct Header {
+    rate: f64,
+    num_frames: usize,
+    units: Units,
+    names: Vec<String>,
+}
+
+/// Header lines 2 and 3: the keys and their values, matched case-insensitively.
+struct KeyValues<'a, 'l> {
+    lines: &'l Lines<'a>,
+    keys: Vec<&'a str>,
+    values: Vec<&'a str>,
+    /// The two lines' numbers.
+    at: (usize, usize),
+}
+
+impl<'a> KeyValues<'a, '_> {
+    fn value(&self, key: &str) -> Option<&'a str> {
+        self.keys
+            .iter()
+            .position(|k| k.eq_ignore_ascii_case(key))
+            .map(|i| self.values[i])
+    }
+
+    fn number(&self, key: &str) -> Result<f64> {
+        let (l2, l3) = self.at;
+        let v = self.value(key).ok_or_else(|| {
+            fail(
+                self.lines.place(l2),
+                format!(
+                    "the header has no `{key}` key (keys: {})",
+                    printable(&self.keys.join(", "))
+                ),
+            )
+        })?;
+        v.parse::<f64>().map_err(|_| {
+            fail(
+                self.lines.place(l3),
+                format!("{key} `{}` is not a number", printable(v)),
+            )
+        })
+    }
+
+    fn count(&self, key: &str) -> Result<usize> {
+        let v = self.number(key)?;
+        if v < 0.0 || v.fract() != 0.0 || v > 1e9 {
+            return Err(fail(
+                self.lines.place(self.at.1),
+                format!("{key} {v} is not a count"),
+            ));
+        }
+        Ok(v as usize)
+    }
+}
+
+/// The five header lines: `PathFileType`, the keys and their values (rate, counts, units,
+/// checked against `units` when given), the markers' names (as many as `NumMarkers`) and the
+/// axes line.
+fn read_header(lines: &Lines<'_>, units: Option<Units>) -> Result<Header> {
+    let (l1, first) = lines.header(0)?;
     if !first
         .trim_start()
         .to_ascii_lowercase()
         .starts_with("pathfiletype")
     {
         return Err(fail(
-            place(l1),
+            lines.place(l1),
             "not a TRC file: the first line must start with `PathFileType`".into(),
         ));
     }
-    let (l2, keys_line) = line(1)?;
-    let (l3, values_line) = line(2)?;
-    let keys = cells(keys_line);
-    let values = cells(values_line);
-    if keys.len() != values.len() {
+    let (l2, keys_line) = lines.header(1)?;
+    let (l3, values_line) = lines.header(2)?;
+    let kv = KeyValues {
+        lines,
+        keys: cells(keys_line),
+        values: cells(values_line),
+        at: (l2, l3),
+    };
+    if kv.keys.len() != kv.values.len() {
         return Err(fail(
-            place(l3),
+            lines.place(l3),
             format!(
                 "wrong header count: line {l2} names {} keys, line {l3} gives {} values",
-                keys.len(),
-                values.len()
+                kv.keys.len(),
+                kv.values.len()
             ),
         ));
     }
-    let value = |key: &str| -> Option<&str> {
-        keys.iter()
-            .position(|k| k.eq_ignore_ascii_case(key))
-            .map(|i| values[i])
-    };
-    let number = |key: &str| -> Result<f64> {
-        let v = value(key).ok_or_else(|| {
-            fail(
-                place(l2),
-                format!(
-                    "the header has no `{key}` key (keys: {})",
-                    printable(&keys.join(", "))
-                ),
-            )
-        })?;
-        v.parse::<f64>().map_err(|_| {
-            fail(
-                place(l3),
-                format!("{key} `{}` is not a number", printable(v)),
-            )
-        })
-    };
-    let rate = number("DataRate")?;
+    let rate = kv.number("DataRate")?;
     if !(rate.is_finite() && rate > 0.0) {
         return Err(fail(
-            place(l3),
+            lines.place(l3),
             format!("DataRate {rate} is not a positive rate (Hz)"),
         ));
     }
-    let count = |key: &str| -> Result<usize> {
-        let v = number(key)?;
-        if v < 0.0 || v.fract() != 0.0 || v > 1e9 {
-            return Err(fail(place(l3), format!("{key} {v} is not a count")));
-        }
-        Ok(v as usize)
-    };
-    let num_frames = count("NumFrames")?;
-    let num_markers = count("NumMarkers")?;
-    let file_units = value("Units").unwrap_or("m");
+    let num_frames = kv.count("NumFrames")?;
+    let num_markers = kv.count("NumMarkers")?;
+    let file_units = kv.value("Units").unwrap_or("m");
     let file_units = Units::parse(file_units).ok_or_else(|| {
         fail(
-            place(l3),
+            lines.place(l3),
             format!(
                 "Units `{}` is not a length unit: m, cm or mm",
                 printable(file_units)
@@ -124,7 +204,7 @@ pub(crate) fn parse_trc(name: &str, text: &str, units: Option<Units>) -> Result<
     })?;
     if let Some(u) = units.filter(|u| *u != file_units) {
         return Err(fail(
-            place(l3),
+            lines.place(l3),
             format!(
                 "mixed units: --units {} but the header says Units {}",
                 u.name(),
@@ -132,7 +212,20 @@ pub(crate) fn parse_trc(name: &str, text: &str, units: Option<Units>) -> Result<
             ),
         ));
     }
-    let (l4, names_line) = line(3)?;
+    let names = marker_names(lines, num_markers, l3)?;
+    lines.header(4)?;
+    Ok(Header {
+        rate,
+        num_frames,
+        units: file_units,
+        names,
+    })
+}
+
+/// Header line 4's marker names (after `Frame#` and `Time`; empty cells skipped): exactly
+/// `num_markers` of them, and at least one (`values_line` is where `NumMarkers` was given).
+fn marker_names(lines: &Lines<'_>, num_markers: usize, values_line: usize) -> Result<Vec<String>> {
+    let (l4, names_line) = lines.header(3)?;
     let names: Vec<String> = cells(names_line)
         .into_iter()
         .skip(2)
@@ -141,7 +234,7 @@ pub(crate) fn parse_trc(name: &str, text: &str, units: Option<Units>) -> Result<
         .collect();
     if names.len() != num_markers {
         return Err(fail(
-            place(l4),
+            lines.place(l4),
             format!(
                 "wrong header count: NumMarkers is {num_markers} but line {l4} names {} markers",
                 names.len()
@@ -150,16 +243,23 @@ pub(crate) fn parse_trc(name: &str, text: &str, units: Option<Units>) -> Result<
     }
     if num_markers == 0 {
         return Err(fail(
-            place(l3),
+            lines.place(values_line),
             "NumMarkers is 0: no markers to read".into(),
         ));
     }
-    line(4)?;
+    Ok(names)
+}
+
+/// The data rows after the header (blank lines skipped), frame-major, metres, NaN where a cell
+/// is empty, `NaN` or absent at the row's end; exactly `NumFrames` rows.
+fn read_rows(lines: &Lines<'_>, header: &Header) -> Result<Vec<f64>> {
+    let (names, num_frames) = (&header.names, header.num_frames);
+    let num_markers = names.len();
     let width = 2 + 3 * num_markers;
-    let factor = file_units.metres();
-    let mut data = Vec::with_capacity(num_frames.min(lines.len()) * num_markers * 3);
+    let factor = header.units.metres();
+    let mut data = Vec::with_capacity(num_frames.min(lines.lines.len()) * num_markers * 3);
     let mut frames = 0;
-    for &(ln, row) in lines.iter().skip(5) {
+    for &(ln, row) in lines.lines.iter().skip(5) {
         if row.trim().is_empty() {
             continue;
         }
@@ -171,7 +271,7 @@ pub(crate) fn parse_trc(name: &str, text: &str, units: Option<Units>) -> Result<
         };
         if fields.len() > width && fields[width..].iter().any(|f| !f.is_empty()) {
             return Err(fail(
-                place(ln),
+                lines.place(ln),
                 format!(
                     "long row: {} fields, the header announces {width}",
                     fields.len()
@@ -179,7 +279,10 @@ pub(crate) fn parse_trc(name: &str, text: &str, units: Option<Units>) -> Result<
             ));
         }
         if fields.len() < 2 {
-            return Err(fail(place(ln), "short row: no Frame# and Time".into()));
+            return Err(fail(
+                lines.place(ln),
+                "short row: no Frame# and Time".into(),
+            ));
         }
         for k in 0..3 * num_markers {
             let cell = fields.get(2 + k).copied().unwrap_or("");
@@ -190,7 +293,7 @@ pub(crate) fn parse_trc(name: &str, text: &str, units: Option<Units>) -> Result<
                     Ok(v) if v.is_finite() => v * factor,
                     _ => {
                         return Err(fail(
-                            place(ln),
+                            lines.place(ln),
                             format!(
                                 "marker `{}` {} (field {}): `{}` is not a number",
                                 printable(&names[k / 3]),
@@ -207,42 +310,18 @@ pub(crate) fn parse_trc(name: &str, text: &str, units: Option<Units>) -> Result<
         frames += 1;
         if frames > num_frames {
             return Err(fail(
-                place(ln),
+                lines.place(ln),
                 format!("wrong header count: more rows than NumFrames {num_frames}"),
             ));
         }
     }
     if frames != num_frames {
         return Err(fail(
-            name.into(),
+            lines.name.into(),
             format!("wrong header count: NumFrames is {num_frames} but the file has {frames} rows"),
         ));
     }
-    // A marker whose X, Y or Z alone is missing is missing whole: a partial point is not one.
-    for p in data.chunks_exact_mut(3) {
-        if p.iter().any(|v| v.is_nan()) {
-            p.fill(f64::NAN);
-        }
-    }
-    let mut observations = Observations::from_flat(frames, num_markers, data)?;
-    observations.dt = Some(1.0 / rate);
-    let mapping = format!(
-        "{num_markers} markers: {}; DataRate {rate} Hz → dt {} s; Units {}{}",
-        list_names(&names),
-        1.0 / rate,
-        file_units.name(),
-        if factor == 1.0 {
-            String::new()
-        } else {
-            format!(" → m (×{factor})")
-        }
-    );
-    Ok(Imported {
-        observations,
-        format: InputFormat::Trc,
-        labels: names,
-        mapping,
-    })
+    Ok(data)
 }
 
 #[cfg(test)]
