@@ -187,6 +187,47 @@ impl Scene {
     pub fn validate_type(&self, ti: usize) -> Result<()> {
         let t = &self.types[ti];
         let at = format!("types.{}", t.name);
+        self.check_type_name(ti)?;
+        check_param_count(t, &at)?;
+        check_param_signs(t, &at)?;
+        if t.observes.is_some() && t.kind != LinkKind::Muscle {
+            return Err(CordisError::scene(
+                format!("{at}.observes"),
+                "only muscle types have it",
+            ));
+        }
+        self.check_tgr_signal(ti, &at)?;
+        if let Some(point) = &t.point {
+            if !matches!(t.kind, LinkKind::Anchor | LinkKind::Plane) {
+                return Err(CordisError::scene(
+                    format!("{at}.point"),
+                    "only anchors and planes have it",
+                ));
+            }
+            check_finite3(&format!("{at}.point"), point)?;
+        }
+        check_surface(&at, t)?;
+        if t.kind == LinkKind::Conditional {
+            if !(1..=2).contains(&t.groups.len()) {
+                return Err(CordisError::scene(
+                    format!("{at}.groups"),
+                    format!("names one or two groups, got {}", t.groups.len()),
+                ));
+            }
+            self.check_groups_have_particles(ti)?;
+            self.check_groups_world(ti)?;
+        } else if !t.groups.is_empty() {
+            return Err(CordisError::scene(
+                format!("{at}.groups"),
+                "only conditional types have it",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Type `ti` has a name, and no type before it has the same.
+    fn check_type_name(&self, ti: usize) -> Result<()> {
+        let t = &self.types[ti];
         if t.name.is_empty() {
             return Err(CordisError::scene(
                 format!("types[{ti}]"),
@@ -194,77 +235,18 @@ impl Scene {
             ));
         }
         if self.types[..ti].iter().any(|o| o.name == t.name) {
-            return Err(CordisError::scene(at, "the name is used twice"));
-        }
-        let specs = t.kind.param_specs();
-        let extra = t.params.len().wrapping_sub(specs.len());
-        if t.kind == LinkKind::Muscle && t.params.len() >= specs.len() && extra % 2 != 0 {
             return Err(CordisError::scene(
-                format!("{at}.w_rate"),
-                format!(
-                    "w_len has {} weight(s), w_rate {}: they must match",
-                    extra.div_ceil(2),
-                    extra / 2
-                ),
+                format!("types.{}", t.name),
+                "the name is used twice",
             ));
         }
-        let expected = specs.len() + t.optional.len();
-        if t.params.len() != expected
-            && !(t.kind == LinkKind::Muscle && t.params.len() > specs.len())
-        {
-            return Err(CordisError::scene(
-                at,
-                format!(
-                    "`{}` types have {} parameters, got {}",
-                    t.kind,
-                    expected,
-                    t.params.len()
-                ),
-            ));
-        }
-        for ((name, _), p) in specs.iter().zip(&t.params) {
-            let sign = match *name {
-                "rest_cos" => Sign::UnitInterval,
-                "range" | "tendon_mass" => Sign::Positive,
-                "threshold" => Sign::Any,
-                _ => Sign::NonNegative,
-            };
-            check_param(&format!("{at}.{name}"), p, sign)?;
-        }
-        for (k, &which) in t.optional.iter().enumerate() {
-            let place = format!("{at}.{}", which.name());
-            if !which.kinds().contains(&t.kind) {
-                let who = match which {
-                    OptionalParam::MaxElongation => "only springs have it",
-                    OptionalParam::DampingQuadratic => "only springs and conditional links have it",
-                    OptionalParam::TendonPosition | OptionalParam::TendonVelocity => {
-                        "only TGRs have a tendon"
-                    }
-                };
-                return Err(CordisError::scene(place, who));
-            }
-            if t.optional[..k].contains(&which) {
-                return Err(CordisError::scene(place, "given twice"));
-            }
-            let sign = match which {
-                OptionalParam::MaxElongation => Sign::Positive,
-                OptionalParam::DampingQuadratic => Sign::NonNegative,
-                OptionalParam::TendonPosition | OptionalParam::TendonVelocity => Sign::Any,
-            };
-            check_param(&place, &t.params[specs.len() + k], sign)?;
-        }
-        // Neural weights may have either sign (excitation or inhibition).
-        if t.kind == LinkKind::Muscle {
-            for (k, p) in t.params.iter().enumerate().skip(specs.len()) {
-                check_param(&format!("{at}.{}", t.param_name(k)), p, Sign::Any)?;
-            }
-        }
-        if t.observes.is_some() && t.kind != LinkKind::Muscle {
-            return Err(CordisError::scene(
-                format!("{at}.observes"),
-                "only muscle types have it",
-            ));
-        }
+        Ok(())
+    }
+
+    /// A `tgr` type names an existing signal, unless every coupling of it has a controller;
+    /// no other kind names one.
+    fn check_tgr_signal(&self, ti: usize, at: &str) -> Result<()> {
+        let t = &self.types[ti];
         match (&t.signal, t.kind == LinkKind::Tgr) {
             (Some(name), true) => {
                 if self.signal_index(name).is_none() {
@@ -298,31 +280,6 @@ impl Scene {
                 ))
             }
             (None, false) => {}
-        }
-        if let Some(point) = &t.point {
-            if !matches!(t.kind, LinkKind::Anchor | LinkKind::Plane) {
-                return Err(CordisError::scene(
-                    format!("{at}.point"),
-                    "only anchors and planes have it",
-                ));
-            }
-            check_finite3(&format!("{at}.point"), point)?;
-        }
-        check_surface(&at, t)?;
-        if t.kind == LinkKind::Conditional {
-            if !(1..=2).contains(&t.groups.len()) {
-                return Err(CordisError::scene(
-                    format!("{at}.groups"),
-                    format!("names one or two groups, got {}", t.groups.len()),
-                ));
-            }
-            self.check_groups_have_particles(ti)?;
-            self.check_groups_world(ti)?;
-        } else if !t.groups.is_empty() {
-            return Err(CordisError::scene(
-                format!("{at}.groups"),
-                "only conditional types have it",
-            ));
         }
         Ok(())
     }
@@ -695,6 +652,81 @@ fn check_param(place: &str, p: &Param, sign: Sign) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// The number of parameters a type of its kind has (its kind's, its optional ones, and for a
+/// muscle as many `w_len` as `w_rate` weights).
+fn check_param_count(t: &LinkType, at: &str) -> Result<()> {
+    let specs = t.kind.param_specs();
+    let extra = t.params.len().wrapping_sub(specs.len());
+    if t.kind == LinkKind::Muscle && t.params.len() >= specs.len() && extra % 2 != 0 {
+        return Err(CordisError::scene(
+            format!("{at}.w_rate"),
+            format!(
+                "w_len has {} weight(s), w_rate {}: they must match",
+                extra.div_ceil(2),
+                extra / 2
+            ),
+        ));
+    }
+    let expected = specs.len() + t.optional.len();
+    if t.params.len() != expected && !(t.kind == LinkKind::Muscle && t.params.len() > specs.len()) {
+        return Err(CordisError::scene(
+            at,
+            format!(
+                "`{}` types have {} parameters, got {}",
+                t.kind,
+                expected,
+                t.params.len()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Each parameter's sign (a rest cosine in [-1, 1], a range or tendon mass positive, a
+/// threshold or a tendon start any, the rest non-negative), each optional parameter allowed
+/// for the kind and given once, and a muscle's neural weights finite of either sign.
+fn check_param_signs(t: &LinkType, at: &str) -> Result<()> {
+    let specs = t.kind.param_specs();
+    for ((name, _), p) in specs.iter().zip(&t.params) {
+        let sign = match *name {
+            "rest_cos" => Sign::UnitInterval,
+            "range" | "tendon_mass" => Sign::Positive,
+            "threshold" => Sign::Any,
+            _ => Sign::NonNegative,
+        };
+        check_param(&format!("{at}.{name}"), p, sign)?;
+    }
+    for (k, &which) in t.optional.iter().enumerate() {
+        let place = format!("{at}.{}", which.name());
+        if !which.kinds().contains(&t.kind) {
+            let who = match which {
+                OptionalParam::MaxElongation => "only springs have it",
+                OptionalParam::DampingQuadratic => "only springs and conditional links have it",
+                OptionalParam::TendonPosition | OptionalParam::TendonVelocity => {
+                    "only TGRs have a tendon"
+                }
+            };
+            return Err(CordisError::scene(place, who));
+        }
+        if t.optional[..k].contains(&which) {
+            return Err(CordisError::scene(place, "given twice"));
+        }
+        let sign = match which {
+            OptionalParam::MaxElongation => Sign::Positive,
+            OptionalParam::DampingQuadratic => Sign::NonNegative,
+            OptionalParam::TendonPosition | OptionalParam::TendonVelocity => Sign::Any,
+        };
+        check_param(&place, &t.params[specs.len() + k], sign)?;
+    }
+    // Neural weights may have either sign (excitation or inhibition).
+    if t.kind == LinkKind::Muscle {
+        for (k, p) in t.params.iter().enumerate().skip(specs.len()) {
+            check_param(&format!("{at}.{}", t.param_name(k)), p, Sign::Any)?;
+        }
+    }
+    Ok(())
 }
 
 /// A plane type's `point` and `normal`: both present, the normal finite and not zero (it is
