@@ -40,7 +40,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write;
 
 use super::mjcf_callback::{callback_kinds, custom_fields};
-use crate::{CordisError, LinkKind, Param, Result, Scene};
+use crate::{CordisError, LinkKind, LinkType, Param, Particle, Result, Scene};
 
 /// Shortest text that reads back as the same f64 (`1e-9`, `0.1`, `2.0`).
 pub(super) fn num(v: f64) -> String {
@@ -153,127 +153,191 @@ pub fn to_mjcf(scene: &Scene) -> Result<String> {
     if let Some(e) = mjcf_refusal(scene) {
         return Err(e);
     }
-    let ps = &scene.particles;
-    let known = |p: &Param| p.value();
-    let mut loads = vec![JointLoad::default(); ps.len()];
-    let mut world_sites = String::new();
-    let mut tendons = String::new();
-    let zero_length = |li: usize, what: &str| {
-        CordisError::scene(
-            format!("links[{li}]"),
-            format!(
-                "{what} has zero length at the start: MuJoCo's tendon then has a direction \
-                 where CORDIS has none (u = 0); move the particle or the point"
-            ),
-        )
-    };
-    for (li, link) in scene.links.iter().enumerate() {
-        let t = &scene.types[link.type_index];
-        let param = |name: &str| t.param(name).map_or(0.0, known);
-        let lp = &link.particles;
-        match t.kind {
-            LinkKind::Spring => {
-                let (a, b) = (lp[0], lp[1]);
-                if ps[a].fixed && ps[b].fixed {
-                    continue;
+    let LinkElements {
+        loads,
+        world_sites,
+        tendons,
+    } = LinkElements::of(scene)?;
+    let (bodies, qvel) = bodies(&scene.particles, &loads);
+    let custom = custom_fields(scene)?;
+    let callbacks = callback_kinds(scene)?;
+    let mut xml = preamble(scene, &callbacks);
+    let _ = write!(xml, "<worldbody>\n{world_sites}{bodies}</worldbody>\n");
+    if !tendons.is_empty() {
+        let _ = write!(xml, "<tendon>\n{tendons}</tendon>\n");
+    }
+    xml.push_str(&start_keyframe(qvel));
+    xml.push_str(&custom);
+    xml.push_str("</mujoco>\n");
+    Ok(xml)
+}
+
+/// What the links become in MJCF, in link order: the loads on each particle's slide joints,
+/// the world body's anchor sites and the `<tendon>` elements.
+struct LinkElements {
+    loads: Vec<JointLoad>,
+    world_sites: String,
+    tendons: String,
+}
+
+impl LinkElements {
+    /// The elements of every link, or the refusal of the first tendon of zero length.
+    fn of(scene: &Scene) -> Result<Self> {
+        let mut out = LinkElements {
+            loads: vec![JointLoad::default(); scene.particles.len()],
+            world_sites: String::new(),
+            tendons: String::new(),
+        };
+        for (li, link) in scene.links.iter().enumerate() {
+            let t = &scene.types[link.type_index];
+            match t.kind {
+                LinkKind::Spring => out.add_spring(scene, li, t)?,
+                LinkKind::Damper => out.add_damper(scene, li, t),
+                LinkKind::Anchor => out.add_anchor(scene, li, t)?,
+                LinkKind::Drag => {
+                    let i = link.particles[0];
+                    if !scene.particles[i].fixed {
+                        out.loads[i].damping += param_of(t, "damping");
+                    }
                 }
-                if dist(ps[a].pos, ps[b].pos) < 1e-12 {
-                    return Err(zero_length(li, "this spring"));
-                }
-                spatial(
-                    &mut tendons,
-                    li,
-                    [param("stiffness"), param("rest_length"), param("damping")],
-                    &format!("s{a}"),
-                    &format!("s{b}"),
+                // Forces of the state that MJCF has no element for: `<custom>` data for the
+                // passive callback of cordis.mujoco (see `mjcf_callback`).
+                LinkKind::Angle | LinkKind::Plane => {}
+                _ => unreachable!("refused by mjcf_refusal"),
+            }
+        }
+        Ok(out)
+    }
+
+    /// A spring's spatial tendon between its two sites (none when both ends are fixed).
+    fn add_spring(&mut self, scene: &Scene, li: usize, t: &LinkType) -> Result<()> {
+        let ps = &scene.particles;
+        let (a, b) = (scene.links[li].particles[0], scene.links[li].particles[1]);
+        if ps[a].fixed && ps[b].fixed {
+            return Ok(());
+        }
+        if dist(ps[a].pos, ps[b].pos) < 1e-12 {
+            return Err(zero_length(li, "this spring"));
+        }
+        spatial(
+            &mut self.tendons,
+            li,
+            [
+                param_of(t, "stiffness"),
+                param_of(t, "rest_length"),
+                param_of(t, "damping"),
+            ],
+            &format!("s{a}"),
+            &format!("s{b}"),
+        );
+        Ok(())
+    }
+
+    /// A damper's three fixed tendons, one per axis, over its free ends (none when both are
+    /// fixed or its damping is 0).
+    fn add_damper(&mut self, scene: &Scene, li: usize, t: &LinkType) {
+        let lp = &scene.links[li].particles;
+        let z = param_of(t, "damping");
+        let ends: Vec<(usize, f64)> = [(lp[0], 1.0), (lp[1], -1.0)]
+            .into_iter()
+            .filter(|&(i, _)| !scene.particles[i].fixed)
+            .collect();
+        if ends.is_empty() || z == 0.0 {
+            return;
+        }
+        for (axis, _) in AXES {
+            let _ = write!(
+                self.tendons,
+                "<fixed name=\"l{li}_{axis}\" damping=\"{}\">",
+                num(z)
+            );
+            for &(i, coef) in &ends {
+                let _ = write!(
+                    self.tendons,
+                    "<joint joint=\"p{i}_{axis}\" coef=\"{}\"/>",
+                    num(coef)
                 );
             }
-            LinkKind::Damper => {
-                let z = param("damping");
-                let ends: Vec<(usize, f64)> = [(lp[0], 1.0), (lp[1], -1.0)]
-                    .into_iter()
-                    .filter(|&(i, _)| !ps[i].fixed)
-                    .collect();
-                if ends.is_empty() || z == 0.0 {
-                    continue;
-                }
-                for (axis, _) in AXES {
-                    let _ = write!(
-                        tendons,
-                        "<fixed name=\"l{li}_{axis}\" damping=\"{}\">",
-                        num(z)
-                    );
-                    for &(i, coef) in &ends {
-                        let _ = write!(
-                            tendons,
-                            "<joint joint=\"p{i}_{axis}\" coef=\"{}\"/>",
-                            num(coef)
-                        );
-                    }
-                    tendons.push_str("</fixed>\n");
-                }
-            }
-            LinkKind::Anchor => {
-                let i = lp[0];
-                if ps[i].fixed {
-                    continue;
-                }
-                let point = link.point.or(t.point).unwrap_or(ps[i].pos);
-                let (k, l0, z) = (param("stiffness"), param("rest_length"), param("damping"));
-                let linear = l0 == 0.0;
-                if linear {
-                    let load = &mut loads[i];
-                    load.stiffness += k;
-                    for (r, (p, x)) in load
-                        .weighted_ref
-                        .iter_mut()
-                        .zip(point.iter().zip(ps[i].pos))
-                    {
-                        *r += k * (p - x);
-                    }
-                }
-                if !linear || z != 0.0 {
-                    if dist(point, ps[i].pos) < 1e-12 {
-                        return Err(zero_length(
-                            li,
-                            "this anchor (with damping or a rest length)",
-                        ));
-                    }
-                    let _ = writeln!(
-                        world_sites,
-                        "<site name=\"a{li}\" pos=\"{}\"/>",
-                        vec3(point)
-                    );
-                    let (k, l0) = if linear { (0.0, 0.0) } else { (k, l0) };
-                    spatial(
-                        &mut tendons,
-                        li,
-                        [k, l0, z],
-                        &format!("a{li}"),
-                        &format!("s{i}"),
-                    );
-                }
-            }
-            LinkKind::Drag => {
-                if !ps[lp[0]].fixed {
-                    loads[lp[0]].damping += param("damping");
-                }
-            }
-            // Forces of the state that MJCF has no element for: `<custom>` data for the
-            // passive callback of cordis.mujoco (see `mjcf_callback`).
-            LinkKind::Angle | LinkKind::Plane => {}
-            _ => unreachable!("refused by mjcf_refusal"),
+            self.tendons.push_str("</fixed>\n");
         }
     }
+
+    /// An anchor of a free particle: with `l0 = 0` its stiffness on the particle's joints, and
+    /// for its damping or a rest length a spatial tendon from a world site at its point.
+    fn add_anchor(&mut self, scene: &Scene, li: usize, t: &LinkType) -> Result<()> {
+        let link = &scene.links[li];
+        let i = link.particles[0];
+        let x0 = scene.particles[i].pos;
+        if scene.particles[i].fixed {
+            return Ok(());
+        }
+        let point = link.point.or(t.point).unwrap_or(x0);
+        let (k, l0, z) = (
+            param_of(t, "stiffness"),
+            param_of(t, "rest_length"),
+            param_of(t, "damping"),
+        );
+        let linear = l0 == 0.0;
+        if linear {
+            let load = &mut self.loads[i];
+            load.stiffness += k;
+            for (r, (p, x)) in load.weighted_ref.iter_mut().zip(point.iter().zip(x0)) {
+                *r += k * (p - x);
+            }
+        }
+        if !linear || z != 0.0 {
+            if dist(point, x0) < 1e-12 {
+                return Err(zero_length(
+                    li,
+                    "this anchor (with damping or a rest length)",
+                ));
+            }
+            let _ = writeln!(
+                self.world_sites,
+                "<site name=\"a{li}\" pos=\"{}\"/>",
+                vec3(point)
+            );
+            let (k, l0) = if linear { (0.0, 0.0) } else { (k, l0) };
+            spatial(
+                &mut self.tendons,
+                li,
+                [k, l0, z],
+                &format!("a{li}"),
+                &format!("s{i}"),
+            );
+        }
+        Ok(())
+    }
+}
+
+/// A type's parameter by name, 0 when the type lacks it (unknowns are refused before).
+fn param_of(t: &LinkType, name: &str) -> f64 {
+    t.param(name).map_or(0.0, Param::value)
+}
+
+/// The refusal of link `li`, `what`, whose tendon has zero length at the start.
+fn zero_length(li: usize, what: &str) -> CordisError {
+    CordisError::scene(
+        format!("links[{li}]"),
+        format!(
+            "{what} has zero length at the start: MuJoCo's tendon then has a direction \
+             where CORDIS has none (u = 0); move the particle or the point"
+        ),
+    )
+}
+
+/// The bodies `p{i}` in particle order (slide joints carrying `loads`, and a site), and the
+/// free particles' initial velocities in joint order (m/s, the keyframe's `qvel`).
+fn bodies(particles: &[Particle], loads: &[JointLoad]) -> (String, Vec<f64>) {
     let mut bodies = String::new();
     let mut qvel = Vec::new();
-    for (i, p) in ps.iter().enumerate() {
+    for (i, p) in particles.iter().enumerate() {
         let _ = write!(bodies, "<body name=\"p{i}\" pos=\"{}\">", vec3(p.pos));
         if !p.fixed {
             let _ = write!(
                 bodies,
                 "<inertial pos=\"0 0 0\" mass=\"{}\" diaginertia=\"1 1 1\"/>",
-                num(known(&p.mass))
+                num(p.mass.value())
             );
             let load = loads[i];
             for (c, (axis, dir)) in AXES.iter().enumerate() {
@@ -299,8 +363,12 @@ pub fn to_mjcf(scene: &Scene) -> Result<String> {
         }
         let _ = writeln!(bodies, "<site name=\"s{i}\"/></body>");
     }
-    let custom = custom_fields(scene)?;
-    let callbacks = callback_kinds(scene)?;
+    (bodies, qvel)
+}
+
+/// The model's opening: the `<mujoco>` tag, the comments on how to run it (naming the
+/// `callbacks` kinds, if any) and the `<option>` of the CORDIS scheme.
+fn preamble(scene: &Scene, callbacks: &[&str]) -> String {
     let mut xml = String::new();
     let _ = writeln!(
         xml,
@@ -325,22 +393,21 @@ pub fn to_mjcf(scene: &Scene) -> Result<String> {
         num(scene.dt),
         vec3(scene.gravity)
     );
-    let _ = write!(xml, "<worldbody>\n{world_sites}{bodies}</worldbody>\n");
-    if !tendons.is_empty() {
-        let _ = write!(xml, "<tendon>\n{tendons}</tendon>\n");
+    xml
+}
+
+/// The keyframe `cordis_start`: every joint at its initial position, with velocities `qvel`
+/// (m/s); empty when no joint moves.
+fn start_keyframe(qvel: Vec<f64>) -> String {
+    if qvel.is_empty() {
+        return String::new();
     }
-    if !qvel.is_empty() {
-        let zeros = vec!["0"; qvel.len()].join(" ");
-        let v: Vec<String> = qvel.into_iter().map(num).collect();
-        let _ = writeln!(
-            xml,
-            "<keyframe><key name=\"cordis_start\" qpos=\"{zeros}\" qvel=\"{}\"/></keyframe>",
-            v.join(" ")
-        );
-    }
-    xml.push_str(&custom);
-    xml.push_str("</mujoco>\n");
-    Ok(xml)
+    let zeros = vec!["0"; qvel.len()].join(" ");
+    let v: Vec<String> = qvel.into_iter().map(num).collect();
+    format!(
+        "<keyframe><key name=\"cordis_start\" qpos=\"{zeros}\" qvel=\"{}\"/></keyframe>\n",
+        v.join(" ")
+    )
 }
 
 fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
