@@ -82,38 +82,60 @@ pub fn to_gltf(scene: &Scene, traj: &Trajectory, dt: f64) -> Result<String> {
             format!("has {frames} frames, a glTF animation here takes at most 65535"),
         ));
     }
-    let mut buf: Vec<u8> = Vec::with_capacity(raw as usize);
-    let mut views = Vec::new();
-    let mut accessors = Vec::new();
-    // A buffer view over buf[start..], index returned.
-    fn view(
-        views: &mut Vec<serde_json::Value>,
-        buf: &[u8],
-        start: usize,
-        target: Option<u32>,
-    ) -> usize {
-        let mut v = json!({"buffer": 0, "byteOffset": start, "byteLength": buf.len() - start});
+    let mut buffer = Buffer {
+        bytes: Vec::with_capacity(raw as usize),
+        views: Vec::new(),
+        accessors: Vec::new(),
+    };
+    buffer.push_base_positions(n);
+    let indices = buffer.push_segment_indices(&pairs, n);
+    let times = buffer.push_keyframe_times(frames, dt)?;
+    let weights = buffer.push_one_hot_weights(frames);
+    let targets = buffer.push_frame_targets(traj)?;
+    let primitives = primitives(indices, &targets);
+    Ok(document(buffer, primitives, frames, times, weights).to_string())
+}
+
+/// The glTF's one binary buffer, with the buffer views and accessors into it, in the order
+/// they are pushed.
+struct Buffer {
+    bytes: Vec<u8>,
+    views: Vec<serde_json::Value>,
+    accessors: Vec<serde_json::Value>,
+}
+
+impl Buffer {
+    /// A buffer view over bytes[start..], index returned.
+    fn view(&mut self, start: usize, target: Option<u32>) -> usize {
+        let mut v =
+            json!({"buffer": 0, "byteOffset": start, "byteLength": self.bytes.len() - start});
         if let Some(t) = target {
             v["target"] = t.into();
         }
-        views.push(v);
-        views.len() - 1
+        self.views.push(v);
+        self.views.len() - 1
     }
 
-    // 0: the base positions, all zero (the targets hold the frames).
-    let start = buf.len();
-    buf.resize(start + 12 * n, 0);
-    let base_view = view(&mut views, &buf, start, Some(34962));
-    accessors.push(
-        json!({"bufferView": base_view, "componentType": 5126, "count": n,
-        "type": "VEC3", "min": [0.0, 0.0, 0.0], "max": [0.0, 0.0, 0.0]}),
-    );
+    /// Accessor 0: the base positions of the `n` vertices, all zero (the targets hold the
+    /// frames).
+    fn push_base_positions(&mut self, n: usize) {
+        let start = self.bytes.len();
+        self.bytes.resize(start + 12 * n, 0);
+        let base_view = self.view(start, Some(34962));
+        self.accessors.push(
+            json!({"bufferView": base_view, "componentType": 5126, "count": n,
+            "type": "VEC3", "min": [0.0, 0.0, 0.0], "max": [0.0, 0.0, 0.0]}),
+        );
+    }
 
-    // 1: the segments' vertex indices.
-    let wide = n > usize::from(u16::MAX);
-    let indices = if pairs.is_empty() {
-        None
-    } else {
+    /// The accessor of the segments' vertex indices (u16, u32 when the `n` particles are more
+    /// than 65,535), `None` when there is no pair to draw.
+    fn push_segment_indices(&mut self, pairs: &[[usize; 2]], n: usize) -> Option<usize> {
+        let wide = n > usize::from(u16::MAX);
+        if pairs.is_empty() {
+            return None;
+        }
+        let buf = &mut self.bytes;
         let start = buf.len();
         for &i in pairs.iter().flatten() {
             if wide {
@@ -126,96 +148,134 @@ pub fn to_gltf(scene: &Scene, traj: &Trajectory, dt: f64) -> Result<String> {
             buf.push(0);
         }
         let end = start + pairs.len() * 2 * if wide { 4 } else { 2 };
-        views.push(
+        self.views.push(
             json!({"buffer": 0, "byteOffset": start, "byteLength": end - start,
             "target": 34963}),
         );
-        accessors.push(json!({"bufferView": views.len() - 1,
+        let indices_view = self.views.len() - 1;
+        self.accessors.push(json!({"bufferView": indices_view,
             "componentType": if wide { 5125 } else { 5123 },
             "count": pairs.len() * 2, "type": "SCALAR"}));
-        Some(accessors.len() - 1)
-    };
-
-    // The keyframe times, strictly increasing in float32.
-    let start = buf.len();
-    let mut last = f32::NEG_INFINITY;
-    for k in 0..frames {
-        let t = (k as f64 * dt) as f32;
-        if t <= last || !t.is_finite() {
-            return Err(CordisError::argument(
-                "dt",
-                format!("frame {k}'s time {} s is not after frame {}'s in float32: use a larger dt or fewer frames", k as f64 * dt, k.saturating_sub(1)),
-            ));
-        }
-        last = t;
-        buf.extend_from_slice(&t.to_le_bytes());
+        Some(self.accessors.len() - 1)
     }
-    let times_view = view(&mut views, &buf, start, None);
-    accessors.push(
-        json!({"bufferView": times_view, "componentType": 5126, "count": frames,
-        "type": "SCALAR", "min": [0.0], "max": [last]}),
-    );
-    let times = accessors.len() - 1;
 
-    // The weights: keyframe k is the one-hot e_k, i.e. a one at k T + k of T² zeros.
-    let start = buf.len();
-    for k in 0..frames {
-        buf.extend_from_slice(&((k * frames + k) as u32).to_le_bytes());
-    }
-    let indices_view = view(&mut views, &buf, start, None);
-    let start = buf.len();
-    for _ in 0..frames {
-        buf.extend_from_slice(&1.0f32.to_le_bytes());
-    }
-    let ones_view = view(&mut views, &buf, start, None);
-    accessors.push(
-        json!({"componentType": 5126, "count": frames * frames, "type": "SCALAR",
-        "sparse": {"count": frames,
-            "indices": {"bufferView": indices_view, "componentType": 5125},
-            "values": {"bufferView": ones_view}}}),
-    );
-    let weights = accessors.len() - 1;
-
-    // One target per frame, in one buffer view.
-    let start = buf.len();
-    let flat = traj.as_flat();
-    let mut target_accessors = Vec::with_capacity(frames);
-    let first_target = accessors.len();
-    for k in 0..frames {
-        let mut lo = [f32::INFINITY; 3];
-        let mut hi = [f32::NEG_INFINITY; 3];
-        for i in 0..n {
-            for c in 0..3 {
-                let v = flat[(k * n + i) * 3 + c];
-                let f = v as f32;
-                if !f.is_finite() {
-                    return Err(CordisError::trajectory(
-                        format!("frame {k}, particle {i}, {}", ["x", "y", "z"][c]),
-                        format!("{v} does not fit in a float32"),
-                    ));
-                }
-                lo[c] = lo[c].min(f);
-                hi[c] = hi[c].max(f);
-                buf.extend_from_slice(&f.to_le_bytes());
+    /// The accessor of the `frames` keyframe times `k dt` (s), refused unless strictly
+    /// increasing in float32.
+    fn push_keyframe_times(&mut self, frames: usize, dt: f64) -> Result<usize> {
+        let start = self.bytes.len();
+        let mut last = f32::NEG_INFINITY;
+        for k in 0..frames {
+            let t = (k as f64 * dt) as f32;
+            if t <= last || !t.is_finite() {
+                return Err(CordisError::argument(
+                    "dt",
+                    format!("frame {k}'s time {} s is not after frame {}'s in float32: use a larger dt or fewer frames", k as f64 * dt, k.saturating_sub(1)),
+                ));
             }
+            last = t;
+            self.bytes.extend_from_slice(&t.to_le_bytes());
         }
-        target_accessors.push(json!({"POSITION": first_target + k}));
-        accessors.push(json!({"bufferView": 0, "byteOffset": 12 * n * k,
-            "componentType": 5126, "count": n, "type": "VEC3", "min": lo, "max": hi}));
-    }
-    let targets_view = view(&mut views, &buf, start, Some(34962));
-    for a in &mut accessors[first_target..] {
-        a["bufferView"] = targets_view.into();
+        let times_view = self.view(start, None);
+        self.accessors.push(
+            json!({"bufferView": times_view, "componentType": 5126, "count": frames,
+            "type": "SCALAR", "min": [0.0], "max": [last]}),
+        );
+        Ok(self.accessors.len() - 1)
     }
 
+    /// The sparse accessor of the morph weights: keyframe k is the one-hot e_k, i.e. a one at
+    /// k T + k of T² zeros (T = `frames`).
+    fn push_one_hot_weights(&mut self, frames: usize) -> usize {
+        let start = self.bytes.len();
+        for k in 0..frames {
+            self.bytes
+                .extend_from_slice(&((k * frames + k) as u32).to_le_bytes());
+        }
+        let indices_view = self.view(start, None);
+        let start = self.bytes.len();
+        for _ in 0..frames {
+            self.bytes.extend_from_slice(&1.0f32.to_le_bytes());
+        }
+        let ones_view = self.view(start, None);
+        self.accessors.push(
+            json!({"componentType": 5126, "count": frames * frames, "type": "SCALAR",
+            "sparse": {"count": frames,
+                "indices": {"bufferView": indices_view, "componentType": 5125},
+                "values": {"bufferView": ones_view}}}),
+        );
+        self.accessors.len() - 1
+    }
+
+    /// One morph target per frame of `traj` (its float32 positions, m), all in one buffer
+    /// view; the targets' `POSITION` entries returned, or the refusal of the first position
+    /// beyond float32.
+    fn push_frame_targets(&mut self, traj: &Trajectory) -> Result<Vec<serde_json::Value>> {
+        let (frames, n) = (traj.frames(), traj.particles());
+        let start = self.bytes.len();
+        let flat = traj.as_flat();
+        let mut target_accessors = Vec::with_capacity(frames);
+        let first_target = self.accessors.len();
+        for k in 0..frames {
+            let mut lo = [f32::INFINITY; 3];
+            let mut hi = [f32::NEG_INFINITY; 3];
+            for i in 0..n {
+                for c in 0..3 {
+                    let v = flat[(k * n + i) * 3 + c];
+                    let f = v as f32;
+                    if !f.is_finite() {
+                        return Err(CordisError::trajectory(
+                            format!("frame {k}, particle {i}, {}", ["x", "y", "z"][c]),
+                            format!("{v} does not fit in a float32"),
+                        ));
+                    }
+                    lo[c] = lo[c].min(f);
+                    hi[c] = hi[c].max(f);
+                    self.bytes.extend_from_slice(&f.to_le_bytes());
+                }
+            }
+            target_accessors.push(json!({"POSITION": first_target + k}));
+            // The view is pushed once every frame is in: `bufferView` is set below.
+            let accessor = json!({"bufferView": 0, "byteOffset": 12 * n * k,
+                "componentType": 5126, "count": n, "type": "VEC3", "min": lo, "max": hi});
+            self.accessors.push(accessor);
+        }
+        let targets_view = self.view(start, Some(34962));
+        for a in &mut self.accessors[first_target..] {
+            a["bufferView"] = targets_view.into();
+        }
+        Ok(target_accessors)
+    }
+}
+
+/// The mesh's primitives over accessor 0's vertices, both morphed by `targets`: the points,
+/// and the lines when there are segment `indices`.
+fn primitives(indices: Option<usize>, targets: &[serde_json::Value]) -> Vec<serde_json::Value> {
     let mut primitives = vec![json!({"attributes": {"POSITION": 0}, "mode": 0,
-        "material": 0, "targets": target_accessors})];
+        "material": 0, "targets": targets})];
     if let Some(ix) = indices {
         primitives.push(
             json!({"attributes": {"POSITION": 0}, "indices": ix, "mode": 1,
-            "material": 1, "targets": target_accessors}),
+            "material": 1, "targets": targets}),
         );
     }
+    primitives
+}
+
+/// The glTF document: the node `cordis` with the mesh of `primitives` (showing frame 0 of
+/// `frames`), the materials, the animation `motion` from the accessors `times` (s) to
+/// `weights`, and the buffer embedded as base64.
+fn document(
+    buffer: Buffer,
+    primitives: Vec<serde_json::Value>,
+    frames: usize,
+    times: usize,
+    weights: usize,
+) -> serde_json::Value {
+    let Buffer {
+        bytes: buf,
+        views,
+        accessors,
+    } = buffer;
     let mut initial = vec![0.0f32; frames];
     initial[0] = 1.0;
     let names: Vec<String> = (0..frames).map(|k| format!("frame {k}")).collect();
@@ -223,7 +283,7 @@ pub fn to_gltf(scene: &Scene, traj: &Trajectory, dt: f64) -> Result<String> {
         "data:application/octet-stream;base64,{}",
         base64::engine::general_purpose::STANDARD.encode(&buf)
     );
-    let doc = json!({
+    json!({
         "asset": {"version": "2.0", "generator": format!("cordis {}", env!("CARGO_PKG_VERSION"))},
         "scene": 0,
         "scenes": [{"name": "cordis", "nodes": [0]}],
@@ -240,8 +300,7 @@ pub fn to_gltf(scene: &Scene, traj: &Trajectory, dt: f64) -> Result<String> {
         "accessors": accessors,
         "bufferViews": views,
         "buffers": [{"byteLength": buf.len(), "uri": uri}],
-    });
-    Ok(doc.to_string())
+    })
 }
 
 #[cfg(test)]
