@@ -27,21 +27,15 @@ const MAX_ENTRY_BYTES: u64 = 4 << 30;
 
 /// Parses `.npz` bytes (module docs); `name` starts every error's place.
 pub(crate) fn parse_npz(name: &str, bytes: &[u8]) -> Result<Imported> {
-    let mut archive = zip::ZipArchive::new(std::io::Cursor::new(bytes))
-        .map_err(|e| CordisError::format(name, format!("not a .npz file (a zip archive): {e}")))?;
-    let entries: Vec<String> = archive.file_names().map(str::to_string).collect();
-    let key_of = |entry: &str| entry.strip_suffix(".npy").unwrap_or(entry).to_string();
-    let find = |keys: &[&str]| -> Option<String> {
-        keys.iter()
-            .find_map(|k| entries.iter().find(|e| key_of(e) == *k).cloned())
-    };
-    let Some(tracks_entry) = find(TRACK_KEYS) else {
+    let mut archive = Archive::open(name, bytes)?;
+    let Some(tracks_entry) = archive.find(TRACK_KEYS) else {
         return Err(CordisError::format(
             name,
             format!(
                 "no `tracks` array (nor `points`, `pred_tracks`); the archive holds: {}",
                 printable(
-                    &entries
+                    &archive
+                        .entries
                         .iter()
                         .map(|e| key_of(e))
                         .collect::<Vec<_>>()
@@ -50,103 +44,29 @@ pub(crate) fn parse_npz(name: &str, bytes: &[u8]) -> Result<Imported> {
             ),
         ));
     };
-    let mut read = |entry: &str| -> Result<NpyArray> {
-        let place = format!("{name}[{}]", key_of(entry));
-        let mut file = archive
-            .by_name(entry)
-            .map_err(|e| CordisError::format(&place, format!("cannot be read: {e}")))?;
-        let mut data = Vec::new();
-        (&mut file)
-            .take(MAX_ENTRY_BYTES + 1)
-            .read_to_end(&mut data)
-            .map_err(|e| CordisError::format(&place, format!("cannot be read: {e}")))?;
-        if data.len() as u64 > MAX_ENTRY_BYTES {
-            return Err(CordisError::format(
-                &place,
-                format!("larger than {MAX_ENTRY_BYTES} bytes once inflated"),
-            ));
-        }
-        parse_npy_array(&place, &data)
-    };
-    let tracks = read(&tracks_entry)?;
-    let (visibility_entry, occluded) = match find(VISIBLE_KEYS) {
+    let tracks = archive.read(&tracks_entry)?;
+    let (visibility_entry, occluded) = match archive.find(VISIBLE_KEYS) {
         Some(e) => (Some(e), false),
-        None => (find(&[OCCLUDED_KEY]), true),
+        None => (archive.find(&[OCCLUDED_KEY]), true),
     };
-    let visibility = visibility_entry.as_deref().map(&mut read).transpose()?;
-    let tplace = format!("{name}[{}]", key_of(&tracks_entry));
-    // (N, T, D) with index (i, t, d), or (1, T, N, D) with index (0, t, i, d).
-    let (n, t, dims, batched) = match tracks.shape[..] {
-        [n, t, d] if d == 2 || d == 3 => (n, t, d, false),
-        [1, t, n, d] if d == 2 || d == 3 => (n, t, d, true),
-        _ => {
-            return Err(CordisError::format(
-                &tplace,
-                format!(
-                    "shape {:?} is not (points, frames, 2|3) nor (1, frames, points, 2|3)",
-                    tracks.shape
-                ),
-            ))
+    let visibility = visibility_entry
+        .as_deref()
+        .map(|e| archive.read(e))
+        .transpose()?;
+    let layout = Layout::of(&format!("{name}[{}]", key_of(&tracks_entry)), &tracks)?;
+    let visible = match (&visibility, &visibility_entry) {
+        (Some(v), Some(entry)) => {
+            Some(layout.visible(&format!("{name}[{}]", key_of(entry)), &tracks, v, occluded)?)
         }
+        _ => None,
     };
-    if n == 0 || t == 0 {
-        return Err(CordisError::format(
-            &tplace,
-            format!("shape {:?} holds no point or no frame", tracks.shape),
-        ));
-    }
-    let track_at = |i: usize, f: usize, d: usize| -> f64 {
-        if batched {
-            tracks.values[(f * n + i) * dims + d]
-        } else {
-            tracks.values[(i * t + f) * dims + d]
-        }
-    };
-    let visible_at: Box<dyn Fn(usize, usize) -> bool> = match &visibility {
-        None => Box::new(|_, _| true),
-        Some(v) => {
-            let vplace = format!(
-                "{name}[{}]",
-                key_of(visibility_entry.as_deref().unwrap_or(""))
-            );
-            let expected: Vec<usize> = if batched { vec![1, t, n] } else { vec![n, t] };
-            if v.shape != expected {
-                return Err(CordisError::format(
-                    &vplace,
-                    format!(
-                        "shape {:?} does not match the tracks' {:?} (expected {expected:?})",
-                        v.shape, tracks.shape
-                    ),
-                ));
-            }
-            let values = &v.values;
-            Box::new(move |i, f| {
-                let v = if batched {
-                    values[f * n + i]
-                } else {
-                    values[i * t + f]
-                };
-                (v >= 0.5) != occluded
-            })
-        }
-    };
-    let mut data = Vec::with_capacity(t * n * 3);
-    let mut hidden = 0usize;
-    for f in 0..t {
-        for i in 0..n {
-            let p = [
-                track_at(i, f, 0),
-                track_at(i, f, 1),
-                if dims == 3 { track_at(i, f, 2) } else { 0.0 },
-            ];
-            if !visible_at(i, f) || p.iter().any(|v| !v.is_finite()) {
-                hidden += 1;
-                data.extend_from_slice(&[f64::NAN; 3]);
-            } else {
-                data.extend_from_slice(&p);
-            }
-        }
-    }
+    let (data, hidden) = layout.points(&tracks, visible.as_deref());
+    let Layout {
+        n,
+        t,
+        dims,
+        batched,
+    } = layout;
     let observations = Observations::from_flat(t, n, data)
         .map_err(|e| CordisError::trajectory(name, e.to_string()))?;
     let layout = if batched {
@@ -171,6 +91,162 @@ pub(crate) fn parse_npz(name: &str, bytes: &[u8]) -> Result<Imported> {
         labels: (0..n).map(|i| i.to_string()).collect(),
         mapping,
     })
+}
+
+/// An entry's array name: the entry without its `.npy`.
+fn key_of(entry: &str) -> String {
+    entry.strip_suffix(".npy").unwrap_or(entry).to_string()
+}
+
+/// The zip archive of a `.npz` and its entries' names.
+struct Archive<'a> {
+    name: &'a str,
+    zip: zip::ZipArchive<std::io::Cursor<&'a [u8]>>,
+    entries: Vec<String>,
+}
+
+impl<'a> Archive<'a> {
+    fn open(name: &'a str, bytes: &'a [u8]) -> Result<Self> {
+        let zip = zip::ZipArchive::new(std::io::Cursor::new(bytes)).map_err(|e| {
+            CordisError::format(name, format!("not a .npz file (a zip archive): {e}"))
+        })?;
+        let entries = zip.file_names().map(str::to_string).collect();
+        Ok(Archive { name, zip, entries })
+    }
+
+    /// The first of `keys` (in their order) that names an entry.
+    fn find(&self, keys: &[&str]) -> Option<String> {
+        keys.iter()
+            .find_map(|k| self.entries.iter().find(|e| key_of(e) == *k).cloned())
+    }
+
+    /// An entry's array, inflated to at most [`MAX_ENTRY_BYTES`].
+    fn read(&mut self, entry: &str) -> Result<NpyArray> {
+        let place = format!("{}[{}]", self.name, key_of(entry));
+        let mut file = self
+            .zip
+            .by_name(entry)
+            .map_err(|e| CordisError::format(&place, format!("cannot be read: {e}")))?;
+        let mut data = Vec::new();
+        (&mut file)
+            .take(MAX_ENTRY_BYTES + 1)
+            .read_to_end(&mut data)
+            .map_err(|e| CordisError::format(&place, format!("cannot be read: {e}")))?;
+        if data.len() as u64 > MAX_ENTRY_BYTES {
+            return Err(CordisError::format(
+                &place,
+                format!("larger than {MAX_ENTRY_BYTES} bytes once inflated"),
+            ));
+        }
+        parse_npy_array(&place, &data)
+    }
+}
+
+/// The tracks' layout: `n` points over `t` frames in `dims` (2 or 3) coordinates, TAP-Vid's
+/// `(N, T, D)` or CoTracker's batched `(1, T, N, D)`.
+struct Layout {
+    n: usize,
+    t: usize,
+    dims: usize,
+    batched: bool,
+}
+
+impl Layout {
+    /// The layout of `tracks` (`place` names it in errors); at least one point and one frame.
+    fn of(place: &str, tracks: &NpyArray) -> Result<Layout> {
+        // (N, T, D) with index (i, t, d), or (1, T, N, D) with index (0, t, i, d).
+        let (n, t, dims, batched) = match tracks.shape[..] {
+            [n, t, d] if d == 2 || d == 3 => (n, t, d, false),
+            [1, t, n, d] if d == 2 || d == 3 => (n, t, d, true),
+            _ => {
+                return Err(CordisError::format(
+                    place,
+                    format!(
+                        "shape {:?} is not (points, frames, 2|3) nor (1, frames, points, 2|3)",
+                        tracks.shape
+                    ),
+                ))
+            }
+        };
+        if n == 0 || t == 0 {
+            return Err(CordisError::format(
+                place,
+                format!("shape {:?} holds no point or no frame", tracks.shape),
+            ));
+        }
+        Ok(Layout {
+            n,
+            t,
+            dims,
+            batched,
+        })
+    }
+
+    /// Index of point `i` at frame `f` in a per-point array of this layout.
+    fn at(&self, i: usize, f: usize) -> usize {
+        if self.batched {
+            f * self.n + i
+        } else {
+            i * self.t + f
+        }
+    }
+
+    /// Whether each point is visible at each frame (frame-major), from a visibility array of
+    /// the matching shape (`(N, T)` or `(1, T, N)`; visible when ≥ 0.5, or < 0.5 when it is
+    /// `occluded`).
+    fn visible(
+        &self,
+        place: &str,
+        tracks: &NpyArray,
+        v: &NpyArray,
+        occluded: bool,
+    ) -> Result<Vec<bool>> {
+        let (n, t) = (self.n, self.t);
+        let expected: Vec<usize> = if self.batched {
+            vec![1, t, n]
+        } else {
+            vec![n, t]
+        };
+        if v.shape != expected {
+            return Err(CordisError::format(
+                place,
+                format!(
+                    "shape {:?} does not match the tracks' {:?} (expected {expected:?})",
+                    v.shape, tracks.shape
+                ),
+            ));
+        }
+        Ok((0..t)
+            .flat_map(|f| (0..n).map(move |i| (i, f)))
+            .map(|(i, f)| (v.values[self.at(i, f)] >= 0.5) != occluded)
+            .collect())
+    }
+
+    /// The points frame-major (z = 0 for 2-D tracks), NaN where a point is not visible or not
+    /// finite, and how many are.
+    fn points(&self, tracks: &NpyArray, visible: Option<&[bool]>) -> (Vec<f64>, usize) {
+        let (n, t, dims) = (self.n, self.t, self.dims);
+        let track_at = |i: usize, f: usize, d: usize| tracks.values[self.at(i, f) * dims + d];
+        let mut data = Vec::with_capacity(t * n * 3);
+        let mut hidden = 0usize;
+        for f in 0..t {
+            for i in 0..n {
+                let p = [
+                    track_at(i, f, 0),
+                    track_at(i, f, 1),
+                    if dims == 3 { track_at(i, f, 2) } else { 0.0 },
+                ];
+                let seen = visible.is_none_or(|v| v[f * n + i]);
+                if !seen || p.iter().any(|v| !v.is_finite()) {
+                    hidden += 1;
+                    data.extend_from_slice(&[f64::NAN; 3]);
+                } else {
+                    data.extend_from_slice(&p);
+                }
+            }
+        }
+        (data, hidden)
+    }
 }
 
 #[cfg(test)]
