@@ -4,7 +4,7 @@ use std::time::Instant;
 use anyhow::{anyhow, bail, Result};
 use cordis_es::discover::identify::{identify_discovered, Identified};
 use cordis_es::discover::link_test::link_test;
-use cordis_es::discover::{discover, DiscoverOptions, Kinds};
+use cordis_es::discover::{discover, DiscoverOptions, Discovery, Kinds};
 
 use super::Output;
 
@@ -107,29 +107,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
             a.trajectory.display()
         ),
     };
-    if a.total_mass.is_none() && a.masses.is_none() {
-        bail!("--total-mass or --masses: masses and stiffnesses are only determined up to a common scale");
-    }
-    let masses = a.masses.as_deref().map(read_masses).transpose()?;
-    let gravity = match a.gravity.as_deref() {
-        None => None,
-        Some(&[x, y, z]) if [x, y, z].iter().all(|v| v.is_finite()) => Some([x, y, z]),
-        Some(g) => bail!("--gravity: three finite numbers X,Y,Z in m/s², got {g:?}"),
-    };
-    let kinds = match &a.kinds {
-        Some(k) => Some(Kinds::parse(k)?),
-        None => None,
-    };
-    let opt = DiscoverOptions {
-        total_mass: a.total_mass,
-        masses,
-        max_range: a.max_range,
-        noise_level: a.noise_level,
-        threshold_scale: a.threshold_scale,
-        type_tolerance: a.type_tolerance,
-        gravity,
-        kinds,
-    };
+    let opt = options(&a)?;
     let start = Instant::now();
     let d = discover(&traj, dt, &opt)?;
     let (d, tested) = match a.link_test {
@@ -150,22 +128,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         }
         None => None,
     };
-    let scores = serde_json::json!({
-        "radius": d.radius,
-        "candidates": d.candidates,
-        "rounds": d.rounds,
-        "cost": d.cost,
-        "rmse": d.rmse,
-        "links": d.links,
-        "near_misses": d.near_misses,
-        "solver": d.solver,
-        "undetermined": d.undetermined,
-        "noise_level": d.noise_level,
-        "noise_estimated": d.estimated_noise,
-        "notes": d.notes,
-        "seconds": seconds,
-        "link_test": tested,
-    });
+    let scores = scores_json(&d, seconds, tested);
     if let Some(path) = &a.scores {
         let text = serde_json::to_string_pretty(&scores)?;
         cordis_core::io::write_atomic(path, text.as_bytes())?;
@@ -185,44 +148,103 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     }
     output.scene_result(&d.scene, a.out.as_deref(), summary.clone())?;
     if output.human() {
-        eprintln!(
-            "{} particles, {} candidate pairs (radius {:.4} m) -> {} links of {} types in {:.2} s; {} {:.3e} m",
-            d.scene.num_particles(),
-            d.candidates,
-            d.radius,
-            d.scene.links.len(),
-            d.scene.types.len(),
-            seconds,
-            if a.link_test { "position σ̂" } else { "short-cost rmse" },
-            d.rmse
-        );
-        let weakest = d
-            .links
-            .iter()
-            .min_by(|x, y| (x.score / x.threshold).total_cmp(&(y.score / y.threshold)));
-        if let Some(l) = weakest {
-            eprintln!(
-                "weakest link {:?}: score {:.3e} (threshold {:.3e})",
-                l.particles, l.score, l.threshold
-            );
-        }
-        if let Some(m) = d.near_misses.first() {
-            eprintln!(
-                "strongest rejected pair {:?}: score {:.3e} (threshold {:.3e})",
-                m.particles, m.score, m.threshold
-            );
-        }
-        for n in &d.notes {
-            eprintln!("note: {n}");
-        }
-        for w in d.warnings() {
-            eprintln!("warning: {w}");
-        }
+        report_discovery(&d, seconds, a.link_test);
         if let (Some(path), Some((id, secs))) = (&a.identify, &identified) {
             report_identified(id, path, *secs);
         }
     }
     Ok(())
+}
+
+/// The discovery's options from the command line (a mass scale required, gravity three
+/// finite numbers, the kinds' names known).
+fn options(a: &Args) -> Result<DiscoverOptions> {
+    if a.total_mass.is_none() && a.masses.is_none() {
+        bail!("--total-mass or --masses: masses and stiffnesses are only determined up to a common scale");
+    }
+    let masses = a.masses.as_deref().map(read_masses).transpose()?;
+    let gravity = match a.gravity.as_deref() {
+        None => None,
+        Some(&[x, y, z]) if [x, y, z].iter().all(|v| v.is_finite()) => Some([x, y, z]),
+        Some(g) => bail!("--gravity: three finite numbers X,Y,Z in m/s², got {g:?}"),
+    };
+    let kinds = match &a.kinds {
+        Some(k) => Some(Kinds::parse(k)?),
+        None => None,
+    };
+    Ok(DiscoverOptions {
+        total_mass: a.total_mass,
+        masses,
+        max_range: a.max_range,
+        noise_level: a.noise_level,
+        threshold_scale: a.threshold_scale,
+        type_tolerance: a.type_tolerance,
+        gravity,
+        kinds,
+    })
+}
+
+/// The `--scores` file (and the JSON line's start): per-link scores, near misses, the
+/// solver's account, the noise level and the link test's report.
+fn scores_json(
+    d: &Discovery,
+    seconds: f64,
+    tested: Option<serde_json::Value>,
+) -> serde_json::Value {
+    serde_json::json!({
+        "radius": d.radius,
+        "candidates": d.candidates,
+        "rounds": d.rounds,
+        "cost": d.cost,
+        "rmse": d.rmse,
+        "links": d.links,
+        "near_misses": d.near_misses,
+        "solver": d.solver,
+        "undetermined": d.undetermined,
+        "noise_level": d.noise_level,
+        "noise_estimated": d.estimated_noise,
+        "notes": d.notes,
+        "seconds": seconds,
+        "link_test": tested,
+    })
+}
+
+/// The discovery's lines for a terminal: counts, the weakest kept and strongest rejected
+/// pairs, notes and warnings.
+fn report_discovery(d: &Discovery, seconds: f64, link_test: bool) {
+    eprintln!(
+        "{} particles, {} candidate pairs (radius {:.4} m) -> {} links of {} types in {:.2} s; {} {:.3e} m",
+        d.scene.num_particles(),
+        d.candidates,
+        d.radius,
+        d.scene.links.len(),
+        d.scene.types.len(),
+        seconds,
+        if link_test { "position σ̂" } else { "short-cost rmse" },
+        d.rmse
+    );
+    let weakest = d
+        .links
+        .iter()
+        .min_by(|x, y| (x.score / x.threshold).total_cmp(&(y.score / y.threshold)));
+    if let Some(l) = weakest {
+        eprintln!(
+            "weakest link {:?}: score {:.3e} (threshold {:.3e})",
+            l.particles, l.score, l.threshold
+        );
+    }
+    if let Some(m) = d.near_misses.first() {
+        eprintln!(
+            "strongest rejected pair {:?}: score {:.3e} (threshold {:.3e})",
+            m.particles, m.score, m.threshold
+        );
+    }
+    for n in &d.notes {
+        eprintln!("note: {n}");
+    }
+    for w in d.warnings() {
+        eprintln!("warning: {w}");
+    }
 }
 
 /// The identification's lines for a terminal: status, each unknown with its interval.
