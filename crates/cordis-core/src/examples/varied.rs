@@ -66,6 +66,36 @@ pub fn varied_network(seed: u64, kinds: VariedKinds) -> (Scene, VariedCase) {
     let n = 8 + (rng.next_u64() % 17) as usize;
     let planar = rng.next_u64() % 3 == 0;
     let gravity = rng.next_u64() % 3 != 0;
+    let pos = place_particles(&mut rng, n, planar);
+    let pairs = draw_links(&mut rng, &pos);
+    let mut scene = Scene::new(0.005);
+    if gravity {
+        scene.gravity = [0.0, -9.81, 0.0];
+    }
+    let of = add_spring_types(&mut rng, &mut scene, &pos, &pairs);
+    let fixed = add_moving_particles(&mut rng, &mut scene, &pos, planar);
+    for (k, ends) in pairs.iter().enumerate() {
+        scene.add_link(&format!("s{}", of[k]), ends);
+    }
+    let mut case = VariedCase {
+        planar,
+        gravity,
+        fixed: fixed.iter().filter(|f| **f).count(),
+        ..VariedCase::default()
+    };
+    if kinds.dampers {
+        case.dampers = add_dampers(&mut rng, &mut scene, &pos, &fixed);
+    }
+    if kinds.anchors && rng.next_u64() % 4 == 0 {
+        case.anchors = add_anchor(&mut rng, &mut scene, &pos, &fixed, planar);
+    }
+    (scene, case)
+}
+
+/// `n` positions uniform in a cube (3-D) or a square in z = 0 (planar) of side 0.5 n^(1/3)
+/// (or 0.5 √n) m, at least [`MIN_SPACING`] apart (the spacing shrunk by 10 % whenever 200
+/// draws find no room).
+fn place_particles(rng: &mut SplitMix64, n: usize, planar: bool) -> Vec<[f64; 3]> {
     let side = if planar {
         0.5 * (n as f64).sqrt()
     } else {
@@ -91,14 +121,18 @@ pub fn varied_network(seed: u64, kinds: VariedKinds) -> (Scene, VariedCase) {
             spacing *= 0.9;
         }
     }
+    pos
+}
 
-    let pairs = draw_links(&mut rng, &pos);
-    let mut scene = Scene::new(0.005);
-    if gravity {
-        scene.gravity = [0.0, -9.81, 0.0];
-    }
-
-    // Types by length band: sorted by length, cut into `types` bands of equal counts.
+/// 2–6 spring types by length band (the links sorted by length, cut into bands of equal
+/// counts): stiffness log-uniform in 30–250 N/m, rest length the band's mean × 0.85–1.15,
+/// damping 0.02–0.3 N·s/m on about half. Returns each link's type.
+fn add_spring_types(
+    rng: &mut SplitMix64,
+    scene: &mut Scene,
+    pos: &[[f64; 3]],
+    pairs: &[[usize; 2]],
+) -> Vec<usize> {
     let types = (2 + (rng.next_u64() % 5) as usize).min(pairs.len());
     let mut order: Vec<usize> = (0..pairs.len()).collect();
     let len = |k: usize| dist(pos[pairs[k][0]], pos[pairs[k][1]]);
@@ -117,16 +151,27 @@ pub fn varied_network(seed: u64, kinds: VariedKinds) -> (Scene, VariedCase) {
         };
         scene.add_type(
             LinkType::new(format!("s{t}"), LinkKind::Spring)
-                .with("stiffness", q(log_uniform(&mut rng, 30.0, 250.0)))
+                .with("stiffness", q(log_uniform(rng, 30.0, 250.0)))
                 .with("rest_length", q(mean * rng.uniform(0.85, 1.15)))
                 .with("damping", damping),
         );
     }
+    of
+}
 
-    // Motion: thrown and spinning, plus each particle's own velocity.
+/// The particles at `pos`, thrown (a common velocity, ±1 m/s) and spinning (±3 rad/s about
+/// the centroid) with ±0.5 m/s each per axis, masses log-uniform in 0.3–3 kg, 0–2 of them
+/// fixed. Returns which are fixed.
+fn add_moving_particles(
+    rng: &mut SplitMix64,
+    scene: &mut Scene,
+    pos: &[[f64; 3]],
+    planar: bool,
+) -> Vec<bool> {
+    let n = pos.len();
     let centre = {
         let mut c = [0.0; 3];
-        for p in &pos {
+        for p in pos {
             for a in 0..3 {
                 c[a] += p[a] / n as f64;
             }
@@ -162,65 +207,68 @@ pub fn varied_network(seed: u64, kinds: VariedKinds) -> (Scene, VariedCase) {
         for a in 0..axes {
             vel[a] = common[a] + spin[a] + rng.uniform(-0.5, 0.5);
         }
-        let particle =
-            Particle::new(q(log_uniform(&mut rng, 0.3, 3.0)), p.to_owned()).with_vel(q3(vel));
+        let particle = Particle::new(q(log_uniform(rng, 0.3, 3.0)), p.to_owned()).with_vel(q3(vel));
         scene.add_particle(if fixed[i] { particle.fixed() } else { particle });
     }
-    for (k, ends) in pairs.iter().enumerate() {
-        scene.add_link(&format!("s{}", of[k]), ends);
-    }
+    fixed
+}
 
-    let mut case = VariedCase {
-        planar,
-        gravity,
-        fixed: fixed.iter().filter(|f| **f).count(),
-        ..VariedCase::default()
-    };
-    let dampers = if kinds.dampers {
-        (rng.next_u64() % 3) as usize
-    } else {
-        0
-    };
-    if dampers > 0 {
-        scene.add_type(
-            LinkType::new("dashpot", LinkKind::Damper).with("damping", q(rng.uniform(0.05, 0.4))),
-        );
-        // Between near particles not linked by a spring (a damper beside a spring is one link).
-        for _ in 0..dampers {
-            let i = (rng.next_u64() % n as u64) as usize;
-            let near = nearest(&pos, i);
-            let free_pair = near.iter().take(VARIED_MAX_RANK).copied().find(|&j| {
-                let p = [i.min(j), i.max(j)];
-                let linked = scene.links.iter().any(|l| l.particles == p);
-                let both_fixed = fixed[i] && fixed[j];
-                !linked && !both_fixed
-            });
-            if let Some(j) = free_pair {
-                scene.add_link("dashpot", &[i.min(j), i.max(j)]);
-                case.dampers += 1;
-            }
+/// 0–2 dampers (one type, 0.05–0.4 N·s/m) between near particles not linked by a spring and
+/// not both fixed (a damper beside a spring is one link); returns how many.
+fn add_dampers(rng: &mut SplitMix64, scene: &mut Scene, pos: &[[f64; 3]], fixed: &[bool]) -> usize {
+    let n = pos.len();
+    let dampers = (rng.next_u64() % 3) as usize;
+    if dampers == 0 {
+        return 0;
+    }
+    scene.add_type(
+        LinkType::new("dashpot", LinkKind::Damper).with("damping", q(rng.uniform(0.05, 0.4))),
+    );
+    let mut added = 0;
+    for _ in 0..dampers {
+        let i = (rng.next_u64() % n as u64) as usize;
+        let near = nearest(pos, i);
+        let free_pair = near.iter().take(VARIED_MAX_RANK).copied().find(|&j| {
+            let p = [i.min(j), i.max(j)];
+            let linked = scene.links.iter().any(|l| l.particles == p);
+            let both_fixed = fixed[i] && fixed[j];
+            !linked && !both_fixed
+        });
+        if let Some(j) = free_pair {
+            scene.add_link("dashpot", &[i.min(j), i.max(j)]);
+            added += 1;
         }
     }
-    if kinds.anchors && rng.next_u64() % 4 == 0 {
-        if let Some(i) = (0..n).find(|&i| !fixed[i]) {
-            let reach = rng.uniform(0.2, 0.4);
-            scene.add_type(
-                LinkType::new("tether", LinkKind::Anchor)
-                    .with("stiffness", q(rng.uniform(40.0, 150.0)))
-                    .with("rest_length", q(reach * rng.uniform(0.85, 1.15)))
-                    .with("damping", 0.0),
-            );
-            let a = scene.add_link("tether", &[i]);
-            let p = pos[i];
-            let dz = if planar { 0.0 } else { 0.5 * reach };
-            let point = q3([p[0] + 0.8 * reach, p[1] + 0.5 * reach, p[2] + dz]);
-            scene.links[a].point = Some(point);
-            // The wall's marker: what a camera sees of the anchor's point.
-            scene.add_particle(Particle::new(1.0, point).fixed());
-            case.anchors = 1;
-        }
-    }
-    (scene, case)
+    added
+}
+
+/// An anchor (40–150 N/m) from the first moving particle to a point 0.2–0.4 m away, marked by
+/// a fixed particle appended last (what a camera sees of the wall); returns 1, or 0 when
+/// every particle is fixed.
+fn add_anchor(
+    rng: &mut SplitMix64,
+    scene: &mut Scene,
+    pos: &[[f64; 3]],
+    fixed: &[bool],
+    planar: bool,
+) -> usize {
+    let Some(i) = (0..pos.len()).find(|&i| !fixed[i]) else {
+        return 0;
+    };
+    let reach = rng.uniform(0.2, 0.4);
+    scene.add_type(
+        LinkType::new("tether", LinkKind::Anchor)
+            .with("stiffness", q(rng.uniform(40.0, 150.0)))
+            .with("rest_length", q(reach * rng.uniform(0.85, 1.15)))
+            .with("damping", 0.0),
+    );
+    let a = scene.add_link("tether", &[i]);
+    let p = pos[i];
+    let dz = if planar { 0.0 } else { 0.5 * reach };
+    let point = q3([p[0] + 0.8 * reach, p[1] + 0.5 * reach, p[2] + dz]);
+    scene.links[a].point = Some(point);
+    scene.add_particle(Particle::new(1.0, point).fixed());
+    1
 }
 
 fn log_uniform(rng: &mut SplitMix64, lo: f64, hi: f64) -> f64 {
