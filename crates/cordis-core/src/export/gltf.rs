@@ -166,7 +166,16 @@ impl Buffer {
         let mut last = f32::NEG_INFINITY;
         for k in 0..frames {
             let t = (k as f64 * dt) as f32;
-            if t <= last || !t.is_finite() {
+            if !t.is_finite() {
+                return Err(CordisError::argument(
+                    "dt",
+                    format!(
+                        "frame {k}'s time {:e} s is beyond float32 (3.4e38): use a smaller dt or fewer frames",
+                        k as f64 * dt
+                    ),
+                ));
+            }
+            if t <= last {
                 return Err(CordisError::argument(
                     "dt",
                     format!("frame {k}'s time {} s is not after frame {}'s in float32: use a larger dt or fewer frames", k as f64 * dt, k.saturating_sub(1)),
@@ -369,5 +378,26 @@ mod tests {
         traj.set_frame(2, &frame);
         let e = to_gltf(&scene, &traj, 0.01).unwrap_err().to_string();
         assert!(e.starts_with("frame 2, particle 4, y: "), "{e}");
+    }
+
+    /// Guards the keyframe times' two refusals, each with the advice that fits it: times that
+    /// overflow float32 want a smaller dt, times float32 cannot tell apart a larger one.
+    #[test]
+    fn keyframe_times_beyond_or_below_float32_say_which() {
+        let scene = examples::rigid();
+        let traj = scene.simulate(3).unwrap();
+        let e = to_gltf(&scene, &traj, 3e38).unwrap_err().to_string();
+        assert!(
+            e.starts_with("dt: frame 2's time 6e38 s is beyond float32")
+                && e.contains("smaller dt"),
+            "{e}"
+        );
+        let e = to_gltf(&scene, &traj, 1e-46).unwrap_err().to_string();
+        assert!(
+            e.starts_with("dt: frame 1's time")
+                && e.contains("not after frame 0's")
+                && e.contains("larger dt"),
+            "{e}"
+        );
     }
 }
