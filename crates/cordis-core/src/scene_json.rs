@@ -88,120 +88,61 @@ impl Scene {
             }
             root.insert("worlds".into(), Value::Object(worlds));
         }
-        let particles = self
-            .particles
-            .iter()
-            .map(|p| {
-                let mut o = Map::new();
-                o.insert("mass".into(), param_json(&p.mass));
-                o.insert("pos".into(), vec3(&p.pos));
-                if p.vel != [0.0; 3] {
-                    o.insert("vel".into(), vec3(&p.vel));
-                }
-                if p.fixed {
-                    o.insert("fixed".into(), true.into());
-                }
-                if let Some(g) = &p.group {
-                    o.insert("group".into(), g.clone().into());
-                }
-                if let Some(w) = &p.world {
-                    o.insert("world".into(), w.clone().into());
-                }
-                Value::Object(o)
-            })
-            .collect();
+        let particles = self.particles.iter().map(particle_json).collect();
         root.insert("particles".into(), Value::Array(particles));
         if !self.signals.is_empty() {
-            let mut signals = Map::new();
-            for sg in &self.signals {
-                let mut o = Map::new();
-                o.insert("shape".into(), sg.shape.name().into());
-                o.insert("amplitude".into(), sg.amplitude.into());
-                o.insert("period".into(), sg.period.into());
-                if sg.phase != 0.0 {
-                    o.insert("phase".into(), sg.phase.into());
-                }
-                if sg.shape == Shape::Sawtooth {
-                    o.insert("rise".into(), sg.rise.into());
-                }
-                if sg.offset != 0.0 {
-                    o.insert("offset".into(), sg.offset.into());
-                }
-                signals.insert(sg.name.clone(), Value::Object(o));
-            }
+            let signals = self
+                .signals
+                .iter()
+                .map(|sg| (sg.name.clone(), signal_json(sg)))
+                .collect();
             root.insert("signals".into(), Value::Object(signals));
         }
-        let mut types = Map::new();
-        for t in &self.types {
-            let mut o = Map::new();
-            o.insert("kind".into(), t.kind.name().into());
-            for ((name, _), p) in t.kind.param_specs().iter().zip(&t.params) {
-                o.insert((*name).into(), param_json(p));
-            }
-            for (k, which) in t.optional.iter().enumerate() {
-                let p = &t.params[t.kind.param_specs().len() + k];
-                o.insert(which.name().into(), param_json(p));
-            }
-            if let Some(point) = &t.point {
-                o.insert("point".into(), vec3(point));
-            }
-            if let Some(normal) = &t.normal {
-                o.insert("normal".into(), vec3(normal));
-            }
-            if !t.groups.is_empty() {
-                o.insert("groups".into(), t.groups.clone().into());
-            }
-            if t.kind == LinkKind::Muscle {
-                let ws = |w: &[Param]| Value::Array(w.iter().map(param_json).collect());
-                o.insert("w_len".into(), ws(t.w_len()));
-                o.insert("w_rate".into(), ws(t.w_rate()));
-            }
-            if let Some(obs) = &t.observes {
-                o.insert("observes".into(), obs.clone().into());
-            }
-            if let Some(sg) = &t.signal {
-                o.insert("signal".into(), sg.clone().into());
-            }
-            types.insert(t.name.clone(), Value::Object(o));
-        }
-        root.insert("types".into(), Value::Object(types));
-        let links = self
-            .links
+        let types = self
+            .types
             .iter()
-            .map(|l| {
-                let mut o = Map::new();
-                o.insert("type".into(), self.types[l.type_index].name.clone().into());
-                o.insert("particles".into(), l.particles.clone().into());
-                if let Some(point) = &l.point {
-                    o.insert("point".into(), vec3(point));
-                }
-                if let Some(obs) = &l.observes {
-                    o.insert("observes".into(), obs.clone().into());
-                }
-                Value::Object(o)
-            })
+            .map(|t| (t.name.clone(), type_json(t)))
             .collect();
+        root.insert("types".into(), Value::Object(types));
+        let links = self.links.iter().map(|l| self.link_json(l)).collect();
         root.insert("links".into(), Value::Array(links));
         if !self.couplings.is_empty() {
             let couplings = self
                 .couplings
                 .iter()
-                .map(|c| {
-                    let mut o = Map::new();
-                    o.insert("type".into(), self.types[c.type_index].name.clone().into());
-                    o.insert("particles".into(), c.particles.clone().into());
-                    if let Some(src) = c.source {
-                        o.insert("source".into(), src.into());
-                    }
-                    if let Some(ctrl) = c.controller {
-                        o.insert("controller".into(), ctrl.to_vec().into());
-                    }
-                    Value::Object(o)
-                })
+                .map(|c| self.coupling_json(c))
                 .collect();
             root.insert("couplings".into(), Value::Array(couplings));
         }
         Value::Object(root)
+    }
+
+    /// A link: its type's name, particles, anchor point and observed links when given.
+    fn link_json(&self, l: &Link) -> Value {
+        let mut o = Map::new();
+        o.insert("type".into(), self.types[l.type_index].name.clone().into());
+        o.insert("particles".into(), l.particles.clone().into());
+        if let Some(point) = &l.point {
+            o.insert("point".into(), vec3(point));
+        }
+        if let Some(obs) = &l.observes {
+            o.insert("observes".into(), obs.clone().into());
+        }
+        Value::Object(o)
+    }
+
+    /// A coupling: its type's name, particles, source link and controller when given.
+    fn coupling_json(&self, c: &Coupling) -> Value {
+        let mut o = Map::new();
+        o.insert("type".into(), self.types[c.type_index].name.clone().into());
+        o.insert("particles".into(), c.particles.clone().into());
+        if let Some(src) = c.source {
+            o.insert("source".into(), src.into());
+        }
+        if let Some(ctrl) = c.controller {
+            o.insert("controller".into(), ctrl.to_vec().into());
+        }
+        Value::Object(o)
     }
 
     /// Pretty-printed JSON text of [`Scene::to_json_value`].
@@ -310,6 +251,80 @@ fn param_json(p: &Param) -> Value {
             Value::Object(o)
         }
     }
+}
+
+/// A particle: mass, position, and what differs from the defaults (velocity, fixed, group,
+/// world).
+fn particle_json(p: &Particle) -> Value {
+    let mut o = Map::new();
+    o.insert("mass".into(), param_json(&p.mass));
+    o.insert("pos".into(), vec3(&p.pos));
+    if p.vel != [0.0; 3] {
+        o.insert("vel".into(), vec3(&p.vel));
+    }
+    if p.fixed {
+        o.insert("fixed".into(), true.into());
+    }
+    if let Some(g) = &p.group {
+        o.insert("group".into(), g.clone().into());
+    }
+    if let Some(w) = &p.world {
+        o.insert("world".into(), w.clone().into());
+    }
+    Value::Object(o)
+}
+
+/// A signal: shape, amplitude, period, and the phase, rise and offset where they matter.
+fn signal_json(sg: &Signal) -> Value {
+    let mut o = Map::new();
+    o.insert("shape".into(), sg.shape.name().into());
+    o.insert("amplitude".into(), sg.amplitude.into());
+    o.insert("period".into(), sg.period.into());
+    if sg.phase != 0.0 {
+        o.insert("phase".into(), sg.phase.into());
+    }
+    if sg.shape == Shape::Sawtooth {
+        o.insert("rise".into(), sg.rise.into());
+    }
+    if sg.offset != 0.0 {
+        o.insert("offset".into(), sg.offset.into());
+    }
+    Value::Object(o)
+}
+
+/// A link type: its kind, its kind's parameters and its optional ones by name, and the keys
+/// its kind has (point, normal, groups, a muscle's weights, observed links, signal).
+fn type_json(t: &LinkType) -> Value {
+    let mut o = Map::new();
+    o.insert("kind".into(), t.kind.name().into());
+    for ((name, _), p) in t.kind.param_specs().iter().zip(&t.params) {
+        o.insert((*name).into(), param_json(p));
+    }
+    for (k, which) in t.optional.iter().enumerate() {
+        let p = &t.params[t.kind.param_specs().len() + k];
+        o.insert(which.name().into(), param_json(p));
+    }
+    if let Some(point) = &t.point {
+        o.insert("point".into(), vec3(point));
+    }
+    if let Some(normal) = &t.normal {
+        o.insert("normal".into(), vec3(normal));
+    }
+    if !t.groups.is_empty() {
+        o.insert("groups".into(), t.groups.clone().into());
+    }
+    if t.kind == LinkKind::Muscle {
+        let ws = |w: &[Param]| Value::Array(w.iter().map(param_json).collect());
+        o.insert("w_len".into(), ws(t.w_len()));
+        o.insert("w_rate".into(), ws(t.w_rate()));
+    }
+    if let Some(obs) = &t.observes {
+        o.insert("observes".into(), obs.clone().into());
+    }
+    if let Some(sg) = &t.signal {
+        o.insert("signal".into(), sg.clone().into());
+    }
+    Value::Object(o)
 }
 
 fn err(place: &str, message: impl Into<String>) -> CordisError {
