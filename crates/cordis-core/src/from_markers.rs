@@ -82,35 +82,11 @@ pub fn scene_from_markers(obs: &Observations, o: &MarkerScene) -> Result<Scene> 
             format!("{n} marker: a network needs at least 2"),
         ));
     }
-    let at = |f: usize, i: usize| -> Option<[f64; 3]> {
-        let v = &obs.as_flat()[(f * n + i) * 3..(f * n + i) * 3 + 3];
-        v.iter().all(|x| x.is_finite()).then(|| [v[0], v[1], v[2]])
-    };
-    let mut first = Vec::with_capacity(n);
-    for i in 0..n {
-        let Some(f) = (0..t).find(|&f| at(f, i).is_some()) else {
-            return Err(CordisError::trajectory(
-                format!("marker {i}"),
-                "never observed: it has no position to start from",
-            ));
-        };
-        first.push((f, at(f, i).expect("observed")));
-    }
+    let first = first_observed(obs)?;
     let pos: Vec<[f64; 3]> = first.iter().map(|(_, p)| *p).collect();
-    let extent = {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for p in &pos {
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-        dist(&lo, &hi)
-    };
     let still = match o.still {
         Some(s) => crate::arg::number("--still", s, crate::arg::Low::AtLeast(0.0), 1e30, "m")?,
-        None => 0.02 * extent,
+        None => 0.02 * extent(&pos),
     };
     let pairs = choose_pairs(&pos, o.links)?;
     if pairs.is_empty() {
@@ -124,41 +100,15 @@ pub fn scene_from_markers(obs: &Observations, o: &MarkerScene) -> Result<Scene> 
     let lengths: Vec<f64> = pairs.iter().map(|&(a, b)| dist(&pos[a], &pos[b])).collect();
     let fixed: Vec<bool> = (0..n).map(|i| never_moves(obs, i, still)).collect();
     let mass = o.total_mass / n as f64;
-    let mut degree = vec![0usize; n];
-    for &(a, b) in &pairs {
-        degree[a] += 1;
-        degree[b] += 1;
-    }
-    let d = degree.iter().copied().max().unwrap_or(1).max(1) as f64;
-    let k_max = 4.0 * mass / (o.dt * o.dt * d);
-    let z_max = 2.0 * mass / (o.dt * d);
-    // Families: links sorted by length, a new family where the gap to the next length is more
-    // than the tolerance (relative): noise spreads a family's lengths, a gap separates them.
-    let mut order: Vec<usize> = (0..pairs.len()).collect();
-    order.sort_by(|&x, &y| lengths[x].total_cmp(&lengths[y]));
-    let mut family_of = vec![0usize; pairs.len()];
-    let mut families: Vec<Vec<usize>> = Vec::new();
-    for &l in &order {
-        let new = match (o.types, families.last()) {
-            (TypeRule::PerLink, _) | (_, None) => true,
-            (TypeRule::Family, Some(f)) => {
-                let last = lengths[*f.last().expect("non-empty")];
-                lengths[l] > last * (1.0 + o.family_tolerance)
-            }
-        };
-        if new {
-            families.push(Vec::new());
-        }
-        families.last_mut().expect("one").push(l);
-        family_of[l] = families.len() - 1;
-    }
-    let sw = o.width.sqrt();
     let mut scene = Scene::new(o.dt);
     scene.gravity = o.gravity;
     for i in 0..n {
         let vel = match (first[i].0, fixed[i]) {
             (_, true) => [0.0; 3],
-            (f, false) => match (at(f, i), (f + 1 < t).then(|| at(f + 1, i)).flatten()) {
+            (f, false) => match (
+                observed(obs, f, i),
+                (f + 1 < t).then(|| observed(obs, f + 1, i)).flatten(),
+            ) {
                 (Some(a), Some(b)) => [0, 1, 2].map(|k| (b[k] - a[k]) / o.dt),
                 _ => [0.0; 3],
             },
@@ -168,6 +118,9 @@ pub fn scene_from_markers(obs: &Observations, o: &MarkerScene) -> Result<Scene> 
         p.fixed = fixed[i];
         scene.particles.push(p);
     }
+    let (family_of, families) = families(&lengths, o.types, o.family_tolerance);
+    let (k_max, z_max) = stable_boxes(mass, o.dt, n, &pairs);
+    let sw = o.width.sqrt();
     let prefix = match o.types {
         TypeRule::Family => "family",
         TypeRule::PerLink => "link",
@@ -197,6 +150,79 @@ pub fn scene_from_markers(obs: &Observations, o: &MarkerScene) -> Result<Scene> 
     }
     // The parser's checks (indices, boxes, kinds) on what was built.
     Scene::from_json_str(&scene.to_json_string())
+}
+
+/// Marker `i`'s position at frame `f`, if observed (every coordinate finite).
+fn observed(obs: &Observations, f: usize, i: usize) -> Option<[f64; 3]> {
+    let n = obs.particles();
+    let v = &obs.as_flat()[(f * n + i) * 3..(f * n + i) * 3 + 3];
+    v.iter().all(|x| x.is_finite()).then(|| [v[0], v[1], v[2]])
+}
+
+/// Each marker's first observed frame and position; an error names a marker never observed.
+fn first_observed(obs: &Observations) -> Result<Vec<(usize, [f64; 3])>> {
+    (0..obs.particles())
+        .map(|i| {
+            (0..obs.frames())
+                .find_map(|f| observed(obs, f, i).map(|p| (f, p)))
+                .ok_or_else(|| {
+                    CordisError::trajectory(
+                        format!("marker {i}"),
+                        "never observed: it has no position to start from",
+                    )
+                })
+        })
+        .collect()
+}
+
+/// The diagonal of the positions' bounding box, m.
+fn extent(pos: &[[f64; 3]]) -> f64 {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in pos {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    dist(&lo, &hi)
+}
+
+/// The links' families (module docs): sorted by length, a new family where the gap to the
+/// next length is more than `tolerance` (relative) — noise spreads a family's lengths, a gap
+/// separates them — or one per link. Returns each link's family and each family's links.
+fn families(lengths: &[f64], rule: TypeRule, tolerance: f64) -> (Vec<usize>, Vec<Vec<usize>>) {
+    let mut order: Vec<usize> = (0..lengths.len()).collect();
+    order.sort_by(|&x, &y| lengths[x].total_cmp(&lengths[y]));
+    let mut family_of = vec![0usize; lengths.len()];
+    let mut families: Vec<Vec<usize>> = Vec::new();
+    for &l in &order {
+        let new = match (rule, families.last()) {
+            (TypeRule::PerLink, _) | (_, None) => true,
+            (TypeRule::Family, Some(f)) => {
+                let last = lengths[*f.last().expect("non-empty")];
+                lengths[l] > last * (1.0 + tolerance)
+            }
+        };
+        if new {
+            families.push(Vec::new());
+        }
+        families.last_mut().expect("one").push(l);
+        family_of[l] = families.len() - 1;
+    }
+    (family_of, families)
+}
+
+/// The stiffness and damping boxes' tops (module docs): `K = 4 m / (dt² d)` (N/m) and
+/// `Z = 2 m / (dt d)` (N·s/m), `d` the most links on one of the `n` particles.
+fn stable_boxes(mass: f64, dt: f64, n: usize, pairs: &[(usize, usize)]) -> (f64, f64) {
+    let mut degree = vec![0usize; n];
+    for &(a, b) in pairs {
+        degree[a] += 1;
+        degree[b] += 1;
+    }
+    let d = degree.iter().copied().max().unwrap_or(1).max(1) as f64;
+    (4.0 * mass / (dt * dt * d), 2.0 * mass / (dt * d))
 }
 
 fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
