@@ -110,11 +110,10 @@ impl Plan {
         items.add_links(scene, off, worlds.as_ref());
         items.add_couplings(scene, off);
         let (runs, pairs) = runs_by_type(&items.springs, off);
-        let type_of_run = |r: &crate::forces::Run| off.iter().position(|&o| o == r.param);
         let springs = SpringPass {
             quadratic: runs
                 .iter()
-                .map(|r| type_of_run(r).and_then(|t| quadratic_slot(scene, off, t)))
+                .map(|r| type_of_run(off, r).and_then(|t| quadratic_slot(scene, off, t)))
                 .collect(),
             runs,
             pairs,
@@ -136,10 +135,8 @@ impl Plan {
         let planes = plane_pass(scene, &items.planes, off, layout.mass_offset);
         let muscles = muscle_pass(scene, &items.muscles, off);
         let stateful = items.stateful(scene, off);
-        let conditionals = conditional_passes(scene, off);
-        let needs_velocity = items.needs_velocity
-            || (0..scene.types.len())
-                .any(|t| scene.types[t].kind == LinkKind::Conditional && damping_matters(scene, t));
+        let (conditionals, conditionals_read_velocity) = conditional_passes(scene, off);
+        let needs_velocity = items.needs_velocity || conditionals_read_velocity;
         let (free, x0, x_minus1) = start_positions(scene, worlds.as_ref());
         let runaway = start_runaway(scene, &x0, worlds.as_ref());
         Ok(Plan {
@@ -472,7 +469,7 @@ type Controlled = ([u32; 2], [u32; 2]);
 /// A force transmitter's source: its link's ends and its type's parameter offset.
 type SourceLink = ([u32; 2], usize);
 
-/// The scene's links and couplings sorted by kind, each with its type (and world, for the
+/// The scene's links and couplings grouped by kind, each with its type (and world, for the
 /// tendons), before they are grouped into runs; whether some pass reads velocities.
 #[derive(Default)]
 struct Items {
@@ -593,11 +590,7 @@ impl Items {
     /// The passes with state carried between steps: tendons (driven by a signal or by a
     /// controller), quadripoles and transmitters.
     fn stateful(&self, scene: &Scene, off: &[usize]) -> Stateful {
-        let type_of = |r: &crate::forces::Run| {
-            off.iter()
-                .position(|&o| o == r.param)
-                .expect("a run's type")
-        };
+        let type_of = |r: &crate::forces::Run| type_of_run(off, r).expect("a run's type");
         let signal_of = |r: &crate::forces::Run| {
             let name = scene.types[type_of(r)].signal.as_deref()?;
             Some(
@@ -658,18 +651,26 @@ impl Items {
     }
 }
 
-/// One pass per conditional type, over the members of its group (or its two groups).
-fn conditional_passes(scene: &Scene, off: &[usize]) -> Vec<ConditionalPass> {
+/// The type of a run (the type whose parameters start at the run's offset).
+fn type_of_run(off: &[usize], r: &crate::forces::Run) -> Option<usize> {
+    off.iter().position(|&o| o == r.param)
+}
+
+/// One pass per conditional type, over the members of its group (or its two groups); and
+/// whether one of them reads velocities (a damping that may be non-zero).
+fn conditional_passes(scene: &Scene, off: &[usize]) -> (Vec<ConditionalPass>, bool) {
     let members = |g: &str| -> Vec<u32> {
         (0..scene.particles.len() as u32)
             .filter(|&i| scene.particles[i as usize].group.as_deref() == Some(g))
             .collect()
     };
     let mut conditionals = Vec::new();
+    let mut needs_velocity = false;
     for (t, ty) in scene.types.iter().enumerate() {
         if ty.kind != LinkKind::Conditional {
             continue;
         }
+        needs_velocity |= damping_matters(scene, t);
         let a = members(&ty.groups[0]);
         let b = match ty.groups.get(1) {
             Some(g) if *g != ty.groups[0] => Some(members(g)),
@@ -682,7 +683,7 @@ fn conditional_passes(scene: &Scene, off: &[usize]) -> Vec<ConditionalPass> {
             b,
         });
     }
-    conditionals
+    (conditionals, needs_velocity)
 }
 
 /// Which particles move, `x(0)`, and `x(-1) = x(0) − v0 dt` (each particle's own world dt: v0

@@ -190,6 +190,8 @@ impl Scene {
         self.check_type_name(ti)?;
         check_param_count(t, &at)?;
         check_param_signs(t, &at)?;
+        check_optional_params(t, &at)?;
+        check_neural_weights(t, &at)?;
         if t.observes.is_some() && t.kind != LinkKind::Muscle {
             return Err(CordisError::scene(
                 format!("{at}.observes"),
@@ -684,12 +686,10 @@ fn check_param_count(t: &LinkType, at: &str) -> Result<()> {
     Ok(())
 }
 
-/// Each parameter's sign (a rest cosine in [-1, 1], a range or tendon mass positive, a
-/// threshold or a tendon start any, the rest non-negative), each optional parameter allowed
-/// for the kind and given once, and a muscle's neural weights finite of either sign.
+/// Each of the kind's parameters' sign: a rest cosine in [-1, 1], a range or tendon mass
+/// positive, a threshold any, the rest non-negative.
 fn check_param_signs(t: &LinkType, at: &str) -> Result<()> {
-    let specs = t.kind.param_specs();
-    for ((name, _), p) in specs.iter().zip(&t.params) {
+    for ((name, _), p) in t.kind.param_specs().iter().zip(&t.params) {
         let sign = match *name {
             "rest_cos" => Sign::UnitInterval,
             "range" | "tendon_mass" => Sign::Positive,
@@ -698,6 +698,24 @@ fn check_param_signs(t: &LinkType, at: &str) -> Result<()> {
         };
         check_param(&format!("{at}.{name}"), p, sign)?;
     }
+    Ok(())
+}
+
+/// A muscle's neural weights: finite, of either sign (excitation or inhibition).
+fn check_neural_weights(t: &LinkType, at: &str) -> Result<()> {
+    if t.kind == LinkKind::Muscle {
+        let specs = t.kind.param_specs().len();
+        for (k, p) in t.params.iter().enumerate().skip(specs) {
+            check_param(&format!("{at}.{}", t.param_name(k)), p, Sign::Any)?;
+        }
+    }
+    Ok(())
+}
+
+/// Each optional parameter allowed for the kind, given once, of its sign (`max_elongation`
+/// positive, a quadratic damping non-negative, a tendon's start any).
+fn check_optional_params(t: &LinkType, at: &str) -> Result<()> {
+    let specs = t.kind.param_specs();
     for (k, &which) in t.optional.iter().enumerate() {
         let place = format!("{at}.{}", which.name());
         if !which.kinds().contains(&t.kind) {
@@ -719,12 +737,6 @@ fn check_param_signs(t: &LinkType, at: &str) -> Result<()> {
             OptionalParam::TendonPosition | OptionalParam::TendonVelocity => Sign::Any,
         };
         check_param(&place, &t.params[specs.len() + k], sign)?;
-    }
-    // Neural weights may have either sign (excitation or inhibition).
-    if t.kind == LinkKind::Muscle {
-        for (k, p) in t.params.iter().enumerate().skip(specs.len()) {
-            check_param(&format!("{at}.{}", t.param_name(k)), p, Sign::Any)?;
-        }
     }
     Ok(())
 }

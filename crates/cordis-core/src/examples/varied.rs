@@ -73,7 +73,7 @@ pub fn varied_network(seed: u64, kinds: VariedKinds) -> (Scene, VariedCase) {
         scene.gravity = [0.0, -9.81, 0.0];
     }
     let of = add_spring_types(&mut rng, &mut scene, &pos, &pairs);
-    let fixed = add_moving_particles(&mut rng, &mut scene, &pos, planar);
+    let fixed = add_particles(&mut rng, &mut scene, &pos, planar);
     for (k, ends) in pairs.iter().enumerate() {
         scene.add_link(&format!("s{}", of[k]), ends);
     }
@@ -124,7 +124,7 @@ fn place_particles(rng: &mut SplitMix64, n: usize, planar: bool) -> Vec<[f64; 3]
     pos
 }
 
-/// 2–6 spring types by length band (the links sorted by length, cut into bands of equal
+/// 2–6 spring types (at most one per link) by length band (the links sorted by length, cut into bands of equal
 /// counts): stiffness log-uniform in 30–250 N/m, rest length the band's mean × 0.85–1.15,
 /// damping 0.02–0.3 N·s/m on about half. Returns each link's type.
 fn add_spring_types(
@@ -161,8 +161,9 @@ fn add_spring_types(
 
 /// The particles at `pos`, thrown (a common velocity, ±1 m/s) and spinning (±3 rad/s about
 /// the centroid) with ±0.5 m/s each per axis, masses log-uniform in 0.3–3 kg, 0–2 of them
-/// fixed. Returns which are fixed.
-fn add_moving_particles(
+/// fixed (they are added too, velocity and all, the `fixed` flag set). Returns which are
+/// fixed.
+fn add_particles(
     rng: &mut SplitMix64,
     scene: &mut Scene,
     pos: &[[f64; 3]],
@@ -242,8 +243,9 @@ fn add_dampers(rng: &mut SplitMix64, scene: &mut Scene, pos: &[[f64; 3]], fixed:
     added
 }
 
-/// An anchor (40–150 N/m) from the first moving particle to a point 0.2–0.4 m away, marked by
-/// a fixed particle appended last (what a camera sees of the wall); returns 1, or 0 when
+/// An anchor (40–150 N/m) from the first moving particle to a point offset by
+/// `reach · (0.8, 0.5, 0.5)` (z 0 when planar), `reach` 0.2–0.4 m — 0.19–0.43 m away — marked
+/// by a fixed particle appended last (what a camera sees of the wall); returns 1, or 0 when
 /// every particle is fixed.
 fn add_anchor(
     rng: &mut SplitMix64,

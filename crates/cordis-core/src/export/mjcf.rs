@@ -158,7 +158,7 @@ pub fn to_mjcf(scene: &Scene) -> Result<String> {
         world_sites,
         tendons,
     } = LinkElements::of(scene)?;
-    let (bodies, qvel) = bodies(&scene.particles, &loads);
+    let (bodies, qvel) = bodies_and_velocities(&scene.particles, &loads);
     let custom = custom_fields(scene)?;
     let callbacks = callback_kinds(scene)?;
     let mut xml = preamble(scene, &callbacks);
@@ -328,7 +328,7 @@ fn zero_length(li: usize, what: &str) -> CordisError {
 
 /// The bodies `p{i}` in particle order (slide joints carrying `loads`, and a site), and the
 /// free particles' initial velocities in joint order (m/s, the keyframe's `qvel`).
-fn bodies(particles: &[Particle], loads: &[JointLoad]) -> (String, Vec<f64>) {
+fn bodies_and_velocities(particles: &[Particle], loads: &[JointLoad]) -> (String, Vec<f64>) {
     let mut bodies = String::new();
     let mut qvel = Vec::new();
     for (i, p) in particles.iter().enumerate() {

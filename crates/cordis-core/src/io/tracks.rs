@@ -223,7 +223,7 @@ impl Layout {
     }
 
     /// The points frame-major (z = 0 for 2-D tracks), NaN where a point is not visible or not
-    /// finite, and how many are.
+    /// finite, and how many points are hidden so.
     fn points(&self, tracks: &NpyArray, visible: Option<&[bool]>) -> (Vec<f64>, usize) {
         let (n, t, dims) = (self.n, self.t, self.dims);
         let track_at = |i: usize, f: usize, d: usize| tracks.values[self.at(i, f) * dims + d];

@@ -32,9 +32,11 @@ pub(crate) const STDERR_STOP: StderrStop = StderrStop {
 };
 
 /// The θ block of `H⁻¹` (internal coordinates) by nθ PCG solves `H x_k = e_k`, at the
-/// linearisation `mf` holds (`cols`: its θ columns, [`Mf::theta_columns`]), run together (every product as wide as the solves still running:
-/// the passes read the stored linearisation once for all of them). Columns whose solve did not
-/// converge are NaN.
+/// linearisation `mf` holds (`cols`: its θ columns, [`Mf::theta_columns`]), run together
+/// (every product as wide as the solves still running: the passes read the stored
+/// linearisation once for all of them). Columns whose solve did not converge are NaN, and so
+/// are the `skip`ped ones (unknowns [`theta_undetermined`] found: `H x = e_k` has no solution
+/// there, and the solve would only run out its iterations).
 ///
 /// A column is converged when its residual is below `stop.residual`, or when its variance
 /// has settled: PCG from zero raises `e_kᵀx_j` monotonically to `e_kᵀH⁻¹e_k`, and what is left,
@@ -56,6 +58,7 @@ pub(crate) const STDERR_STOP: StderrStop = StderrStop {
 pub(crate) fn theta_inverse(
     mf: &Mf<'_, '_>,
     cols: &DMatrix<f64>,
+    skip: &[bool],
     stop: StderrStop,
     recycled: &[Vec<f64>],
     cgc: &mut CgCounts,
@@ -115,7 +118,7 @@ pub(crate) fn theta_inverse(
     }
     p.copy_from_slice(&z);
     let mut rz: Vec<f64> = (0..w).map(|c| coldot(&r, &z, c)).collect();
-    let mut done = vec![false; w];
+    let mut done = skip.to_vec();
     let mut failed = vec![false; w];
     // Each column's variance x_k after every iteration (its settling test).
     let mut variance: Vec<Vec<f64>> = vec![Vec::new(); w];
@@ -175,9 +178,9 @@ pub(crate) fn theta_inverse(
             }
         }
     }
-    cgc.solves += nt;
+    cgc.solves += skip.iter().filter(|s| !**s).count();
     cgc.iterations += its;
-    for c in 0..w {
+    for c in (0..w).filter(|&c| !skip[c]) {
         if done[c] {
             for a in 0..nt {
                 out[(a, c)] = x[a * w + c];
@@ -187,6 +190,15 @@ pub(crate) fn theta_inverse(
         }
     }
     out
+}
+
+/// Which of the `nt` unknowns the directions `undetermined` carry.
+fn carried(nt: usize, undetermined: &[Vec<usize>]) -> Vec<bool> {
+    let mut skip = vec![false; nt];
+    for &a in undetermined.iter().flatten() {
+        skip[a] = true;
+    }
+    skip
 }
 
 /// The directions of θ the data do not determine even with every initial state known: the
@@ -199,7 +211,9 @@ pub(crate) fn theta_inverse(
 /// initial states alone can compensate is undetermined with `H_θθ` regular; finding it takes
 /// the profiled information `H_θθ − H_θs H_ss⁻¹ H_sθ`, nθ solves with the states' block that
 /// converge slowly on large scenes (BENCHMARKS.md, "The bound is exact"), which the fit does not
-/// run. The estimate's note says so.
+/// run. The estimate's note says so. The eigenvalues are compared with the θ block's largest,
+/// not the whole H's, which is at least as large: a direction within a factor of that
+/// difference of the threshold may be named by the dense path and not here.
 pub(crate) fn theta_undetermined(cols: &DMatrix<f64>) -> Vec<Vec<usize>> {
     let nt = cols.ncols();
     if nt == 0 {
@@ -211,7 +225,9 @@ pub(crate) fn theta_undetermined(cols: &DMatrix<f64>) -> Vec<Vec<usize>> {
 }
 
 /// Marks the unknowns of `undetermined` as not determined in a physical covariance: an
-/// infinite variance, no covariance with the others (as the dense path reports them).
+/// infinite variance and zero covariances (their CG solves were skipped). Their standard
+/// errors (∞), intervals and correlations (0) are then the dense path's; its covariance
+/// matrix keeps the pseudo-inverse's finite covariances instead.
 pub(crate) fn mark_undetermined(covariance: &mut DMatrix<f64>, undetermined: &[Vec<usize>]) {
     let n = covariance.nrows();
     for &a in undetermined.iter().flatten() {
@@ -226,7 +242,8 @@ pub(crate) fn mark_undetermined(covariance: &mut DMatrix<f64>, undetermined: &[V
 /// The Cramér–Rao standard deviations (physical units) of the unknowns at `q` (the truth) for
 /// Gaussian noise `sigma` (m) per unit-weight coordinate over `window` frames: `σ² [H⁻¹]_θθ`
 /// by [`theta_inverse`] (its default stop: variances to ~0.1 %; NaN where a solve did not
-/// settle), the matrix-free counterpart of the dense bound of [`crate::output_error::cramer_rao_takes`].
+/// settle, ∞ for an unknown [`theta_undetermined`] names), the matrix-free counterpart of the
+/// dense bound of [`crate::output_error::cramer_rao_takes`].
 pub(crate) fn cramer_rao_sd(
     fitter: &Fitter<'_>,
     q: &[f64],
@@ -242,16 +259,19 @@ pub(crate) fn cramer_rao_sd(
         ));
     }
     let cols = mf.theta_columns(&mut work);
+    let undetermined = theta_undetermined(&cols);
+    let skip = carried(fitter.theta(), &undetermined);
     let inv = theta_inverse(
         &mf,
         &cols,
+        &skip,
         STDERR_STOP,
         &[],
         &mut CgCounts::default(),
         &mut work,
     );
     let mut cov = theta_covariance(&inv, sigma * sigma, &fitter.chain(q));
-    mark_undetermined(&mut cov, &theta_undetermined(&cols));
+    mark_undetermined(&mut cov, &undetermined);
     Ok((0..fitter.theta()).map(|a| cov[(a, a)].sqrt()).collect())
 }
 
@@ -300,7 +320,16 @@ pub(crate) fn finish(
     let dim = fitter.theta();
     let cols = mf.theta_columns(&mut work);
     let undetermined = theta_undetermined(&cols);
-    let inv = theta_inverse(&mf, &cols, STDERR_STOP, last_steps, &mut cgc, &mut work);
+    let skip = carried(dim, &undetermined);
+    let inv = theta_inverse(
+        &mf,
+        &cols,
+        &skip,
+        STDERR_STOP,
+        last_steps,
+        &mut cgc,
+        &mut work,
+    );
     let mut covariance = theta_covariance(&inv, sigma2, &fitter.chain(&q));
     mark_undetermined(&mut covariance, &undetermined);
     let correlation = crate::output_error::uncertainty::correlation(&covariance);
