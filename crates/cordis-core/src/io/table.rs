@@ -733,6 +733,9 @@ fn dt_of(
     Ok(Some(dt))
 }
 
+/// (frame, particle, line, axes columns) of one marker observation a row holds.
+type Entry = (u64, u64, usize, [Option<usize>; 3]);
+
 /// The table of observations and the markers' names.
 fn fill(
     cells: &Cells<'_>,
@@ -741,8 +744,7 @@ fn fill(
     frame_of_row: &[u64],
     factor: f64,
 ) -> Result<(Observations, Vec<String>)> {
-    // (frame, particle, line, axes columns) of every marker observation a row holds.
-    let mut entries: Vec<(u64, u64, usize, [Option<usize>; 3])> = Vec::new();
+    let mut entries: Vec<Entry> = Vec::new();
     let labels: Vec<String> = match &layout.kind {
         LayoutKind::Wide { markers } => {
             for (r, (line, _)) in rows.iter().enumerate() {
@@ -753,57 +755,83 @@ fn fill(
             markers.iter().map(|(m, _)| m.clone()).collect()
         }
         LayoutKind::Long { particle, axes } => {
-            let ids: Vec<&str> = match particle {
-                Some(k) => rows.iter().map(|(_, f)| f[*k]).collect(),
-                None => vec!["0"; rows.len()],
-            };
-            if let Some(k) = particle {
-                if let Some(r) = ids.iter().position(|id| id.is_empty()) {
-                    return Err(cells.error(
-                        rows[r].0,
-                        *k,
-                        "empty: a marker is needed here".into(),
-                    ));
-                }
-            }
-            let numeric: Option<Vec<u64>> = ids.iter().map(|id| parse_index(id, "").ok()).collect();
-            let (index, labels): (Vec<u64>, Vec<String>) = match numeric {
-                Some(v) => {
-                    let n = v.iter().max().map_or(0, |m| m + 1);
-                    if n > SPARSE_LIMIT.saturating_mul(rows.len() as u64).max(1 << 16) {
-                        let r = v.iter().position(|&i| i + 1 == n).expect("max");
-                        return Err(cells.error(
-                            rows[r].0,
-                            particle.unwrap_or(0),
-                            format!(
-                                "particle {} leaves the table almost empty: an index is wrong",
-                                n - 1
-                            ),
-                        ));
-                    }
-                    (v, (0..n).map(|i| i.to_string()).collect())
-                }
-                None => {
-                    let mut seen: HashMap<&str, u64> = HashMap::new();
-                    let mut labels = Vec::new();
-                    let index = ids
-                        .iter()
-                        .map(|id| {
-                            *seen.entry(id).or_insert_with(|| {
-                                labels.push(id.to_string());
-                                labels.len() as u64 - 1
-                            })
-                        })
-                        .collect();
-                    (index, labels)
-                }
-            };
+            let (index, labels) = long_markers(cells, rows, *particle)?;
             for (r, (line, _)) in rows.iter().enumerate() {
                 entries.push((frame_of_row[r], index[r], *line, *axes));
             }
             labels
         }
     };
+    let data = place_entries(cells, rows, frame_of_row, &labels, entries, factor)?;
+    let frames = frame_of_row.iter().max().map_or(0, |m| m + 1);
+    let obs = Observations::from_flat(frames as usize, labels.len(), data)
+        .map_err(|e| CordisError::trajectory(cells.name, e.to_string()))?;
+    Ok((obs, labels))
+}
+
+/// A long table's marker of each row (its index) and the markers' names: the particle
+/// column's numbers as indices when every one is a number (refused when the largest would
+/// leave the table almost empty), else its names in order of first appearance; one marker
+/// `0` without a particle column.
+fn long_markers(
+    cells: &Cells<'_>,
+    rows: &[(usize, Vec<&str>)],
+    particle: Option<usize>,
+) -> Result<(Vec<u64>, Vec<String>)> {
+    let ids: Vec<&str> = match particle {
+        Some(k) => rows.iter().map(|(_, f)| f[k]).collect(),
+        None => vec!["0"; rows.len()],
+    };
+    if let Some(k) = particle {
+        if let Some(r) = ids.iter().position(|id| id.is_empty()) {
+            return Err(cells.error(rows[r].0, k, "empty: a marker is needed here".into()));
+        }
+    }
+    let numeric: Option<Vec<u64>> = ids.iter().map(|id| parse_index(id, "").ok()).collect();
+    Ok(match numeric {
+        Some(v) => {
+            let n = v.iter().max().map_or(0, |m| m + 1);
+            if n > SPARSE_LIMIT.saturating_mul(rows.len() as u64).max(1 << 16) {
+                let r = v.iter().position(|&i| i + 1 == n).expect("max");
+                return Err(cells.error(
+                    rows[r].0,
+                    particle.unwrap_or(0),
+                    format!(
+                        "particle {} leaves the table almost empty: an index is wrong",
+                        n - 1
+                    ),
+                ));
+            }
+            (v, (0..n).map(|i| i.to_string()).collect())
+        }
+        None => {
+            let mut seen: HashMap<&str, u64> = HashMap::new();
+            let mut labels = Vec::new();
+            let index = ids
+                .iter()
+                .map(|id| {
+                    *seen.entry(id).or_insert_with(|| {
+                        labels.push(id.to_string());
+                        labels.len() as u64 - 1
+                    })
+                })
+                .collect();
+            (index, labels)
+        }
+    })
+}
+
+/// The frames × markers table (frame-major, 3 per cell, metres after `factor`, NaN where no
+/// row gives the cell; z = 0 for a planar table's observed cells), refused when the frames
+/// would leave it almost empty or a cell is given twice.
+fn place_entries(
+    cells: &Cells<'_>,
+    rows: &[(usize, Vec<&str>)],
+    frame_of_row: &[u64],
+    labels: &[String],
+    entries: Vec<Entry>,
+    factor: f64,
+) -> Result<Vec<f64>> {
     let n = labels.len() as u64;
     let frames = frame_of_row.iter().max().map_or(0, |m| m + 1);
     let cells_count = frames.checked_mul(n).filter(|&c| {
@@ -855,9 +883,7 @@ fn fill(
         }
         data[cell * 3..cell * 3 + 3].copy_from_slice(&pos);
     }
-    let obs = Observations::from_flat(frames as usize, n as usize, data)
-        .map_err(|e| CordisError::trajectory(cells.name, e.to_string()))?;
-    Ok((obs, labels))
+    Ok(data)
 }
 
 /// The mapping as one line: layout, delimiter, columns, markers, units, rate.
