@@ -723,11 +723,7 @@ fn plane_pass(
     let surfaces = runs
         .iter()
         .map(|r| {
-            let t = off
-                .iter()
-                .position(|&o| o == r.param)
-                .expect("a run's type");
-            let ty = &scene.types[t];
+            let ty = &scene.types[type_of_run(off, r).expect("a run's type")];
             Surface {
                 point: Vec3::from(ty.point.expect("validated: a plane has a point")),
                 normal: crate::forces::plane::unit_normal(ty.normal.expect("validated: a normal"))

@@ -40,7 +40,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write;
 
 use super::mjcf_callback::{callback_kinds, custom_fields};
-use crate::{CordisError, LinkKind, LinkType, Param, Particle, Result, Scene};
+use crate::{CordisError, LinkKind, LinkType, Particle, Result, Scene};
 
 /// Shortest text that reads back as the same f64 (`1e-9`, `0.1`, `2.0`).
 pub(super) fn num(v: f64) -> String {
@@ -197,7 +197,7 @@ impl LinkElements {
                 LinkKind::Drag => {
                     let i = link.particles[0];
                     if !scene.particles[i].fixed {
-                        out.loads[i].damping += param_of(t, "damping");
+                        out.loads[i].damping += t.value("damping").unwrap_or(0.0);
                     }
                 }
                 // Forces of the state that MJCF has no element for: `<custom>` data for the
@@ -223,9 +223,9 @@ impl LinkElements {
             &mut self.tendons,
             li,
             [
-                param_of(t, "stiffness"),
-                param_of(t, "rest_length"),
-                param_of(t, "damping"),
+                t.value("stiffness").unwrap_or(0.0),
+                t.value("rest_length").unwrap_or(0.0),
+                t.value("damping").unwrap_or(0.0),
             ],
             &format!("s{a}"),
             &format!("s{b}"),
@@ -237,7 +237,7 @@ impl LinkElements {
     /// fixed or its damping is 0).
     fn add_damper(&mut self, scene: &Scene, li: usize, t: &LinkType) {
         let lp = &scene.links[li].particles;
-        let z = param_of(t, "damping");
+        let z = t.value("damping").unwrap_or(0.0);
         let ends: Vec<(usize, f64)> = [(lp[0], 1.0), (lp[1], -1.0)]
             .into_iter()
             .filter(|&(i, _)| !scene.particles[i].fixed)
@@ -273,9 +273,9 @@ impl LinkElements {
         }
         let point = link.point.or(t.point).unwrap_or(x0);
         let (k, l0, z) = (
-            param_of(t, "stiffness"),
-            param_of(t, "rest_length"),
-            param_of(t, "damping"),
+            t.value("stiffness").unwrap_or(0.0),
+            t.value("rest_length").unwrap_or(0.0),
+            t.value("damping").unwrap_or(0.0),
         );
         let linear = l0 == 0.0;
         if linear {
@@ -308,11 +308,6 @@ impl LinkElements {
         }
         Ok(())
     }
-}
-
-/// A type's parameter by name, 0 when the type lacks it (unknowns are refused before).
-fn param_of(t: &LinkType, name: &str) -> f64 {
-    t.param(name).map_or(0.0, Param::value)
 }
 
 /// The refusal of link `li`, `what`, whose tendon has zero length at the start.
@@ -430,7 +425,7 @@ fn spatial(out: &mut String, li: usize, ksz: [f64; 3], a: &str, b: &str) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{examples, LinkType, Particle};
+    use crate::{examples, LinkType, Param, Particle};
 
     #[test]
     fn the_rigid_example_has_one_body_per_particle_in_order() {
