@@ -65,131 +65,211 @@ pub(crate) fn theta_inverse(
     work: &mut Work,
 ) -> DMatrix<f64> {
     let nt = mf.fit.theta();
-    let len = mf.fit.len();
     let mut out = DMatrix::from_element(nt, nt, f64::NAN);
     if nt == 0 {
         return out;
     }
     let scale = approx_diag(mf, cols);
-    let held = vec![false; len];
+    let held = vec![false; mf.fit.len()];
     // A tiny damping in the preconditioner only (the operator is H itself): hidden particles'
     // empty local blocks stay invertible.
     let pre = Pre::new(mf, cols, &scale, &held, 1e-12);
-    let w = nt;
-    // Row-major len × w: column k solves H x = e_k.
-    let mut x = vec![0.0; len * w];
-    let mut r = vec![0.0; len * w];
-    let mut z = vec![0.0; len * w];
-    let mut p = vec![0.0; len * w];
-    let mut ap = vec![0.0; len * w];
-    // The running columns' directions and products, packed (len × running).
-    let (mut packed, mut packed_ap) = (vec![0.0; len * w], vec![0.0; len * w]);
-    let (mut rc, mut zc) = (vec![0.0; len], vec![0.0; len]);
-    for k in 0..nt {
-        r[k * w + k] = 1.0;
-    }
-    let precondition = |r: &[f64], z: &mut [f64], rc: &mut [f64], zc: &mut [f64]| {
-        for c in 0..w {
-            for a in 0..len {
-                rc[a] = r[a * w + c];
-            }
-            pre.apply(rc, zc);
-            for a in 0..len {
-                z[a * w + c] = zc[a];
-            }
-        }
-    };
-    let coldot = |u: &[f64], v: &[f64], c: usize| -> f64 {
-        (0..len).map(|a| u[a * w + c] * v[a * w + c]).sum()
-    };
     let deflation = match recycled.is_empty() {
         true => None,
         false => Deflation::new(recycled, |v, k, out| mf.hv(v, k, out, work)),
     };
-    let mut column = Vec::with_capacity(len);
-    if let Some(d) = &deflation {
-        d.start_columns(&mut x, &mut r, w, &mut column);
-    }
-    // The columns a deflated iteration projects (all of them at the start).
-    let mut still: Vec<usize> = (0..w).collect();
-    precondition(&r, &mut z, &mut rc, &mut zc);
-    if let Some(d) = &deflation {
-        d.project_columns(&mut z, w, &still, &mut column);
-    }
-    p.copy_from_slice(&z);
-    let mut rz: Vec<f64> = (0..w).map(|c| coldot(&r, &z, c)).collect();
-    let mut done = skip.to_vec();
-    let mut failed = vec![false; w];
-    // Each column's variance x_k after every iteration (its settling test).
-    let mut variance: Vec<Vec<f64>> = vec![Vec::new(); w];
+    let mut solves = BlockSolves::start(mf.fit.len(), skip, &pre, deflation.as_ref());
     let mut its = 0;
-    while its < stop.max_iterations && done.iter().zip(&failed).any(|(d, f)| !d && !f) {
+    while its < stop.max_iterations && solves.any_running() {
         its += 1;
-        let running: Vec<usize> = (0..w).filter(|&c| !done[c] && !failed[c]).collect();
-        let nr = running.len();
-        for a in 0..len {
-            for (slot, &c) in running.iter().enumerate() {
-                packed[a * nr + slot] = p[a * w + c];
-            }
-        }
-        mf.hv(&packed[..len * nr], nr, &mut packed_ap[..len * nr], work);
-        for a in 0..len {
-            for (slot, &c) in running.iter().enumerate() {
-                ap[a * w + c] = packed_ap[a * nr + slot];
-            }
-        }
-        for &c in &running {
-            let pap = coldot(&p, &ap, c);
-            if pap.is_nan() || pap <= 0.0 {
-                failed[c] = true;
-                continue;
-            }
-            let alpha = rz[c] / pap;
-            for a in 0..len {
-                x[a * w + c] += alpha * p[a * w + c];
-                r[a * w + c] -= alpha * ap[a * w + c];
-            }
-            let history = &mut variance[c];
-            history.push(x[c * w + c]);
-            let settled = stop.form > 0.0
-                && history.len() > STDERR_DELAY
-                && history[history.len() - 1] - history[history.len() - 1 - STDERR_DELAY]
-                    <= stop.form * history[history.len() - 1];
-            // ‖e_k‖ = 1: the residual is already relative.
-            if settled || coldot(&r, &r, c).sqrt() <= stop.residual {
-                done[c] = true;
-            }
-        }
-        precondition(&r, &mut z, &mut rc, &mut zc);
-        if let Some(d) = &deflation {
-            still.clear();
-            still.extend(running.iter().filter(|&&c| !done[c] && !failed[c]));
-            d.project_columns(&mut z, w, &still, &mut column);
-        }
-        for &c in &running {
-            if done[c] || failed[c] {
-                continue;
-            }
-            let rz_new = coldot(&r, &z, c);
-            let beta = rz_new / rz[c];
-            rz[c] = rz_new;
-            for a in 0..len {
-                p[a * w + c] = z[a * w + c] + beta * p[a * w + c];
-            }
-        }
+        let running = solves.running();
+        solves.multiply(mf, &running, work);
+        solves.advance(&running, stop);
+        solves.next_directions(&running, &pre, deflation.as_ref());
     }
     cgc.solves += skip.iter().filter(|s| !**s).count();
     cgc.iterations += its;
-    for c in (0..w).filter(|&c| !skip[c]) {
-        if done[c] {
+    for c in (0..nt).filter(|&c| !skip[c]) {
+        if solves.done[c] {
             for a in 0..nt {
-                out[(a, c)] = x[a * w + c];
+                out[(a, c)] = solves.x[a * nt + c];
             }
         } else {
             cgc.unconverged += 1;
         }
     }
     out
+}
+
+/// The solves `H x_k = e_k` of [`theta_inverse`] as one block of PCG iterations: row-major
+/// `len × w` buffers whose column k is the k-th solve, each column with its own step lengths
+/// and stop.
+struct BlockSolves {
+    len: usize,
+    w: usize,
+    x: Vec<f64>,
+    r: Vec<f64>,
+    z: Vec<f64>,
+    p: Vec<f64>,
+    ap: Vec<f64>,
+    /// The running columns' directions and products, packed (len × running).
+    packed: Vec<f64>,
+    packed_ap: Vec<f64>,
+    /// One column's residual and preconditioned residual, and the deflation's buffer.
+    rc: Vec<f64>,
+    zc: Vec<f64>,
+    column: Vec<f64>,
+    /// The columns a deflated iteration projects.
+    still: Vec<usize>,
+    rz: Vec<f64>,
+    done: Vec<bool>,
+    failed: Vec<bool>,
+    /// Each column's variance x_k after every iteration (its settling test).
+    variance: Vec<Vec<f64>>,
+}
+
+impl BlockSolves {
+    /// The first directions: residuals `e_k` (deflated), preconditioned; the `skip`ped columns
+    /// count as done from the start.
+    fn start(len: usize, skip: &[bool], pre: &Pre, deflation: Option<&Deflation>) -> Self {
+        let w = skip.len();
+        let mut s = BlockSolves {
+            len,
+            w,
+            x: vec![0.0; len * w],
+            r: vec![0.0; len * w],
+            z: vec![0.0; len * w],
+            p: vec![0.0; len * w],
+            ap: vec![0.0; len * w],
+            packed: vec![0.0; len * w],
+            packed_ap: vec![0.0; len * w],
+            rc: vec![0.0; len],
+            zc: vec![0.0; len],
+            column: Vec::with_capacity(len),
+            still: (0..w).collect(),
+            rz: Vec::new(),
+            done: skip.to_vec(),
+            failed: vec![false; w],
+            variance: vec![Vec::new(); w],
+        };
+        for k in 0..w {
+            s.r[k * w + k] = 1.0;
+        }
+        if let Some(d) = deflation {
+            d.start_columns(&mut s.x, &mut s.r, w, &mut s.column);
+        }
+        s.precondition(pre);
+        if let Some(d) = deflation {
+            d.project_columns(&mut s.z, w, &s.still, &mut s.column);
+        }
+        s.p.copy_from_slice(&s.z);
+        s.rz = (0..w).map(|c| column_dot(&s.r, &s.z, w, c)).collect();
+        s
+    }
+
+    fn any_running(&self) -> bool {
+        self.done.iter().zip(&self.failed).any(|(d, f)| !d && !f)
+    }
+
+    fn running(&self) -> Vec<usize> {
+        (0..self.w)
+            .filter(|&c| !self.done[c] && !self.failed[c])
+            .collect()
+    }
+
+    /// `z = M⁻¹ r`, column by column.
+    fn precondition(&mut self, pre: &Pre) {
+        let (len, w) = (self.len, self.w);
+        for c in 0..w {
+            for a in 0..len {
+                self.rc[a] = self.r[a * w + c];
+            }
+            pre.apply(&self.rc, &mut self.zc);
+            for a in 0..len {
+                self.z[a * w + c] = self.zc[a];
+            }
+        }
+    }
+
+    /// `ap = H p` on the running columns, in one product as wide as they are.
+    fn multiply(&mut self, mf: &Mf<'_, '_>, running: &[usize], work: &mut Work) {
+        let (len, w, nr) = (self.len, self.w, running.len());
+        for a in 0..len {
+            for (slot, &c) in running.iter().enumerate() {
+                self.packed[a * nr + slot] = self.p[a * w + c];
+            }
+        }
+        mf.hv(
+            &self.packed[..len * nr],
+            nr,
+            &mut self.packed_ap[..len * nr],
+            work,
+        );
+        for a in 0..len {
+            for (slot, &c) in running.iter().enumerate() {
+                self.ap[a * w + c] = self.packed_ap[a * nr + slot];
+            }
+        }
+    }
+
+    /// The step along each running column's direction, then its stop: the residual below
+    /// `stop.residual` (`‖e_k‖` = 1: already relative), or the variance settled.
+    fn advance(&mut self, running: &[usize], stop: StderrStop) {
+        let (len, w) = (self.len, self.w);
+        for &c in running {
+            let pap = column_dot(&self.p, &self.ap, w, c);
+            if pap.is_nan() || pap <= 0.0 {
+                self.failed[c] = true;
+                continue;
+            }
+            let alpha = self.rz[c] / pap;
+            for a in 0..len {
+                self.x[a * w + c] += alpha * self.p[a * w + c];
+                self.r[a * w + c] -= alpha * self.ap[a * w + c];
+            }
+            let history = &mut self.variance[c];
+            history.push(self.x[c * w + c]);
+            let settled = stop.form > 0.0
+                && history.len() > STDERR_DELAY
+                && history[history.len() - 1] - history[history.len() - 1 - STDERR_DELAY]
+                    <= stop.form * history[history.len() - 1];
+            if settled || column_dot(&self.r, &self.r, w, c).sqrt() <= stop.residual {
+                self.done[c] = true;
+            }
+        }
+    }
+
+    /// The next directions of the columns still running: `p = z + β p` from the new
+    /// preconditioned (and deflated) residuals.
+    fn next_directions(&mut self, running: &[usize], pre: &Pre, deflation: Option<&Deflation>) {
+        let (len, w) = (self.len, self.w);
+        self.precondition(pre);
+        if let Some(d) = deflation {
+            self.still.clear();
+            self.still.extend(
+                running
+                    .iter()
+                    .filter(|&&c| !self.done[c] && !self.failed[c]),
+            );
+            d.project_columns(&mut self.z, w, &self.still, &mut self.column);
+        }
+        for &c in running {
+            if self.done[c] || self.failed[c] {
+                continue;
+            }
+            let rz_new = column_dot(&self.r, &self.z, w, c);
+            let beta = rz_new / self.rz[c];
+            self.rz[c] = rz_new;
+            for a in 0..len {
+                self.p[a * w + c] = self.z[a * w + c] + beta * self.p[a * w + c];
+            }
+        }
+    }
+}
+
+/// `uᵀv` of column c of two row-major `· × w` blocks.
+fn column_dot(u: &[f64], v: &[f64], w: usize, c: usize) -> f64 {
+    (0..u.len() / w).map(|a| u[a * w + c] * v[a * w + c]).sum()
 }
 
 /// Which of the `nt` unknowns the directions `undetermined` carry.
