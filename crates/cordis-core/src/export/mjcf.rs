@@ -39,8 +39,8 @@
 use std::collections::BTreeMap;
 use std::fmt::Write;
 
-use super::mjcf_callback::{callback_kinds, custom_fields};
-use crate::{CordisError, LinkKind, LinkType, Particle, Result, Scene};
+use super::mjcf_callback::{custom_fields_of, kinds_of};
+use crate::{CordisError, LinkKind, LinkType, Particle, Plan, Result, Scene};
 
 /// Shortest text that reads back as the same f64 (`1e-9`, `0.1`, `2.0`).
 pub(super) fn num(v: f64) -> String {
@@ -159,8 +159,9 @@ pub fn to_mjcf(scene: &Scene) -> Result<String> {
         tendons,
     } = LinkElements::of(scene)?;
     let (bodies, qvel) = bodies_and_velocities(&scene.particles, &loads);
-    let custom = custom_fields(scene)?;
-    let callbacks = callback_kinds(scene)?;
+    let plan = Plan::compile(scene)?;
+    let custom = custom_fields_of(scene, &plan);
+    let callbacks = kinds_of(&plan);
     let mut xml = preamble(scene, &callbacks);
     let _ = write!(xml, "<worldbody>\n{world_sites}{bodies}</worldbody>\n");
     if !tendons.is_empty() {

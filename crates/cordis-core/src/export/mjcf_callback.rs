@@ -42,7 +42,8 @@ pub fn callback_kinds(scene: &Scene) -> Result<Vec<&'static str>> {
     Ok(kinds_of(&Plan::compile(scene)?))
 }
 
-fn kinds_of(plan: &Plan) -> Vec<&'static str> {
+/// [`callback_kinds`] of a compiled plan.
+pub(super) fn kinds_of(plan: &Plan) -> Vec<&'static str> {
     let mut kinds = Vec::new();
     if !plan.angles.triples.is_empty() {
         kinds.push("angle");
@@ -65,9 +66,14 @@ fn kinds_of(plan: &Plan) -> Vec<&'static str> {
 /// The `<custom>` element for the forces of [`callback_kinds`], or an empty string when the
 /// scene has none of them.
 pub fn custom_fields(scene: &Scene) -> Result<String> {
-    let plan = Plan::compile(scene)?;
-    if kinds_of(&plan).is_empty() {
-        return Ok(String::new());
+    Ok(custom_fields_of(scene, &Plan::compile(scene)?))
+}
+
+/// [`custom_fields`] from the scene's compiled plan (the MJCF export compiles it once for
+/// this and [`kinds_of`]).
+pub(super) fn custom_fields_of(scene: &Scene, plan: &Plan) -> String {
+    if kinds_of(plan).is_empty() {
+        return String::new();
     }
     let p = scene.param_values();
     let mut fields: Vec<(String, Vec<f64>)> = vec![("cordis_format".into(), vec![1.0])];
@@ -125,7 +131,7 @@ pub fn custom_fields(scene: &Scene) -> Result<String> {
         );
     }
     xml.push_str("</custom>\n");
-    Ok(xml)
+    xml
 }
 
 #[cfg(test)]
