@@ -221,12 +221,22 @@ fn row_sums(plan: &Plan, p: &[f64], ws: &mut StabilityScratch) {
         free: &plan.free,
         root: &ws.root,
     };
-    // A link lies inside one world (validated), so its first particle's dt is the link's.
-    let g = |k: f64, z: f64, i: u32| {
-        let dt = plan.dt_of(i as usize);
-        mul(k, dt * dt) + mul(2.0 * z, dt)
-    };
+    binary_links(plan, p, &mut ws.neural, &mut acc);
+    one_particle_links(plan, p, mass, &mut acc);
+    shape_links(plan, p, &mut ws.grid, &mut acc);
+}
 
+/// A link's weight (kg) in the Gershgorin rows: `K dt² + 2 Z dt`, the dt of its first
+/// particle's world (a link lies inside one world, validated).
+fn link_weight(plan: &Plan, k: f64, z: f64, i: u32) -> f64 {
+    let dt = plan.dt_of(i as usize);
+    mul(k, dt * dt) + mul(2.0 * z, dt)
+}
+
+/// The row sums of the links between two particles: springs, TGRs, central-control muscles
+/// (and their controller dipoles), local-control muscles (with their neurons' slopes, in
+/// `neural`) and dampers.
+fn binary_links(plan: &Plan, p: &[f64], neural: &mut Vec<[f64; 2]>, acc: &mut Acc<'_>) {
     for (ri, r) in plan.springs.runs.iter().enumerate() {
         let (k, z) = (p[r.param], p[r.param + 2]);
         let z2 = plan
@@ -243,7 +253,7 @@ fn row_sums(plan: &Plan, p: &[f64], ws: &mut StabilityScratch) {
             } else {
                 z
             };
-            acc.pair(i, j, g(k, z, i as u32));
+            acc.pair(i, j, link_weight(plan, k, z, i as u32));
         }
     }
     // A TGR's link is a spring whose rest length moves: the same local stiffness. Its tendon
@@ -252,7 +262,7 @@ fn row_sums(plan: &Plan, p: &[f64], ws: &mut StabilityScratch) {
     for r in &tgrs.runs {
         let (k, z) = (p[r.param], p[r.param + 2]);
         for &[i, j] in &tgrs.pairs[r.start..r.end] {
-            acc.pair(i as usize, j as usize, g(k, z, i));
+            acc.pair(i as usize, j as usize, link_weight(plan, k, z, i));
         }
     }
     // A central-control muscle's link likewise; its controller dipole feels the tendon's spring
@@ -263,50 +273,58 @@ fn row_sums(plan: &Plan, p: &[f64], ws: &mut StabilityScratch) {
         let (k, z, kt, zt) = (p[r.param], p[r.param + 2], p[r.param + 4], p[r.param + 5]);
         for m in r.start..r.end {
             let [i, j] = controlled.pairs[m];
-            acc.pair(i as usize, j as usize, g(k, z, i));
+            acc.pair(i as usize, j as usize, link_weight(plan, k, z, i));
             let [c, d] = controlled.controllers[m];
             let zc = zt * (plan.dt_of(c as usize) / dt);
-            acc.pair(c as usize, d as usize, g(kt, zc, c));
+            acc.pair(c as usize, d as usize, link_weight(plan, kt, zc, c));
         }
     }
     // A muscle is a spring (K, l0, Z first in its parameters) plus a neuron whose slopes in
     // the observed links' elongations and rates are bounded by `|G w|`: each muscle link
     // counts the share of them it carries (`neural_slopes`) on top of its K and Z.
-    neural_slopes(plan, p, &mut ws.neural);
+    neural_slopes(plan, p, neural);
     for r in &plan.muscles.runs {
         let (k, z) = (p[r.param], p[r.param + 2]);
-        for m in r.start..r.end {
-            let [i, j] = plan.muscles.pairs[m];
-            let [kn, zn] = ws.neural[m];
-            acc.pair(i as usize, j as usize, g(k + kn, z + zn, i));
+        let muscles = plan.muscles.pairs[r.start..r.end].iter();
+        for (&[i, j], &[kn, zn]) in muscles.zip(&neural[r.start..r.end]) {
+            acc.pair(i as usize, j as usize, link_weight(plan, k + kn, z + zn, i));
         }
     }
     for r in &plan.dampers.runs {
         for &[i, j] in &plan.dampers.pairs[r.start..r.end] {
-            acc.pair(i as usize, j as usize, g(0.0, p[r.param], i));
+            acc.pair(
+                i as usize,
+                j as usize,
+                link_weight(plan, 0.0, p[r.param], i),
+            );
         }
     }
+}
+
+/// The row sums of the links of one particle: anchors, drags (linear and not) and planes
+/// (a plane with friction bounded by its tangential slope, `2 m`).
+fn one_particle_links(plan: &Plan, p: &[f64], mass: &[f64], acc: &mut Acc<'_>) {
     for r in &plan.anchors.runs {
         let (k, z) = (p[r.param], p[r.param + 2]);
         for &i in &plan.anchors.particles[r.start..r.end] {
-            acc.own[i as usize] += g(k, z, i);
+            acc.own[i as usize] += link_weight(plan, k, z, i);
         }
     }
     for r in &plan.drags.runs {
         for &i in &plan.drags.particles[r.start..r.end] {
-            acc.own[i as usize] += g(0.0, p[r.param], i);
+            acc.own[i as usize] += link_weight(plan, 0.0, p[r.param], i);
         }
     }
     for r in &plan.nonlinear_drags.runs {
         let z = p[r.param].max(p[r.param + 1]);
         for &i in &plan.nonlinear_drags.particles[r.start..r.end] {
-            acc.own[i as usize] += g(0.0, z, i);
+            acc.own[i as usize] += link_weight(plan, 0.0, z, i);
         }
     }
     for r in &plan.planes.runs {
         let (k, z, mu) = (p[r.param], p[r.param + 1], p[r.param + 2]);
         for &i in &plan.planes.particles[r.start..r.end] {
-            let normal = g(k, z, i);
+            let normal = link_weight(plan, k, z, i);
             let tangent = if mu > 0.0 {
                 2.0 * mass[i as usize]
             } else {
@@ -315,22 +333,27 @@ fn row_sums(plan: &Plan, p: &[f64], ws: &mut StabilityScratch) {
             acc.own[i as usize] += normal.max(tangent);
         }
     }
+}
+
+/// The row sums of the links whose weight depends on the shape at the start: angles and
+/// conditional links (the pairs active there, found on `grid`).
+fn shape_links(plan: &Plan, p: &[f64], grid: &mut Grid, acc: &mut Acc<'_>) {
     for r in &plan.angles.runs {
         for &[i, j, k] in &plan.angles.triples[r.start..r.end] {
-            let w = g(p[r.param], 0.0, i);
+            let w = link_weight(plan, p[r.param], 0.0, i);
             acc.angle([i as usize, j as usize, k as usize], &plan.x0, w);
         }
     }
     for c in &plan.conditionals {
         let (k, z) = (p[c.param], p[c.param + 2]);
         let z2 = c.quadratic.map_or(0.0, |s| p[s]);
-        c.for_each_active_pair(p, &plan.x0, &mut ws.grid, |i, j, _| {
+        c.for_each_active_pair(p, &plan.x0, grid, |i, j, _| {
             let z = if z2 != 0.0 {
                 z + 2.0 * z2 * start_rate(plan, i, j)
             } else {
                 z
             };
-            acc.pair(i, j, g(k, z, i as u32))
+            acc.pair(i, j, link_weight(plan, k, z, i as u32))
         });
     }
 }
