@@ -88,12 +88,15 @@ pub(crate) fn physical(cov: &DMatrix<f64>, chain: &[f64]) -> DMatrix<f64> {
     })
 }
 
-/// Correlations from a covariance (0 where a variance is infinite or 0).
+/// Correlations from a covariance: 0 where a variance is infinite or 0 (an undetermined
+/// unknown), NaN where one is NaN (not computed: its row says nothing, not "uncorrelated").
 pub(crate) fn correlation(cov: &DMatrix<f64>) -> DMatrix<f64> {
     let n = cov.nrows();
     DMatrix::from_fn(n, n, |a, b| {
         let s = (cov[(a, a)] * cov[(b, b)]).sqrt();
-        if a == b {
+        if cov[(a, a)].is_nan() || cov[(b, b)].is_nan() {
+            f64::NAN
+        } else if a == b {
             1.0
         } else if s.is_finite() && s > 0.0 {
             cov[(a, b)] / s
@@ -101,4 +104,49 @@ pub(crate) fn correlation(cov: &DMatrix<f64>) -> DMatrix<f64> {
             0.0
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A standard error not computed (NaN variance) must not read as "uncorrelated": its row
+    /// and column are NaN, an undetermined unknown's (∞) are 0, the others exact.
+    #[test]
+    fn a_variance_not_computed_gives_nan_correlations_not_zero() {
+        let mut cov = DMatrix::from_row_slice(
+            4,
+            4,
+            &[
+                4.0,
+                1.0,
+                0.0,
+                0.5, //
+                1.0,
+                9.0,
+                0.0,
+                0.3, //
+                0.0,
+                0.0,
+                f64::NAN,
+                0.0, //
+                0.5,
+                0.3,
+                0.0,
+                f64::INFINITY,
+            ],
+        );
+        cov[(3, 3)] = f64::INFINITY;
+        let r = correlation(&cov);
+        approx::assert_relative_eq!(r[(0, 1)], 1.0 / 6.0, max_relative = 1e-15);
+        assert_eq!(r[(0, 0)], 1.0);
+        assert_eq!(r[(3, 3)], 1.0);
+        assert_eq!(r[(0, 3)], 0.0);
+        for k in 0..4 {
+            assert!(
+                r[(2, k)].is_nan() && r[(k, 2)].is_nan(),
+                "row/column 2 at {k}"
+            );
+        }
+    }
 }

@@ -37,7 +37,10 @@ pub struct OutputErrorReport {
     /// Observed coordinates and fit variables (unknowns + 6 per free particle and take).
     pub observed: usize,
     pub variables: usize,
-    /// Correlations of the unknowns (row-major, unknown order).
+    /// Correlations of the unknowns (row-major, unknown order): 0 beside an undetermined
+    /// unknown, NaN (JSON `"NaN"`) in the row and column of one whose standard error was not
+    /// computed.
+    #[serde(with = "lossless::matrix")]
     pub correlation: Vec<Vec<f64>>,
     /// Directions the data do not determine, each by the variables it moves.
     pub undetermined_directions: Vec<Vec<String>>,
@@ -51,4 +54,33 @@ pub struct OutputErrorReport {
     pub chosen_because: Option<String>,
     /// Whether every standard error could be computed.
     pub uncertainty_computed: bool,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Correlations not computed survive the JSON line and a checkpoint as NaN (`"nan"`),
+    /// the others exactly.
+    #[test]
+    fn nan_correlations_round_trip_through_json() {
+        let report = OutputErrorReport {
+            correlation: vec![
+                vec![1.0, f64::NAN, 0.25],
+                vec![f64::NAN; 3],
+                vec![0.25, f64::NAN, 1.0],
+            ],
+            ..OutputErrorReport::default()
+        };
+        let text = serde_json::to_string(&report).expect("serialises");
+        assert!(
+            text.contains(
+                r#""correlation":[[1.0,"NaN",0.25],["NaN","NaN","NaN"],[0.25,"NaN",1.0]]"#
+            ),
+            "{text}"
+        );
+        let back: OutputErrorReport = serde_json::from_str(&text).expect("reads back");
+        assert_eq!(back.correlation[0][2], 0.25);
+        assert!(back.correlation[0][1].is_nan() && back.correlation[1].iter().all(|x| x.is_nan()));
+    }
 }

@@ -24,7 +24,7 @@ pub mod bits {
     }
 }
 
-/// One f64 in JSON as a number when finite, else as the string `"inf"`, `"-inf"` or `"nan"`
+/// One f64 in JSON as a number when finite, else as the string `"inf"`, `"-inf"` or `"NaN"`
 /// (JSON has no such numbers). Exact with serde_json's `float_roundtrip`.
 pub mod lossless {
     use serde::{Deserialize, Deserializer, Serializer};
@@ -48,6 +48,33 @@ pub mod lossless {
         match Repr::deserialize(d)? {
             Repr::Num(x) => Ok(x),
             Repr::Text(t) => t.parse().map_err(serde::de::Error::custom),
+        }
+    }
+
+    /// Rows of f64, each as [`super::lossless`] writes one (a correlation matrix with rows
+    /// not computed).
+    pub mod matrix {
+        use serde::ser::SerializeSeq;
+        use serde::{Deserialize, Deserializer, Serializer};
+
+        #[derive(serde::Serialize, Deserialize)]
+        struct W(#[serde(with = "super")] f64);
+
+        pub fn serialize<S: Serializer>(m: &[Vec<f64>], s: S) -> Result<S::Ok, S::Error> {
+            let mut seq = s.serialize_seq(Some(m.len()))?;
+            for row in m {
+                let row: Vec<W> = row.iter().map(|&x| W(x)).collect();
+                seq.serialize_element(&row)?;
+            }
+            seq.end()
+        }
+
+        pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<Vec<f64>>, D::Error> {
+            let rows = Vec::<Vec<W>>::deserialize(d)?;
+            Ok(rows
+                .into_iter()
+                .map(|r| r.into_iter().map(|w| w.0).collect())
+                .collect())
         }
     }
 
