@@ -32,6 +32,9 @@ pub struct Estimate {
     /// computed, when the matrix-free path's solve for it did not converge — the strategy
     /// then reports no uncertainty rather than a NaN).
     pub stderr: Vec<f64>,
+    /// Where a standard error is NaN (not computed), a lower bound on it in the same unit
+    /// (the unsettled CG solve's last variance); NaN elsewhere.
+    pub stderr_at_least: Vec<f64>,
     /// 95 % interval per unknown ([`interval95`]: `value ± 1.96 stderr`, on `ln value` for
     /// the log-searched ones).
     pub intervals: Vec<(f64, f64)>,
@@ -98,6 +101,7 @@ pub(crate) fn summarise(
         noise_level,
         observed,
         variables,
+        stderr_at_least: vec![f64::NAN; stderr.len()],
         stderr,
         intervals,
         covariance,

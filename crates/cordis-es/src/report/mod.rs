@@ -17,7 +17,7 @@ mod exact;
 mod output_error;
 
 pub use exact::{ExactReport, ProvotRows};
-pub use output_error::OutputErrorReport;
+pub use output_error::{OutputErrorReport, StderrBound};
 
 /// What `levenberg-marquardt` reports.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -54,6 +54,19 @@ pub struct OutputErrorReport {
     pub chosen_because: Option<String>,
     /// Whether every standard error could be computed.
     pub uncertainty_computed: bool,
+    /// The unknowns whose standard error was not computed (the matrix-free solve did not
+    /// settle), each with a lower bound on it in the unknown's unit; empty when every one was.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub stderr_at_least: Vec<StderrBound>,
+}
+
+/// A lower bound on a standard error that was not computed: the unsettled CG solve's variance
+/// rises monotonically towards the true one, so its last value bounds it from below.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StderrBound {
+    pub name: String,
+    #[serde(with = "lossless")]
+    pub at_least: f64,
 }
 
 #[cfg(test)]
@@ -82,5 +95,31 @@ mod tests {
         let back: OutputErrorReport = serde_json::from_str(&text).expect("reads back");
         assert_eq!(back.correlation[0][2], 0.25);
         assert!(back.correlation[0][1].is_nan() && back.correlation[1].iter().all(|x| x.is_nan()));
+    }
+
+    /// A fit whose standard errors were not all computed warns so, with the lower bounds.
+    #[test]
+    fn standard_errors_not_computed_are_warned_with_their_lower_bounds() {
+        let report = OutputErrorReport {
+            end: "converged".into(),
+            uncertainty_computed: false,
+            stderr_at_least: vec![StderrBound {
+                name: "types.a.damping".into(),
+                at_least: 1.5e-3,
+            }],
+            ..OutputErrorReport::default()
+        };
+        let w = report.warnings();
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(
+            w[0].contains("not computed") && w[0].ends_with("at least: types.a.damping ≥ 1.50e-3"),
+            "{}",
+            w[0]
+        );
+        let text = serde_json::to_string(&report).expect("serialises");
+        assert!(
+            text.contains(r#""stderr_at_least":[{"name":"types.a.damping","at_least":0.0015}]"#),
+            "{text}"
+        );
     }
 }

@@ -161,7 +161,7 @@ pub fn supported(problem: &Problem) -> Result<(), String> {
     output_error::tangent::Tangent::supports(&problem.scene).map_err(|e| e.to_string())
 }
 
-pub use crate::report::OutputErrorReport;
+pub use crate::report::{OutputErrorReport, StderrBound};
 
 impl OutputErrorReport {
     fn new(problem: &Problem, e: &Estimate) -> Self {
@@ -217,6 +217,16 @@ impl OutputErrorReport {
             }),
             chosen_because: None,
             uncertainty_computed: !e.stderr.iter().any(|s| s.is_nan()),
+            stderr_at_least: names
+                .iter()
+                .zip(&e.stderr)
+                .zip(&e.stderr_at_least)
+                .filter(|((_, se), lb)| se.is_nan() && lb.is_finite())
+                .map(|((name, _), lb)| StderrBound {
+                    name: name.to_string(),
+                    at_least: *lb,
+                })
+                .collect(),
         }
     }
 
@@ -225,11 +235,19 @@ impl OutputErrorReport {
         let mut w: Vec<String> = self.unconverged.iter().cloned().collect();
         let finished = self.end != "running" && self.end != "interrupted";
         if finished && !self.uncertainty_computed {
-            w.push(
+            let bounds: Vec<String> = self
+                .stderr_at_least
+                .iter()
+                .map(|b| format!("{} ≥ {:.2e}", b.name, b.at_least))
+                .collect();
+            w.push(format!(
                 "output-error: standard errors not computed (the matrix-free solves for them \
-                 did not converge)"
-                    .into(),
-            );
+                 did not converge){}",
+                match bounds.is_empty() {
+                    true => String::new(),
+                    false => format!("; at least: {}", bounds.join(", ")),
+                }
+            ));
         }
         for d in &self.undetermined_directions {
             w.push(format!(

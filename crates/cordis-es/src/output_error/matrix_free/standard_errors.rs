@@ -48,6 +48,10 @@ pub(crate) const STDERR_STOP: StderrStop = StderrStop {
 /// variance had settled to 4 digits: the fit reported no standard error at all, for 49 s
 /// (BENCHMARKS.md, "Pattern moves").
 ///
+/// Also returned, per column whose solve did not converge (NaN elsewhere): its last variance
+/// `e_kᵀx_j`, a lower bound on `e_kᵀH⁻¹e_k` (PCG from zero raises it monotonically), so a
+/// standard error not computed can still be reported as at least that large.
+///
 /// The solves are deflated ([`crate::linalg::deflation`]) by `recycled`, the last window's
 /// last accepted steps: they line up with the poorly determined directions (the cloth's
 /// structural/bending valley), which carry most of each variance and which CG resolves last.
@@ -63,11 +67,12 @@ pub(crate) fn theta_inverse(
     recycled: &[Vec<f64>],
     cgc: &mut CgCounts,
     work: &mut Work,
-) -> DMatrix<f64> {
+) -> (DMatrix<f64>, Vec<f64>) {
     let nt = mf.fit.theta();
     let mut out = DMatrix::from_element(nt, nt, f64::NAN);
+    let mut at_least = vec![f64::NAN; nt];
     if nt == 0 {
-        return out;
+        return (out, at_least);
     }
     let scale = approx_diag(mf, cols);
     let held = vec![false; mf.fit.len()];
@@ -96,9 +101,10 @@ pub(crate) fn theta_inverse(
             }
         } else {
             cgc.unconverged += 1;
+            at_least[c] = solves.variance[c].last().copied().unwrap_or(f64::NAN);
         }
     }
-    out
+    (out, at_least)
 }
 
 /// The solves `H x_k = e_k` of [`theta_inverse`] as one block of PCG iterations: row-major
@@ -341,7 +347,7 @@ pub(crate) fn cramer_rao_sd(
     let cols = mf.theta_columns(&mut work);
     let undetermined = theta_undetermined(&cols);
     let skip = carried(fitter.theta(), &undetermined);
-    let inv = theta_inverse(
+    let (inv, _) = theta_inverse(
         &mf,
         &cols,
         &skip,
@@ -401,7 +407,7 @@ pub(crate) fn finish(
     let cols = mf.theta_columns(&mut work);
     let undetermined = theta_undetermined(&cols);
     let skip = carried(dim, &undetermined);
-    let inv = theta_inverse(
+    let (inv, at_least) = theta_inverse(
         &mf,
         &cols,
         &skip,
@@ -410,7 +416,13 @@ pub(crate) fn finish(
         &mut cgc,
         &mut work,
     );
-    let mut covariance = theta_covariance(&inv, sigma2, &fitter.chain(&q));
+    let chain = fitter.chain(&q);
+    let stderr_at_least = at_least
+        .iter()
+        .zip(&chain)
+        .map(|(v, c)| c.abs() * (sigma2 * v).sqrt())
+        .collect();
+    let mut covariance = theta_covariance(&inv, sigma2, &chain);
     mark_undetermined(&mut covariance, &undetermined);
     let correlation = crate::output_error::uncertainty::correlation(&covariance);
     let params = fitter.params(&q);
@@ -442,6 +454,7 @@ pub(crate) fn finish(
         observed,
         variables,
         stderr,
+        stderr_at_least,
         intervals,
         covariance,
         correlation,

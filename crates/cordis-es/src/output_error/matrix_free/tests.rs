@@ -593,7 +593,7 @@ fn matrix_free_fit_reaches_the_dense_fits_estimate() {
     assert!(!steps.is_empty(), "the last stage kept no step");
     let cols = mf.theta_columns(&mut work);
     for recycled in [&[][..], &steps[..]] {
-        let inv = theta_inverse(
+        let (inv, _) = theta_inverse(
             &mf,
             &cols,
             &vec![false; nt],
@@ -616,7 +616,7 @@ fn matrix_free_fit_reaches_the_dense_fits_estimate() {
         }
         // The default stop (the variances settled): variances within 1 % (standard errors
         // within 0.5 %), covariances within 0.1 of their scale (correlations within 0.1).
-        let inv = theta_inverse(
+        let (inv, _) = theta_inverse(
             &mf,
             &cols,
             &vec![false; nt],
@@ -631,6 +631,34 @@ fn matrix_free_fit_reaches_the_dense_fits_estimate() {
                 let scale = (hinv[(a, a)] * hinv[(b, b)]).sqrt();
                 assert!((inv[(a, b)] - hinv[(a, b)]).abs() <= 0.1 * scale);
             }
+        }
+        // Solves stopped after 2 iterations: not computed (NaN), each with a positive lower
+        // bound on its variance (CG's monotone rise), below the dense inverse's.
+        let cut = StderrStop {
+            residual: 0.0,
+            form: 0.0,
+            max_iterations: 2,
+        };
+        let (inv, at_least) = theta_inverse(
+            &mf,
+            &cols,
+            &vec![false; nt],
+            cut,
+            recycled,
+            &mut CgCounts::default(),
+            &mut work,
+        );
+        for a in 0..nt {
+            assert!(
+                inv[(a, a)].is_nan(),
+                "column {a} reported after 2 iterations"
+            );
+            assert!(
+                at_least[a] > 0.0 && at_least[a] <= hinv[(a, a)] * (1.0 + 1e-9),
+                "bound {} against the variance {} ({a})",
+                at_least[a],
+                hinv[(a, a)]
+            );
         }
     }
 }
