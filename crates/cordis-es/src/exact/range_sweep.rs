@@ -166,6 +166,133 @@ pub(crate) fn applies(
             .all(|&k| problem.space.unknowns[k].role == Role::Range)
 }
 
+/// Each particle's index among the free ones (`usize::MAX`: fixed): the row block of its
+/// equations.
+fn free_indices(problem: &Problem) -> Vec<usize> {
+    let mut free_index = vec![usize::MAX; problem.objective.plan().n];
+    for (l, &i) in problem.objective.free.iter().enumerate() {
+        free_index[i] = l;
+    }
+    free_index
+}
+
+/// The position-weighted rows of every force but the searched types' (their ranges at 0: no
+/// pair is closer), row-major: built once, the sweeps add the searched types' pairs to them.
+fn rows_but_searched(problem: &Problem, cols: &[Col], dims: &[(usize, Vec<f64>)]) -> Vec<f64> {
+    let obj = &problem.objective;
+    let space = &problem.space;
+    let mass_offset = problem.scene.param_layout().mass_offset;
+    let width = cols.len() + 1;
+    let mut p0 = space.base.clone();
+    for (k, _) in dims {
+        p0[space.unknowns[*k].slot] = 0.0;
+    }
+    let per_frame = obj.free.len() * 3;
+    let mut w0 = Vec::with_capacity(obj.frames().saturating_sub(2) * per_frame * width);
+    let searched: Vec<usize> = dims
+        .iter()
+        .filter_map(|(k, _)| space.unknowns[*k].type_index)
+        .collect();
+    let zero_cols: Vec<bool> = cols
+        .iter()
+        .map(|c| match *c {
+            Col::K(t) | Col::KRest(t) | Col::Z(t) | Col::Z2(t) | Col::Quadratic(t) => {
+                searched.contains(&t)
+            }
+            // A TGR's columns never depend on a range.
+            Col::G(_) | Col::Rest(_) | Col::Known => false,
+        })
+        .collect();
+    exact::design_rows(
+        obj,
+        &problem.scene,
+        cols,
+        &p0,
+        &zero_cols,
+        None,
+        |_, l, row| {
+            let inv = 1.0 / space.base[mass_offset + obj.free[l]];
+            for v in &mut row[..width - 1] {
+                *v *= inv;
+            }
+            w0.extend_from_slice(row);
+        },
+    );
+    w0
+}
+
+/// The columns of type `t`'s K, K·l0 and Z, and Z₂ when it has a `damping_quadratic`: those a
+/// pair entering its range changes.
+fn range_columns(cols: &[Col], t: usize) -> Vec<usize> {
+    let col = |want: Col| cols.iter().position(|&c| c == want).unwrap_or(0);
+    let mut dim_cols = vec![col(Col::K(t)), col(Col::KRest(t)), col(Col::Z(t))];
+    if let Some(q) = cols.iter().position(|&c| c == Col::Quadratic(t)) {
+        dim_cols.push(q);
+    }
+    dim_cols
+}
+
+/// The candidate pairs of range unknown `k` (of type `t`) with a free end, at every force
+/// frame, by increasing distance; refused with [`too_many_pairs`] when they and the `held`
+/// pairs of the ranges before pass [`max_pairs`] of `memory` (counted on, but not stored, past
+/// it).
+fn candidate_pairs(
+    problem: &Problem,
+    k: usize,
+    t: usize,
+    free_index: &[usize],
+    grid: &mut Grid,
+    held: usize,
+    memory: f64,
+) -> Result<Vec<Pair>, String> {
+    let max_pairs = max_pairs(memory);
+    let obj = &problem.objective;
+    let frames = obj.frames();
+    let u = &problem.space.unknowns[k];
+    let o = problem.scene.param_layout().type_offsets[t];
+    let mut p = problem.space.base.clone();
+    p[u.slot] = u.max;
+    let mut pairs = Vec::new();
+    let mut found = 0usize;
+    for pass in obj.plan().conditionals.iter().filter(|c| c.param == o) {
+        for f in 1..frames.saturating_sub(1) {
+            let x = obj.obs.frame(f);
+            pass.for_each_active_pair(&p, x, grid, |i, j, d| {
+                if free_index[i] == usize::MAX && free_index[j] == usize::MAX {
+                    return;
+                }
+                found += 1;
+                if held + pairs.len() >= max_pairs {
+                    return; // counted, not stored: refused below
+                }
+                // A frame or particle count beyond u32 would not fit in memory.
+                pairs.push(Pair {
+                    d: d.norm(),
+                    frame: f as u32,
+                    ends: [i as u32, j as u32],
+                });
+            });
+        }
+    }
+    if held + found > max_pairs {
+        let f = frames.saturating_sub(2);
+        return Err(too_many_pairs(&u.name, u.max, found, f, f, memory));
+    }
+    pairs.sort_by(|a, b| a.d.total_cmp(&b.d));
+    Ok(pairs)
+}
+
+/// The reduction θ = Aξ + c of the columns with the `linear` unknowns free: the sweep's bounds
+/// minimise over ξ, as the exact solves do.
+fn linear_reduction(problem: &Problem, cols: &[Col], linear: &[usize]) -> Reduction {
+    let space = &problem.space;
+    let mut is_free = vec![false; space.base.len()];
+    for &k in linear {
+        is_free[space.unknowns[k].slot] = true;
+    }
+    exact::reduce(&problem.scene, cols, &space.base, &is_free)
+}
+
 impl<'a> Sweeper<'a> {
     /// `dims`: (unknown index, its candidates) per nonlinear unknown, all ranges.
     /// The sweeper of `dims`, its candidate pairs held within the memory available now.
@@ -190,93 +317,19 @@ impl<'a> Sweeper<'a> {
         dims: Vec<(usize, Vec<f64>)>,
         memory: f64,
     ) -> Result<Self, String> {
-        let max_pairs = max_pairs(memory);
-        let obj = &problem.objective;
-        let scene = &problem.scene;
-        let plan = obj.plan();
-        let space = &problem.space;
-        let layout = scene.param_layout();
-        let width = cols.len() + 1;
-        let free = &obj.free;
-        let mut free_index = vec![usize::MAX; plan.n];
-        for (l, &i) in free.iter().enumerate() {
-            free_index[i] = l;
-        }
-        let mass = |i: usize| space.base[layout.mass_offset + i];
-        let per_frame = free.len() * 3;
-
-        // Everything but the searched types: their ranges at 0 (no pair is closer).
-        let mut p0 = space.base.clone();
-        for (k, _) in &dims {
-            p0[space.unknowns[*k].slot] = 0.0;
-        }
-        let frames = obj.frames();
-        let mut w0 = Vec::with_capacity(frames.saturating_sub(2) * per_frame * width);
-        let searched: Vec<usize> = dims
-            .iter()
-            .filter_map(|(k, _)| space.unknowns[*k].type_index)
-            .collect();
-        let zero_cols: Vec<bool> = cols
-            .iter()
-            .map(|c| match *c {
-                Col::K(t) | Col::KRest(t) | Col::Z(t) | Col::Z2(t) | Col::Quadratic(t) => {
-                    searched.contains(&t)
-                }
-                // A TGR's columns never depend on a range.
-                Col::G(_) | Col::Rest(_) | Col::Known => false,
-            })
-            .collect();
-        exact::design_rows(obj, scene, cols, &p0, &zero_cols, None, |_, l, row| {
-            let inv = 1.0 / mass(free[l]);
-            for v in &mut row[..width - 1] {
-                *v *= inv;
-            }
-            w0.extend_from_slice(row);
-        });
-
+        let free_index = free_indices(problem);
+        let w0 = rows_but_searched(problem, cols, &dims);
         let mut grid = Grid::default();
         let mut held = 0usize;
         let dims = dims
             .into_iter()
             .map(|(k, c)| {
-                let u = &space.unknowns[k];
-                let t = u.type_index.expect("a range belongs to a type");
-                let o = layout.type_offsets[t];
-                let col = |want: Col| cols.iter().position(|&c| c == want).unwrap_or(0);
-                let mut dim_cols = vec![col(Col::K(t)), col(Col::KRest(t)), col(Col::Z(t))];
-                if let Some(q) = cols.iter().position(|&c| c == Col::Quadratic(t)) {
-                    dim_cols.push(q);
-                }
-                let mut p = space.base.clone();
-                p[u.slot] = u.max;
-                let mut pairs = Vec::new();
-                let mut found = 0usize;
-                for pass in plan.conditionals.iter().filter(|c| c.param == o) {
-                    for f in 1..frames.saturating_sub(1) {
-                        let x = obj.obs.frame(f);
-                        pass.for_each_active_pair(&p, x, &mut grid, |i, j, d| {
-                            if free_index[i] == usize::MAX && free_index[j] == usize::MAX {
-                                return;
-                            }
-                            found += 1;
-                            if held + pairs.len() >= max_pairs {
-                                return; // counted, not stored: refused below
-                            }
-                            // A frame or particle count beyond u32 would not fit in memory.
-                            pairs.push(Pair {
-                                d: d.norm(),
-                                frame: f as u32,
-                                ends: [i as u32, j as u32],
-                            });
-                        });
-                    }
-                }
-                if held + found > max_pairs {
-                    let f = frames.saturating_sub(2);
-                    return Err(too_many_pairs(&u.name, u.max, found, f, f, memory));
-                }
+                let t = problem.space.unknowns[k]
+                    .type_index
+                    .expect("a range belongs to a type");
+                let dim_cols = range_columns(cols, t);
+                let pairs = candidate_pairs(problem, k, t, &free_index, &mut grid, held, memory)?;
                 held += pairs.len();
-                pairs.sort_by(|a, b| a.d.total_cmp(&b.d));
                 Ok(Dim {
                     unknown: k,
                     cols: dim_cols,
@@ -285,16 +338,11 @@ impl<'a> Sweeper<'a> {
                 })
             })
             .collect::<Result<Vec<_>, String>>()?;
-
-        let mut is_free = vec![false; space.base.len()];
-        for &k in linear {
-            is_free[space.unknowns[k].slot] = true;
-        }
-        let red = exact::reduce(scene, cols, &space.base, &is_free);
+        let red = linear_reduction(problem, cols, linear);
         Ok(Sweeper {
             problem,
             cols,
-            width,
+            width: cols.len() + 1,
             free_index,
             w0,
             dims,
