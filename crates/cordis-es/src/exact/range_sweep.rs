@@ -484,8 +484,6 @@ impl<'a> Sweeper<'a> {
     /// (10 for the fluid rather than 25) and a pair costs a few dozen flops.
     pub fn bounds(&mut self, d: usize, at: &[usize], p_hat: &[f64], out: &mut Vec<f64>) {
         self.sweeps += 1;
-        let wd = self.width;
-        let nc = wd - 1;
         let scene = &self.problem.scene;
         let theta: Vec<f64> = self
             .cols
@@ -493,70 +491,19 @@ impl<'a> Sweeper<'a> {
             .map(|&c| exact::theta_of(scene, c, p_hat))
             .collect();
         // Compact columns: those with a reduced unknown, then the shifted constant.
-        let ucols: Vec<usize> = (0..nc).filter(|&k| self.red.terms[k].is_some()).collect();
+        let ucols: Vec<usize> = (0..self.width - 1)
+            .filter(|&k| self.red.terms[k].is_some())
+            .collect();
         let cw = ucols.len() + 1;
-        let mut pos = vec![usize::MAX; nc];
-        for (m, &k) in ucols.iter().enumerate() {
-            pos[k] = m;
-        }
-        // Rows with dim d at the bottom of its box, then compacted and shifted: a' = a + Φθ̂.
-        let mut w = self.w0.clone();
-        for (e, &j) in at.iter().enumerate() {
-            let range = self.middle(e, if e == d { 0 } else { j });
-            self.add_pairs(&mut w, e, range);
-        }
-        let rows = self.rows();
-        let mut wc = vec![0.0; rows * cw];
-        for (row, out_row) in w.chunks_exact(wd).zip(wc.chunks_exact_mut(cw)) {
-            for (m, &k) in ucols.iter().enumerate() {
-                out_row[m] = row[k];
-            }
-            let s: f64 = row[..nc].iter().zip(&theta).map(|(a, b)| a * b).sum();
-            out_row[cw - 1] = row[nc] + s;
-        }
-        drop(w);
-        let mut g = vec![0.0; cw * cw];
-        for row in wc.chunks_exact(cw) {
-            for a in 0..cw {
-                let ra = row[a];
-                if ra == 0.0 {
-                    continue;
-                }
-                for (x, &rb) in g[a * cw + a..(a + 1) * cw].iter_mut().zip(&row[a..]) {
-                    *x += ra * rb;
-                }
-            }
-        }
-        for a in 0..cw {
-            for b in 0..a {
-                g[a * cw + b] = g[b * cw + a];
-            }
-        }
+        let mut wc = self.shifted_rows(d, at, &theta, &ucols);
+        let mut g = normal_matrix(&wc, cw);
         let terms: Vec<(usize, f64)> = ucols.iter().filter_map(|&k| self.red.terms[k]).collect();
         let mut schur = Schur::new(self.red.len(), terms);
         let dim = &self.dims[d];
         let n = dim.c.len() + 1;
         out.clear();
         out.push(schur.bound(&g, cw));
-        // The changing compact columns of a pair: the type's unknown ones and the constant.
-        let mut changing: Vec<(usize, Option<usize>, f64)> = Vec::with_capacity(4);
-        for (c, &k) in dim.cols.iter().enumerate() {
-            let m = (pos[k] != usize::MAX).then_some(pos[k]);
-            if m.is_some() || theta[k] != 0.0 {
-                changing.push((c, m, theta[k]));
-            }
-        }
-        let mut dpos = [0usize; 5];
-        let mut nd = 0;
-        for &(_, m, _) in &changing {
-            if let Some(m) = m {
-                dpos[nd] = m;
-                nd += 1;
-            }
-        }
-        dpos[nd] = cw - 1;
-        let nd = nd + 1;
-        let mut delta = [0.0; 5];
+        let changing = Changing::new(dim, &ucols, &theta, cw);
         let mut next = dim.pairs.partition_point(|p| p.d < self.middle(d, 0));
         for j in 1..n {
             let range = self.middle(d, j);
@@ -564,50 +511,10 @@ impl<'a> Sweeper<'a> {
             while next < dim.pairs.len() && dim.pairs[next].d < range {
                 let pair = self.terms(&dim.pairs[next], dim.cols.len() == 4);
                 next += 1;
-                for (&r0, &sign) in pair.rows.iter().zip(&pair.inv) {
-                    if r0 == usize::MAX {
-                        continue;
-                    }
-                    for axis in 0..3 {
-                        delta[..nd].fill(0.0);
-                        let mut shift = 0.0;
-                        let mut q = 0;
-                        for &(c, m, th) in &changing {
-                            let v = sign * pair.f[c][axis];
-                            shift += v * th;
-                            if m.is_some() {
-                                delta[q] = v;
-                                q += 1;
-                            }
-                        }
-                        delta[nd - 1] = shift;
-                        let row = &mut wc[(r0 + axis) * cw..(r0 + axis + 1) * cw];
-                        // G += δwᵀ + wδᵀ + δδᵀ with the old w (rows of the changed columns
-                        // only; mirrored before scoring), then w += δ.
-                        for (&c, &dc) in dpos[..nd].iter().zip(&delta[..nd]) {
-                            let gr = &mut g[c * cw..(c + 1) * cw];
-                            for (x, &wk) in gr.iter_mut().zip(row.iter()) {
-                                *x += dc * wk;
-                            }
-                        }
-                        for (&c, &dc) in dpos[..nd].iter().zip(&delta[..nd]) {
-                            for (&e, &de) in dpos[..nd].iter().zip(&delta[..nd]) {
-                                g[c * cw + e] += de * (row[c] + dc);
-                            }
-                        }
-                        for (&c, &dc) in dpos[..nd].iter().zip(&delta[..nd]) {
-                            row[c] += dc;
-                        }
-                    }
-                }
+                changing.add(&pair, &mut wc, &mut g);
             }
             if next > first {
-                // Rows of the changed columns into their columns (δwᵀ's transpose).
-                for &c in &dpos[..nd] {
-                    for k in 0..cw {
-                        g[k * cw + c] = g[c * cw + k];
-                    }
-                }
+                changing.mirror(&mut g);
             }
             out.push(schur.bound(&g, cw));
         }
@@ -618,6 +525,28 @@ impl<'a> Sweeper<'a> {
         for v in out.iter_mut() {
             *v -= floor;
         }
+    }
+
+    /// The rows with dim `d` at the bottom of its box and the others at `at`, compacted to the
+    /// columns `ucols` and shifted by `theta` (last column `a + Φθ̂`): the sweep's start.
+    fn shifted_rows(&self, d: usize, at: &[usize], theta: &[f64], ucols: &[usize]) -> Vec<f64> {
+        let wd = self.width;
+        let nc = wd - 1;
+        let cw = ucols.len() + 1;
+        let mut w = self.w0.clone();
+        for (e, &j) in at.iter().enumerate() {
+            let range = self.middle(e, if e == d { 0 } else { j });
+            self.add_pairs(&mut w, e, range);
+        }
+        let mut wc = vec![0.0; self.rows() * cw];
+        for (row, out_row) in w.chunks_exact(wd).zip(wc.chunks_exact_mut(cw)) {
+            for (m, &k) in ucols.iter().enumerate() {
+                out_row[m] = row[k];
+            }
+            let s: f64 = row[..nc].iter().zip(theta).map(|(a, b)| a * b).sum();
+            out_row[cw - 1] = row[nc] + s;
+        }
+        wc
     }
 
     /// The best interval of dim `d` (the others at `at`): bounds for all, exact solves in
@@ -655,6 +584,130 @@ impl<'a> Sweeper<'a> {
             }
         }
         (j_best, v_best, p_best)
+    }
+}
+
+/// `G = WᵀW` of the row-major rows `wc`, `cw` wide (the upper triangle summed, then mirrored).
+fn normal_matrix(wc: &[f64], cw: usize) -> Vec<f64> {
+    let mut g = vec![0.0; cw * cw];
+    for row in wc.chunks_exact(cw) {
+        for a in 0..cw {
+            let ra = row[a];
+            if ra == 0.0 {
+                continue;
+            }
+            for (x, &rb) in g[a * cw + a..(a + 1) * cw].iter_mut().zip(&row[a..]) {
+                *x += ra * rb;
+            }
+        }
+    }
+    for a in 0..cw {
+        for b in 0..a {
+            g[a * cw + b] = g[b * cw + a];
+        }
+    }
+    g
+}
+
+/// The compact columns a dim's pairs change, and the rank update of `G` that adding a pair
+/// makes: a pair touches the rows of its two ends only.
+struct Changing {
+    /// Per column of the type that moves a row: (index into the pair's [`Terms::f`], its
+    /// compact column when it is an unknown's, its θ̂ for the shifted constant).
+    cols: Vec<(usize, Option<usize>, f64)>,
+    /// The compact columns changed: the unknowns' in `cols` order, then the constant; `len`
+    /// of them.
+    at: [usize; 5],
+    len: usize,
+    /// Compact row width.
+    cw: usize,
+}
+
+impl Changing {
+    /// The changing columns of `dim` among the compact columns `ucols` (`cw` wide with the
+    /// shifted constant), rows shifted by `theta`.
+    fn new(dim: &Dim, ucols: &[usize], theta: &[f64], cw: usize) -> Self {
+        let mut pos = vec![usize::MAX; theta.len()];
+        for (m, &k) in ucols.iter().enumerate() {
+            pos[k] = m;
+        }
+        let mut cols: Vec<(usize, Option<usize>, f64)> = Vec::with_capacity(4);
+        for (c, &k) in dim.cols.iter().enumerate() {
+            let m = (pos[k] != usize::MAX).then_some(pos[k]);
+            if m.is_some() || theta[k] != 0.0 {
+                cols.push((c, m, theta[k]));
+            }
+        }
+        let mut at = [0usize; 5];
+        let mut len = 0;
+        for &(_, m, _) in &cols {
+            if let Some(m) = m {
+                at[len] = m;
+                len += 1;
+            }
+        }
+        at[len] = cw - 1;
+        Changing {
+            cols,
+            at,
+            len: len + 1,
+            cw,
+        }
+    }
+
+    /// Adds `pair` to the compact rows `wc` and to `g`: `G += δwᵀ + wδᵀ + δδᵀ` with the old w
+    /// per changed row, in the rows of the changed columns only (see [`Self::mirror`]).
+    fn add(&self, pair: &Terms, wc: &mut [f64], g: &mut [f64]) {
+        let (cw, nd) = (self.cw, self.len);
+        let dpos = &self.at[..nd];
+        let mut delta = [0.0; 5];
+        for (&r0, &sign) in pair.rows.iter().zip(&pair.inv) {
+            if r0 == usize::MAX {
+                continue;
+            }
+            for axis in 0..3 {
+                delta[..nd].fill(0.0);
+                let mut shift = 0.0;
+                let mut q = 0;
+                for &(c, m, th) in &self.cols {
+                    let v = sign * pair.f[c][axis];
+                    shift += v * th;
+                    if m.is_some() {
+                        delta[q] = v;
+                        q += 1;
+                    }
+                }
+                delta[nd - 1] = shift;
+                let row = &mut wc[(r0 + axis) * cw..(r0 + axis + 1) * cw];
+                // G += δwᵀ + wδᵀ + δδᵀ with the old w (rows of the changed columns only;
+                // mirrored before scoring), then w += δ.
+                for (&c, &dc) in dpos.iter().zip(&delta[..nd]) {
+                    let gr = &mut g[c * cw..(c + 1) * cw];
+                    for (x, &wk) in gr.iter_mut().zip(row.iter()) {
+                        *x += dc * wk;
+                    }
+                }
+                for (&c, &dc) in dpos.iter().zip(&delta[..nd]) {
+                    for (&e, &de) in dpos.iter().zip(&delta[..nd]) {
+                        g[c * cw + e] += de * (row[c] + dc);
+                    }
+                }
+                for (&c, &dc) in dpos.iter().zip(&delta[..nd]) {
+                    row[c] += dc;
+                }
+            }
+        }
+    }
+
+    /// Rows of the changed columns into their columns (δwᵀ's transpose): `g` symmetric again
+    /// after [`Self::add`].
+    fn mirror(&self, g: &mut [f64]) {
+        let cw = self.cw;
+        for &c in &self.at[..self.len] {
+            for k in 0..cw {
+                g[k * cw + c] = g[c * cw + k];
+            }
+        }
     }
 }
 
