@@ -214,103 +214,148 @@ pub fn build(
     }
     let frames = traj.frames();
     let row_frames = accel.map_or(1..frames - 1, |a| a.first..a.last);
-    let n_rows = 3 * row_frames.len();
+    let equations = Equations {
+        traj,
+        dt,
+        free,
+        pairs,
+        accel,
+        n_rows: 3 * row_frames.len(),
+        row_frames,
+    };
     (0..n)
         .into_par_iter()
         .filter(|&i| free[i])
-        .map(|i| {
-            let local = incident[i].clone();
-            let local_kinds: Vec<GroupKind> = local.iter().map(|&p| kinds[p]).collect();
-            let mut offsets = Vec::with_capacity(local.len());
-            let mut at = 3;
-            for kind in &local_kinds {
-                offsets.push(at);
-                at += kind.width();
-            }
-            let k = columns(at - 3);
-            let mut f = Factor::new(k);
-            let mut rows = vec![[0.0; 3]; k];
-            let mut row = vec![0.0; k];
-            // Noisy positions: the rows themselves, for the noise's covariance terms.
-            let mut kept = accel.map(|_| DMatrix::zeros(n_rows, k));
-            let mut r_at = 0;
-            for t in row_frames.clone() {
-                let a = match accel {
-                    Some(acc) => acc.at(t, i),
-                    None => {
-                        (traj.pos(t + 1, i) - traj.pos(t, i) * 2.0 + traj.pos(t - 1, i)) / (dt * dt)
-                    }
-                };
-                for r in rows.iter_mut() {
-                    *r = [0.0; 3];
-                }
-                for (q, &p) in local.iter().enumerate() {
-                    let [pa, pb] = pairs[p];
-                    let other = if pa == i { pb } else { pa };
-                    let o = offsets[q];
-                    match local_kinds[q] {
-                        GroupKind::Spring => {
-                            let fe = features(traj, dt, t, i, other);
-                            for c in 0..3 {
-                                for ax in 0..3 {
-                                    rows[o + c][ax] = fe[c][ax];
-                                }
-                            }
-                        }
-                        GroupKind::Damper => {
-                            // Noisy positions: velocities uncorrelated with the error (see
-                            // [`super::smooth::velocity_kernel_uncorrelated`]); a fixed end's 0.
-                            let w = match accel {
-                                Some(acc) => {
-                                    let vj = if free[other] {
-                                        acc.velocity(t, other)
-                                    } else {
-                                        Vec3::zeros()
-                                    };
-                                    vj - acc.velocity(t, i)
-                                }
-                                None => damper_feature(traj, dt, t, i, other),
-                            };
-                            for ax in 0..3 {
-                                rows[o][ax] = w[ax];
-                            }
-                        }
-                    }
-                }
-                for ax in 0..3 {
-                    for c in 0..k - 1 {
-                        row[c] = rows[c][ax];
-                    }
-                    for (c, v) in row.iter_mut().enumerate().take(3) {
-                        *v = if c == ax { 1.0 } else { 0.0 };
-                    }
-                    row[k - 1] = a[ax];
-                    if let Some(x) = kept.as_mut() {
-                        for c in 0..k {
-                            x[(r_at, c)] = row[c];
-                        }
-                    }
-                    r_at += 1;
-                    f.add_row(&mut row);
-                }
-            }
-            let meat = accel.zip(kept).map(|(acc, x)| {
-                (
-                    lagged_gram(&x, &acc.accel_autocorrelation),
-                    lagged_gram(&x, &acc.smooth_autocorrelation),
-                )
-            });
-            Local {
-                particle: i,
-                pairs: local,
-                offsets,
-                kinds: local_kinds,
-                factor: f.matrix(),
-                rows: n_rows,
-                meat,
-            }
-        })
+        .map(|i| equations.local(i, incident[i].clone(), kinds))
         .collect()
+}
+
+/// What the rows of the free particles' equations are read from, shared by their factors.
+struct Equations<'a> {
+    traj: &'a Trajectory,
+    dt: f64,
+    free: &'a [bool],
+    pairs: &'a [[usize; 2]],
+    accel: Option<&'a Accelerations>,
+    /// The frames with an equation, and its rows (3 per frame).
+    row_frames: std::ops::Range<usize>,
+    n_rows: usize,
+}
+
+impl Equations<'_> {
+    /// Particle `i`'s factor over its candidate groups `local` (their kinds in `kinds`), with
+    /// the noise's covariance terms of its rows when the positions are noisy.
+    fn local(&self, i: usize, local: Vec<usize>, kinds: &[GroupKind]) -> Local {
+        let n_rows = self.n_rows;
+        let local_kinds: Vec<GroupKind> = local.iter().map(|&p| kinds[p]).collect();
+        let mut offsets = Vec::with_capacity(local.len());
+        let mut at = 3;
+        for kind in &local_kinds {
+            offsets.push(at);
+            at += kind.width();
+        }
+        let k = columns(at - 3);
+        let mut f = Factor::new(k);
+        let mut rows = vec![[0.0; 3]; k];
+        let mut row = vec![0.0; k];
+        // Noisy positions: the rows themselves, for the noise's covariance terms.
+        let mut kept = self.accel.map(|_| DMatrix::zeros(n_rows, k));
+        let mut r_at = 0;
+        for t in self.row_frames.clone() {
+            let a = self.acceleration(t, i);
+            self.group_rows(t, i, &local, &local_kinds, &offsets, &mut rows);
+            for ax in 0..3 {
+                for c in 0..k - 1 {
+                    row[c] = rows[c][ax];
+                }
+                for (c, v) in row.iter_mut().enumerate().take(3) {
+                    *v = if c == ax { 1.0 } else { 0.0 };
+                }
+                row[k - 1] = a[ax];
+                if let Some(x) = kept.as_mut() {
+                    for c in 0..k {
+                        x[(r_at, c)] = row[c];
+                    }
+                }
+                r_at += 1;
+                f.add_row(&mut row);
+            }
+        }
+        let meat = self.accel.zip(kept).map(|(acc, x)| {
+            (
+                lagged_gram(&x, &acc.accel_autocorrelation),
+                lagged_gram(&x, &acc.smooth_autocorrelation),
+            )
+        });
+        Local {
+            particle: i,
+            pairs: local,
+            offsets,
+            kinds: local_kinds,
+            factor: f.matrix(),
+            rows: n_rows,
+            meat,
+        }
+    }
+
+    /// Particle `i`'s acceleration at frame `t`: `accel`'s, or the second difference.
+    fn acceleration(&self, t: usize, i: usize) -> Vec3 {
+        let (traj, dt) = (self.traj, self.dt);
+        match self.accel {
+            Some(acc) => acc.at(t, i),
+            None => (traj.pos(t + 1, i) - traj.pos(t, i) * 2.0 + traj.pos(t - 1, i)) / (dt * dt),
+        }
+    }
+
+    /// The features of particle `i`'s groups `local` at frame `t` into `rows` (per factor
+    /// column, per axis; the intercepts' and the right-hand side's left 0).
+    fn group_rows(
+        &self,
+        t: usize,
+        i: usize,
+        local: &[usize],
+        local_kinds: &[GroupKind],
+        offsets: &[usize],
+        rows: &mut [[f64; 3]],
+    ) {
+        let (traj, dt, free) = (self.traj, self.dt, self.free);
+        for r in rows.iter_mut() {
+            *r = [0.0; 3];
+        }
+        for (q, &p) in local.iter().enumerate() {
+            let [pa, pb] = self.pairs[p];
+            let other = if pa == i { pb } else { pa };
+            let o = offsets[q];
+            match local_kinds[q] {
+                GroupKind::Spring => {
+                    let fe = features(traj, dt, t, i, other);
+                    for c in 0..3 {
+                        for ax in 0..3 {
+                            rows[o + c][ax] = fe[c][ax];
+                        }
+                    }
+                }
+                GroupKind::Damper => {
+                    // Noisy positions: velocities uncorrelated with the error (see
+                    // [`super::smooth::velocity_kernel_uncorrelated`]); a fixed end's 0.
+                    let w = match self.accel {
+                        Some(acc) => {
+                            let vj = if free[other] {
+                                acc.velocity(t, other)
+                            } else {
+                                Vec3::zeros()
+                            };
+                            vj - acc.velocity(t, i)
+                        }
+                        None => damper_feature(traj, dt, t, i, other),
+                    };
+                    for ax in 0..3 {
+                        rows[o][ax] = w[ax];
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// The residual variance per row, (m/s²)², below which a fit is rounding, not noise: position
