@@ -70,6 +70,13 @@ pub struct Local {
     pub meat: Option<(DMatrix<f64>, DMatrix<f64>)>,
 }
 
+impl Local {
+    /// The factor columns of local group `q`.
+    fn group_columns(&self, q: usize) -> std::ops::Range<usize> {
+        self.offsets[q]..self.offsets[q] + self.kinds[q].width()
+    }
+}
+
 /// The position noise the fits are tested against: white, variance `variance` (m²), sampled
 /// every `dt` s; the accelerations and features read it through the kernels of
 /// [`Accelerations`].
@@ -451,15 +458,13 @@ pub fn fit(
 ) -> Fit {
     let m = local.pairs.len();
     let k = local.factor.ncols() - 1;
-    let pair_cols = |q: usize| local.offsets[q]..local.offsets[q] + local.kinds[q].width();
-    let base: Vec<usize> = if gravity.is_some() {
+    let mut cols: Vec<usize> = if gravity.is_some() {
         Vec::new()
     } else {
         vec![0, 1, 2]
     };
-    let mut cols = base.clone();
     for q in (0..m).filter(|&q| active[q]) {
-        cols.extend(pair_cols(q));
+        cols.extend(local.group_columns(q));
     }
     let r = &local.factor;
     let mut rhs: DVector<f64> = r.column(k).into_owned();
@@ -472,60 +477,18 @@ pub fn fit(
     let sol = solve(r, &cols, &rhs);
     let dof = local.rows.saturating_sub(cols.len()).max(1) as f64;
     let sigma2 = (sol.rss.max(1e-30 * yy).max(f64::MIN_POSITIVE) / dof).max(floor);
-    let (x, w) = (&sol.x, &sol.w);
-    let gravity_known = gravity;
+    let x = &sol.x;
+    // The covariance of the solution: white rows of variance σ² (`σ² W Wᵀ`), or with noisy
+    // positions the noise's own.
+    let (cov_all, inflation) = match (noise, &local.meat, sol.deficient) {
+        (Some(nz), Some(meat), false) => {
+            noisy_covariance(local, active, &cols, &sol, gravity, nz, meat)
+        }
+        _ => (&sol.w * sol.w.transpose() * sigma2, 1.0),
+    };
     let (gravity, c0) = match gravity {
         Some(g) => (g, 0),
         None => (Vector3::new(x[0], x[1], x[2]), 3),
-    };
-    // The covariance of the solution: white rows of variance σ² (`σ² W Wᵀ`), or with noisy
-    // positions the noise's own (module docs), `G Xᵀ Σ X G` with `G = W Wᵀ`.
-    let mut inflation_used = 1.0;
-    let cov_all: DMatrix<f64> = match (noise, &local.meat, sol.deficient) {
-        (Some(nz), Some((m_accel, m_smooth)), false) => {
-            let g_inv = w * w.transpose();
-            // The features' noise: each stiffness (per mass) times the smoothed noise of the
-            // link's vector, the particle's own shared by all its pairs.
-            let mut ks: Vec<f64> = Vec::new();
-            let mut c = c0;
-            for q in (0..m).filter(|&q| active[q]) {
-                if local.kinds[q] == GroupKind::Spring {
-                    ks.push(x[c]);
-                }
-                c += local.kinds[q].width();
-            }
-            let q_feat = ks.iter().map(|v| v.abs()).sum::<f64>().powi(2)
-                + ks.iter().map(|v| v * v).sum::<f64>();
-            let dt4 = nz.dt.powi(4);
-            let n = cols.len();
-            let mut meat = DMatrix::zeros(n, n);
-            for (a, &ca) in cols.iter().enumerate() {
-                for (b, &cb) in cols.iter().enumerate() {
-                    meat[(a, b)] =
-                        nz.variance * (m_accel[(ca, cb)] / dt4 + q_feat * m_smooth[(ca, cb)]);
-                }
-            }
-            // A residual above what the noise explains (a motion the pairs cannot follow, the
-            // smoothing's bias) scales the covariance up, as an F-test would. It is measured
-            // in the band the features live in (the residual's power through the smoothing,
-            // `eᵀ R_c e`): over all frequencies the accelerations' noise would hide it.
-            let mut z = DVector::zeros(k + 1);
-            z[k] = 1.0;
-            for (e, &col) in cols.iter().enumerate() {
-                z[col] = -x[e];
-            }
-            if let Some(g) = gravity_known {
-                for c in 0..3 {
-                    z[c] = -g[c];
-                }
-            }
-            let observed = (z.transpose() * m_smooth * &z)[0] / local.rows as f64;
-            let expected = nz.smoothed_power_per_row(q_feat);
-            let inflation = (observed / expected.max(f64::MIN_POSITIVE)).max(1.0);
-            inflation_used = observed / expected.max(f64::MIN_POSITIVE);
-            &g_inv * meat * &g_inv * inflation
-        }
-        _ => w * w.transpose() * sigma2,
     };
     let mut out = Fit {
         beta: vec![Vector3::zeros(); m],
@@ -533,7 +496,7 @@ pub fn fit(
         wald: vec![0.0; m],
         gravity,
         sigma2,
-        inflation: inflation_used,
+        inflation,
     };
     let mut c = c0;
     for q in (0..m).filter(|&q| active[q]) {
@@ -550,7 +513,7 @@ pub fn fit(
             let without: Vec<usize> = cols
                 .iter()
                 .copied()
-                .filter(|col| !pair_cols(q).contains(col))
+                .filter(|col| !local.group_columns(q).contains(col))
                 .collect();
             (solve(r, &without, &rhs).rss - sol.rss) / sigma2
         } else {
@@ -568,6 +531,64 @@ pub fn fit(
         c += width;
     }
     out
+}
+
+/// With noisy positions, the covariance of a fit's solution `sol` on the columns `cols` under
+/// the noise's own covariance (module docs), `G Xᵀ Σ X G` with `G = W Wᵀ`, scaled up by a
+/// residual above what the noise explains; and the ratio of that residual to the noise's (the
+/// [`Fit::inflation`]).
+fn noisy_covariance(
+    local: &Local,
+    active: &[bool],
+    cols: &[usize],
+    sol: &Solved,
+    gravity: Option<Vector3<f64>>,
+    nz: &Noise,
+    (m_accel, m_smooth): &(DMatrix<f64>, DMatrix<f64>),
+) -> (DMatrix<f64>, f64) {
+    let (x, w) = (&sol.x, &sol.w);
+    let k = local.factor.ncols() - 1;
+    let c0 = if gravity.is_some() { 0 } else { 3 };
+    let g_inv = w * w.transpose();
+    // The features' noise: each stiffness (per mass) times the smoothed noise of the
+    // link's vector, the particle's own shared by all its pairs.
+    let mut ks: Vec<f64> = Vec::new();
+    let mut c = c0;
+    for q in (0..local.pairs.len()).filter(|&q| active[q]) {
+        if local.kinds[q] == GroupKind::Spring {
+            ks.push(x[c]);
+        }
+        c += local.kinds[q].width();
+    }
+    let q_feat =
+        ks.iter().map(|v| v.abs()).sum::<f64>().powi(2) + ks.iter().map(|v| v * v).sum::<f64>();
+    let dt4 = nz.dt.powi(4);
+    let n = cols.len();
+    let mut meat = DMatrix::zeros(n, n);
+    for (a, &ca) in cols.iter().enumerate() {
+        for (b, &cb) in cols.iter().enumerate() {
+            meat[(a, b)] = nz.variance * (m_accel[(ca, cb)] / dt4 + q_feat * m_smooth[(ca, cb)]);
+        }
+    }
+    // A residual above what the noise explains (a motion the pairs cannot follow, the
+    // smoothing's bias) scales the covariance up, as an F-test would. It is measured
+    // in the band the features live in (the residual's power through the smoothing,
+    // `eᵀ R_c e`): over all frequencies the accelerations' noise would hide it.
+    let mut z = DVector::zeros(k + 1);
+    z[k] = 1.0;
+    for (e, &col) in cols.iter().enumerate() {
+        z[col] = -x[e];
+    }
+    if let Some(g) = gravity {
+        for c in 0..3 {
+            z[c] = -g[c];
+        }
+    }
+    let observed = (z.transpose() * m_smooth * &z)[0] / local.rows as f64;
+    let expected = nz.smoothed_power_per_row(q_feat);
+    let inflation = (observed / expected.max(f64::MIN_POSITIVE)).max(1.0);
+    let ratio = observed / expected.max(f64::MIN_POSITIVE);
+    (&g_inv * meat * &g_inv * inflation, ratio)
 }
 
 /// `βᵀ C⁻¹ β` over a group's first `width` unknowns (0 when `C` is singular).
