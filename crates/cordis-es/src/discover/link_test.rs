@@ -521,6 +521,58 @@ fn tested_discovery(
         })
         .collect();
     let cl = cluster::cluster(&estimates, type_tolerance);
+    let dampers: Vec<&LinkScore> = d.links.iter().filter(|l| l.kind == "damper").collect();
+    let scene = tested_scene(d, fitted, &kept, &cl, &dampers, scale)?;
+    let mut links: Vec<LinkScore> = kept
+        .iter()
+        .zip(&cl.of)
+        .map(|(p, &of)| LinkScore {
+            particles: p.particles,
+            kind: p.kind,
+            type_name: format!("t{of}"),
+            stiffness: p.stiffness,
+            rest_length: p.rest_length,
+            damping: p.damping,
+            stiffness_se: p.stiffness_se,
+            rest_length_se: p.rest_length_se,
+            damping_se: p.damping_se,
+            score: p.score,
+            threshold: p.threshold,
+        })
+        .collect();
+    links.extend(dampers.into_iter().cloned());
+    let mut notes = d.notes.clone();
+    notes.extend(test_notes(kept.len(), pairs, cl.centres.len(), (e, start)));
+    Ok(Discovery {
+        scene,
+        links,
+        near_misses: near_misses(pairs),
+        radius: d.radius,
+        candidates: d.candidates,
+        candidate_pairs: d.candidate_pairs.clone(),
+        rounds: d.rounds,
+        cost: e.cost,
+        rmse: e.sigma,
+        solver: ExactReport::default(),
+        undetermined: Vec::new(),
+        data_warnings: d.data_warnings.clone(),
+        noise_level: d.noise_level,
+        estimated_noise: d.estimated_noise,
+        notes,
+    })
+}
+
+/// The fitted scene with the kept pairs as links of the types `cl` groups them into, the
+/// discovery's `dampers` known (scaled by `scale`) and every mass known: the scene the test
+/// proposes.
+fn tested_scene(
+    d: &Discovery,
+    fitted: &Scene,
+    kept: &[&TestedPair],
+    cl: &cluster::Clusters,
+    dampers: &[&LinkScore],
+    scale: f64,
+) -> Result<Scene, CostError> {
     let mut scene = fitted.clone();
     scene.types.clear();
     scene.links.clear();
@@ -542,8 +594,7 @@ fn tested_discovery(
     for (p, &of) in kept.iter().zip(&cl.of) {
         scene.add_link(&format!("t{of}"), &p.particles);
     }
-    let dampers: Vec<&LinkScore> = d.links.iter().filter(|l| l.kind == "damper").collect();
-    for l in &dampers {
+    for l in dampers {
         let ty = d.scene.types.iter().find(|t| t.name == l.type_name);
         if let Some(ty) = ty {
             add_known_link(&mut scene, ty, &l.particles, scale);
@@ -553,24 +604,11 @@ fn tested_discovery(
         p.mass = Param::Known(p.mass.value());
     }
     scene.validate()?;
-    let mut links: Vec<LinkScore> = kept
-        .iter()
-        .zip(&cl.of)
-        .map(|(p, &of)| LinkScore {
-            particles: p.particles,
-            kind: p.kind,
-            type_name: format!("t{of}"),
-            stiffness: p.stiffness,
-            rest_length: p.rest_length,
-            damping: p.damping,
-            stiffness_se: p.stiffness_se,
-            rest_length_se: p.rest_length_se,
-            damping_se: p.damping_se,
-            score: p.score,
-            threshold: p.threshold,
-        })
-        .collect();
-    links.extend(dampers.into_iter().cloned());
+    Ok(scene)
+}
+
+/// The pairs not kept closest to being kept (highest score over threshold first), up to 20.
+fn near_misses(pairs: &[TestedPair]) -> Vec<NearMiss> {
     let mut near: Vec<NearMiss> = pairs
         .iter()
         .filter(|p| !p.kept)
@@ -583,19 +621,29 @@ fn tested_discovery(
         .collect();
     near.sort_by(|a, b| (b.score / b.threshold).total_cmp(&(a.score / a.threshold)));
     near.truncate(20);
-    let mut notes = d.notes.clone();
-    notes.push(format!(
+    near
+}
+
+/// The notes the test adds to the discovery's: `kept` of `pairs` kept in `types` types, the
+/// fit `e` (from `start`), and the directions it left undetermined.
+fn test_notes(
+    kept: usize,
+    pairs: &[TestedPair],
+    types: usize,
+    (e, start): (&output_error::Estimate, &str),
+) -> Vec<String> {
+    let mut notes = vec![format!(
         "output-error link test: {} of {} candidate pairs kept (stiffness / its standard error \
          above {:.2}, Benjamini–Hochberg at a false discovery rate of {FALSE_DISCOVERY_RATE}), \
          {} types; fit from {start}: {} after {} iterations, σ̂ {:.3e} m",
-        kept.len(),
+        kept,
         pairs.len(),
         pairs.first().map_or(0.0, |p| p.threshold.sqrt()),
-        cl.centres.len(),
+        types,
         e.end,
         e.iterations,
         e.sigma
-    ));
+    )];
     if !e.undetermined.is_empty() {
         // Expected: a dropped pair's rest length and damping act through its stiffness ≈ 0.
         notes.push(format!(
@@ -604,23 +652,7 @@ fn tested_discovery(
             e.undetermined.len()
         ));
     }
-    Ok(Discovery {
-        scene,
-        links,
-        near_misses: near,
-        radius: d.radius,
-        candidates: d.candidates,
-        candidate_pairs: d.candidate_pairs.clone(),
-        rounds: d.rounds,
-        cost: e.cost,
-        rmse: e.sigma,
-        solver: ExactReport::default(),
-        undetermined: Vec::new(),
-        data_warnings: d.data_warnings.clone(),
-        noise_level: d.noise_level,
-        estimated_noise: d.estimated_noise,
-        notes,
-    })
+    notes
 }
 
 #[cfg(test)]
