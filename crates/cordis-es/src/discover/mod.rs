@@ -270,18 +270,7 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
     check_options(traj, dt, opt)?;
     let mut notes = Vec::new();
     let mut data_warnings: Vec<String> = Vec::new();
-    let noise = match opt.noise_level {
-        Some(s) => s,
-        None => {
-            let (s, line) = estimate_noise_level(traj);
-            if s > 0.0 {
-                data_warnings.push(line);
-            } else {
-                notes.push(line);
-            }
-            s
-        }
-    };
+    let noise = noise_level(traj, opt, &mut notes, &mut data_warnings);
 
     // Stage 1: fixed particles and candidates.
     let data = Positions::read(traj, dt, noise, &mut notes)?;
@@ -304,15 +293,7 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
             "no candidate pair explains the motion (no link found)",
         ));
     }
-    // Where each kept pair sits in the locals.
-    let mut at: Vec<Vec<(usize, usize)>> = vec![Vec::new(); cand.pairs.len()];
-    for (l, loc) in locals.iter().enumerate() {
-        for (q, &p) in loc.pairs.iter().enumerate() {
-            if sel.active[p] {
-                at[p].push((l, q));
-            }
-        }
-    }
+    let at = kept_places(&locals, &sel, cand.pairs.len());
 
     // Stage 4: masses.
     let mut undetermined = cand.damper_ends_undetermined(&kept, &data.fixed);
@@ -364,10 +345,7 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
         near_misses: near,
         radius: cand.radius,
         candidates: cand.within,
-        candidate_pairs: (0..cand.pairs.len())
-            .filter(|&p| cand.group_kinds[p] == select::GroupKind::Spring)
-            .map(|p| cand.pairs[p])
-            .collect(),
+        candidate_pairs: cand.spring_pairs(),
         rounds: sel.rounds,
         cost: refit.cost,
         rmse: refit.rmse,
@@ -378,6 +356,46 @@ pub fn discover(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<Dis
         estimated_noise: opt.noise_level.is_none(),
         notes,
     })
+}
+
+/// The position noise, m: given, or estimated from the data (a warning when it finds some, a
+/// note when it finds none).
+fn noise_level(
+    traj: &Trajectory,
+    opt: &DiscoverOptions,
+    notes: &mut Vec<String>,
+    data_warnings: &mut Vec<String>,
+) -> f64 {
+    match opt.noise_level {
+        Some(s) => s,
+        None => {
+            let (s, line) = estimate_noise_level(traj);
+            if s > 0.0 {
+                data_warnings.push(line);
+            } else {
+                notes.push(line);
+            }
+            s
+        }
+    }
+}
+
+/// Where each of `pairs` candidate pairs that `sel` kept sits in the locals: (local index,
+/// position in it), one per free end.
+fn kept_places(
+    locals: &[select::Local],
+    sel: &select::Selection,
+    pairs: usize,
+) -> Vec<Vec<(usize, usize)>> {
+    let mut at: Vec<Vec<(usize, usize)>> = vec![Vec::new(); pairs];
+    for (l, loc) in locals.iter().enumerate() {
+        for (q, &p) in loc.pairs.iter().enumerate() {
+            if sel.active[p] {
+                at[p].push((l, q));
+            }
+        }
+    }
+    at
 }
 
 /// The masses: given, or from the kept links' estimates at their two ends
@@ -663,6 +681,15 @@ struct Candidates {
 }
 
 impl Candidates {
+    /// The pairs of the spring groups (spring, or anchor to a fixed particle), in group order:
+    /// the [`Discovery::candidate_pairs`] that [`link_test`] tests again.
+    fn spring_pairs(&self) -> Vec<[usize; 2]> {
+        (0..self.pairs.len())
+            .filter(|&p| self.group_kinds[p] == select::GroupKind::Spring)
+            .map(|p| self.pairs[p])
+            .collect()
+    }
+
     /// Pairs within the radius (given, or from the first frame's spacing), refused when a
     /// particle would have more unknowns than equations or the local systems would not fit in
     /// memory.
