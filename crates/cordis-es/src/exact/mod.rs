@@ -62,7 +62,7 @@ use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 use self::row_mask::RowMask;
-use crate::cost::{CostKind, LinearShortCost, Objective, ThetaEntry};
+use crate::cost::{CostKind, CostScratch, LinearShortCost, Objective, ThetaEntry};
 use crate::error::CostError;
 use crate::linalg::equilibrated::{lsq, Lsq};
 pub(crate) use crate::linalg::givens::Factor;
@@ -330,15 +330,142 @@ pub(crate) fn design_rows(
     mut visit: impl FnMut(usize, usize, &mut [f64]),
 ) {
     let plan = obj.plan();
-    let n = plan.n;
     let nc = cols.len();
-    let mut zero = p.to_vec();
-    for s in linear_slots(scene) {
-        zero[s] = 0.0;
+    let mut forces = ColumnForces::new(obj, scene, cols, p, zero_cols);
+    let dt2 = plan.dt * plan.dt;
+    let layout = &plan.layout;
+    let g = if plan.has_gravity {
+        let o = layout.gravity_offset;
+        Vec3::new(p[o], p[o + 1], p[o + 2])
+    } else {
+        Vec3::zeros()
+    };
+    let mut row = vec![0.0; nc + 1];
+    for t in 2..obj.obs.frames {
+        forces.advance(t);
+        let (x1, x2, x0) = (obj.obs.frame(t - 1), obj.obs.frame(t - 2), obj.obs.frame(t));
+        for (l, &i) in obj.free.iter().enumerate() {
+            if dropped.is_some_and(|d| d.get(t, i)) {
+                continue;
+            }
+            let b = (x1[i] * 2.0 - x2[i]) - x0[i];
+            for r in 0..3 {
+                forces.columns(i, r, dt2, &mut row[..nc]);
+                row[nc] = dt2 * g[r] + b[r];
+                visit(t - 2, l, &mut row);
+            }
+        }
     }
-    let mut probes: Vec<(Vec<f64>, Option<usize>)> = Vec::with_capacity(nc);
+}
+
+/// The forces per unit of each column's unknown along the observed frames, for
+/// [`design_rows`]: the scene's own force passes run at a probe per column (its unknown at 1,
+/// every linear one at 0) and at the zero probe, each probe driving its own hidden state.
+struct ColumnForces<'a> {
+    obj: &'a Objective,
+    cols: &'a [Col],
+    zero_cols: &'a [bool],
+    /// `p` with every linear slot at 0.
+    zero: Vec<f64>,
+    /// Per column: its probe, and the column whose probe's force is its base (K·l0's probe, K
+    /// at 1 too, carries K's force), `None`: the zero probe's.
+    probes: Vec<(Vec<f64>, Option<usize>)>,
+    s: CostScratch,
+    /// Hidden state (TGR tendons) of the zero probe (0) and of every probe (k + 1), each
+    /// driven along the observed frames by its own parameters, as the short cost drives it.
+    states: Vec<f64>,
+    /// The zero probe's forces and each column probe's, at the frame last advanced to.
+    f0: Vec<Vec3>,
+    raw: Vec<Vec<Vec3>>,
+}
+
+impl<'a> ColumnForces<'a> {
+    fn new(
+        obj: &'a Objective,
+        scene: &Scene,
+        cols: &'a [Col],
+        p: &[f64],
+        zero_cols: &'a [bool],
+    ) -> Self {
+        let n = obj.plan().n;
+        let nc = cols.len();
+        let mut zero = p.to_vec();
+        for s in linear_slots(scene) {
+            zero[s] = 0.0;
+        }
+        let probes = column_probes(scene, cols, &zero);
+        let mut s = obj.scratch();
+        let h = s.hidden.len();
+        let mut states = vec![0.0; h * (nc + 1)];
+        if h > 0 {
+            let all = std::iter::once(&zero).chain(probes.iter().map(|(q, _)| q));
+            for (q, st) in all.zip(states.chunks_mut(h)) {
+                obj.reset_hidden(q, st);
+                obj.advance_hidden_observed(q, 0, st, &mut s.discard);
+            }
+        }
+        ColumnForces {
+            obj,
+            cols,
+            zero_cols,
+            zero,
+            probes,
+            s,
+            states,
+            f0: vec![Vec3::zeros(); n],
+            raw: vec![vec![Vec3::zeros(); n]; nc],
+        }
+    }
+
+    /// The forces at observed frame `t - 1`, each probe's hidden state advanced past it.
+    fn advance(&mut self, t: usize) {
+        let (obj, s) = (self.obj, &mut self.s);
+        let geo = obj.geometry();
+        let h = s.hidden.len();
+        s.hidden.copy_from_slice(&self.states[..h]);
+        obj.observed_forces(&self.zero, t - 1, s, geo);
+        self.states[..h].copy_from_slice(&s.hidden);
+        self.f0.copy_from_slice(&s.core.f);
+        for (k, (q, _)) in self.probes.iter().enumerate() {
+            if self.cols[k] == Col::Known || self.zero_cols[k] {
+                continue;
+            }
+            let st = &mut self.states[h * (k + 1)..h * (k + 2)];
+            s.hidden.copy_from_slice(st);
+            obj.observed_forces(q, t - 1, s, geo);
+            st.copy_from_slice(&s.hidden);
+            self.raw[k].copy_from_slice(&s.core.f);
+        }
+    }
+
+    /// The columns of particle `i`'s row on axis `r` at the frame last advanced to, dt² × the
+    /// force per unit of each unknown (the known forces' for [`Col::Known`]).
+    fn columns(&self, i: usize, r: usize, dt2: f64, row: &mut [f64]) {
+        for (k, (_, reference)) in self.probes.iter().enumerate() {
+            if self.cols[k] == Col::Known {
+                row[k] = dt2 * self.f0[i][r];
+                continue;
+            }
+            if self.zero_cols[k] {
+                row[k] = 0.0;
+                continue;
+            }
+            let base = match reference {
+                Some(j) => self.raw[*j][i][r],
+                None => self.f0[i][r],
+            };
+            row[k] = dt2 * (self.raw[k][i][r] - base);
+        }
+    }
+}
+
+/// Per column, the parameters that isolate its force: `zero` (every linear slot at 0) with the
+/// column's unknown at 1; and for K·l0, whose probe has K at 1 too, the K column whose force
+/// is subtracted.
+fn column_probes(scene: &Scene, cols: &[Col], zero: &[f64]) -> Vec<(Vec<f64>, Option<usize>)> {
+    let mut probes: Vec<(Vec<f64>, Option<usize>)> = Vec::with_capacity(cols.len());
     for (k, c) in cols.iter().enumerate() {
-        let mut q = zero.clone();
+        let mut q = zero.to_vec();
         let reference = match *c {
             Col::K(t) => {
                 q[slots(scene, t).0] = 1.0;
@@ -371,73 +498,7 @@ pub(crate) fn design_rows(
         };
         probes.push((q, reference));
     }
-    let dt2 = plan.dt * plan.dt;
-    let layout = &plan.layout;
-    let g = if plan.has_gravity {
-        let o = layout.gravity_offset;
-        Vec3::new(p[o], p[o + 1], p[o + 2])
-    } else {
-        Vec3::zeros()
-    };
-    let free = &obj.free;
-    let geo = obj.geometry();
-    let mut s = obj.scratch();
-    let mut f0 = vec![Vec3::zeros(); n];
-    let mut raw = vec![vec![Vec3::zeros(); n]; nc];
-    let mut row = vec![0.0; nc + 1];
-    // Hidden state (TGR tendons) of the zero probe (0) and of every probe (k + 1), each driven
-    // along the observed frames by its own parameters, as the short cost drives it.
-    let h = s.hidden.len();
-    let mut states = vec![0.0; h * (nc + 1)];
-    if h > 0 {
-        let all = std::iter::once(&zero).chain(probes.iter().map(|(q, _)| q));
-        for (q, st) in all.zip(states.chunks_mut(h)) {
-            obj.reset_hidden(q, st);
-            obj.advance_hidden_observed(q, 0, st, &mut s.discard);
-        }
-    }
-    for t in 2..obj.obs.frames {
-        s.hidden.copy_from_slice(&states[..h]);
-        obj.observed_forces(&zero, t - 1, &mut s, geo);
-        states[..h].copy_from_slice(&s.hidden);
-        f0.copy_from_slice(&s.core.f);
-        for (k, (q, _)) in probes.iter().enumerate() {
-            if cols[k] == Col::Known || zero_cols[k] {
-                continue;
-            }
-            let st = &mut states[h * (k + 1)..h * (k + 2)];
-            s.hidden.copy_from_slice(st);
-            obj.observed_forces(q, t - 1, &mut s, geo);
-            st.copy_from_slice(&s.hidden);
-            raw[k].copy_from_slice(&s.core.f);
-        }
-        let (x1, x2, x0) = (obj.obs.frame(t - 1), obj.obs.frame(t - 2), obj.obs.frame(t));
-        for (l, &i) in free.iter().enumerate() {
-            if dropped.is_some_and(|d| d.get(t, i)) {
-                continue;
-            }
-            let b = (x1[i] * 2.0 - x2[i]) - x0[i];
-            for r in 0..3 {
-                for (k, (_, reference)) in probes.iter().enumerate() {
-                    if cols[k] == Col::Known {
-                        row[k] = dt2 * f0[i][r];
-                        continue;
-                    }
-                    if zero_cols[k] {
-                        row[k] = 0.0;
-                        continue;
-                    }
-                    let base = match reference {
-                        Some(j) => raw[*j][i][r],
-                        None => f0[i][r],
-                    };
-                    row[k] = dt2 * (raw[k][i][r] - base);
-                }
-                row[nc] = dt2 * g[r] + b[r];
-                visit(t - 2, l, &mut row);
-            }
-        }
-    }
+    probes
 }
 
 /// One unknown of the reduced problem: `p[slot] = ξ`, or `ξ / ξ[per]` (a rest length or cosine
