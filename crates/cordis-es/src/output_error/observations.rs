@@ -57,63 +57,8 @@ impl Take {
             ));
         }
         let count = data.len() / (3 * frames);
-        let map: Vec<usize> = match markers {
-            Some(m) if m.len() != count => {
-                return Err(CostError::mismatch(
-                    "markers",
-                    format!("names {} particles for {count} tracked markers", m.len()),
-                ))
-            }
-            Some(m) => m.to_vec(),
-            None if count > particles => {
-                return Err(CostError::mismatch(
-                    "trajectory",
-                    format!(
-                        "has {count} markers but the scene has {particles} particles \
-                         (pass a marker → particle mapping)"
-                    ),
-                ))
-            }
-            None => (0..count).collect(),
-        };
-        let mut owner = vec![usize::MAX; particles];
-        for (m, &p) in map.iter().enumerate() {
-            if p >= particles {
-                return Err(CostError::mismatch(
-                    format!("markers[{m}]"),
-                    format!("particle {p} does not exist (the scene has {particles})"),
-                ));
-            }
-            if owner[p] != usize::MAX {
-                return Err(CostError::mismatch(
-                    format!("markers[{m}]"),
-                    format!("particle {p} is already tracked by marker {}", owner[p]),
-                ));
-            }
-            owner[p] = m;
-        }
-        let per_coordinate = match marker_weights {
-            Some(w) if w.len() == 3 * count && count > 0 && w.len() != count => true,
-            Some(w) if w.len() != count => {
-                return Err(CostError::mismatch(
-                    "weights",
-                    format!(
-                        "holds {} values for {count} markers: give one per marker or three \
-                         (x, y, z)",
-                        w.len()
-                    ),
-                ))
-            }
-            _ => false,
-        };
-        if let Some(w) = marker_weights {
-            if let Some(m) = w.iter().position(|w| !(w.is_finite() && *w > 0.0)) {
-                return Err(CostError::mismatch(
-                    format!("weights[{m}]"),
-                    format!("must be a positive finite number, got {}", w[m]),
-                ));
-            }
-        }
+        let map = marker_particles(count, particles, markers)?;
+        let per_coordinate = weights_per_coordinate(count, marker_weights)?;
         if let Some(v) = visible {
             if v.len() != frames * count {
                 return Err(CostError::length("visible", frames * count, v.len()));
@@ -303,6 +248,80 @@ impl Take {
         }
         Trajectory::from_flat(frames, n, data).unwrap_or_else(|_| Trajectory::zeros(frames, n))
     }
+}
+
+/// The scene particle each of `count` markers tracks (`markers`, or marker m as particle m),
+/// refused when the mapping does not fit the markers or names a particle that does not exist
+/// or twice.
+fn marker_particles(
+    count: usize,
+    particles: usize,
+    markers: Option<&[usize]>,
+) -> Result<Vec<usize>, CostError> {
+    let map: Vec<usize> = match markers {
+        Some(m) if m.len() != count => {
+            return Err(CostError::mismatch(
+                "markers",
+                format!("names {} particles for {count} tracked markers", m.len()),
+            ))
+        }
+        Some(m) => m.to_vec(),
+        None if count > particles => {
+            return Err(CostError::mismatch(
+                "trajectory",
+                format!(
+                    "has {count} markers but the scene has {particles} particles \
+                     (pass a marker → particle mapping)"
+                ),
+            ))
+        }
+        None => (0..count).collect(),
+    };
+    let mut owner = vec![usize::MAX; particles];
+    for (m, &p) in map.iter().enumerate() {
+        if p >= particles {
+            return Err(CostError::mismatch(
+                format!("markers[{m}]"),
+                format!("particle {p} does not exist (the scene has {particles})"),
+            ));
+        }
+        if owner[p] != usize::MAX {
+            return Err(CostError::mismatch(
+                format!("markers[{m}]"),
+                format!("particle {p} is already tracked by marker {}", owner[p]),
+            ));
+        }
+        owner[p] = m;
+    }
+    Ok(map)
+}
+
+/// Whether `marker_weights` gives three weights per marker (x, y, z) rather than one, refused
+/// when it holds neither count or a weight that is not positive and finite.
+fn weights_per_coordinate(count: usize, marker_weights: Option<&[f64]>) -> Result<bool, CostError> {
+    let per_coordinate = match marker_weights {
+        Some(w) if w.len() == 3 * count && count > 0 && w.len() != count => true,
+        Some(w) if w.len() != count => {
+            return Err(CostError::mismatch(
+                "weights",
+                format!(
+                    "holds {} values for {count} markers: give one per marker or three \
+                     (x, y, z)",
+                    w.len()
+                ),
+            ))
+        }
+        _ => false,
+    };
+    if let Some(w) = marker_weights {
+        if let Some(m) = w.iter().position(|w| !(w.is_finite() && *w > 0.0)) {
+            return Err(CostError::mismatch(
+                format!("weights[{m}]"),
+                format!("must be a positive finite number, got {}", w[m]),
+            ));
+        }
+    }
+    Ok(per_coordinate)
 }
 
 #[cfg(test)]
