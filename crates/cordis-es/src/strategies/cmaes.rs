@@ -332,7 +332,31 @@ impl CmaEs {
         let mut order: Vec<usize> = (0..xs.len()).collect();
         // Stable: ties keep their index order, so the ranking is deterministic.
         order.sort_by(|&a, &b| costs[a].total_cmp(&costs[b]));
-        let gen_best = costs[order[0]];
+        self.record_best(costs[order[0]]);
+        self.generation += 1;
+        if n == 0 {
+            return None;
+        }
+        let p = Params::new(n, self.lambda);
+        let c = self.adapt(xs, &order, &p);
+        let finite = self.sigma.is_finite()
+            && self.sigma > 0.0
+            && self.mean.iter().chain(&self.cov).all(|v| v.is_finite());
+        if !finite {
+            return Some(Termination::NotFinite);
+        }
+        if self.generation - self.eigen_at >= p.eigen_every(n) {
+            self.eigen_at = self.generation;
+            if let Some(end) = self.decompose(&c, max_condition) {
+                return Some(end);
+            }
+        }
+        self.ended(costs, tol_x, tol_fun)
+    }
+
+    /// The generation's best cost `gen_best` into the best so far, the generations since it
+    /// and the TolFun window's history.
+    fn record_best(&mut self, gen_best: f64) {
         if gen_best < self.best {
             self.best = gen_best;
             self.since_best = 0;
@@ -345,12 +369,12 @@ impl CmaEs {
             let extra = self.history.len() - keep;
             self.history.drain(..extra);
         }
-        self.generation += 1;
-        if n == 0 {
-            return None;
-        }
+    }
 
-        let p = Params::new(n, self.lambda);
+    /// Moves the mean, the evolution paths, C and σ by the `p.mu` best of `xs` (`order`:
+    /// their indices by cost); returns C (its symmetric part is decomposed next).
+    fn adapt(&mut self, xs: &[Vec<f64>], order: &[usize], p: &Params) -> DMatrix<f64> {
+        let n = self.n;
         let mu = p.mu.min(order.len());
         let old = DVector::from_column_slice(&self.mean);
         let ys: Vec<DVector<f64>> = order[..mu]
@@ -392,40 +416,45 @@ impl CmaEs {
         self.ps = ps.as_slice().to_vec();
         self.pc = pc.as_slice().to_vec();
         self.cov = c.as_slice().to_vec();
+        c
+    }
 
-        let finite = self.sigma.is_finite()
-            && self.sigma > 0.0
-            && self.mean.iter().chain(&self.cov).all(|v| v.is_finite());
-        if !finite {
-            return Some(Termination::NotFinite);
+    /// The basis and scales sampled from, by the eigendecomposition of `c`; the run ends
+    /// ([`Termination::Condition`]) when `c` is not positive definite or its condition passes
+    /// `max_condition`.
+    fn decompose(&mut self, c: &DMatrix<f64>, max_condition: f64) -> Option<Termination> {
+        let sym = (c + c.transpose()) * 0.5;
+        let eig = SymmetricEigen::new(sym);
+        let (lo, hi) = eig
+            .eigenvalues
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(lo, hi), &e| {
+                (lo.min(e), hi.max(e))
+            });
+        let finite = eig.eigenvalues.iter().all(|e| e.is_finite());
+        if !finite || lo <= 0.0 {
+            return Some(Termination::Condition);
         }
-        if self.generation - self.eigen_at >= p.eigen_every(n) {
-            self.eigen_at = self.generation;
-            let sym = (&c + c.transpose()) * 0.5;
-            let eig = SymmetricEigen::new(sym);
-            let (lo, hi) = eig
-                .eigenvalues
-                .iter()
-                .fold((f64::INFINITY, 0.0f64), |(lo, hi), &e| {
-                    (lo.min(e), hi.max(e))
-                });
-            let finite = eig.eigenvalues.iter().all(|e| e.is_finite());
-            if !finite || lo <= 0.0 {
-                return Some(Termination::Condition);
-            }
-            if hi / lo > max_condition {
-                return Some(Termination::Condition);
-            }
-            self.basis = eig.eigenvectors.as_slice().to_vec();
-            self.scale = eig.eigenvalues.iter().map(|e| e.sqrt()).collect();
+        if hi / lo > max_condition {
+            return Some(Termination::Condition);
         }
+        self.basis = eig.eigenvectors.as_slice().to_vec();
+        self.scale = eig.eigenvalues.iter().map(|e| e.sqrt()).collect();
+        None
+    }
+
+    /// Why the run should end after this generation (`costs`), if it should: steps below
+    /// `tol_x`, costs flat within `tol_fun` over the TolFun window, or no new best for its
+    /// [`Self::patience`].
+    fn ended(&self, costs: &[f64], tol_x: f64, tol_fun: f64) -> Option<Termination> {
+        let n = self.n;
         let tiny = (0..n).all(|i| {
             self.sigma * self.pc[i].abs().max(self.cov[i * n + i].max(0.0).sqrt()) < tol_x
         });
         if tiny {
             return Some(Termination::TolX);
         }
-        if self.history.len() >= keep {
+        if self.history.len() >= self.tol_fun_window() {
             let range = |v: &mut dyn Iterator<Item = f64>| {
                 let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), c| {
                     (lo.min(c), hi.max(c))
