@@ -257,7 +257,7 @@ fn fluid_boxes(unknown: &mut Scene, truth: &Scene) {
 /// The cloth's dampings known, as in the thesis.
 fn known_cloth_dampings(unknown: &mut Scene, truth: &Scene) {
     // The thesis identifies the cloth's rest lengths and stiffnesses; its dampings
-    // (5e-4–2e-3 N·s/m on 0.01 kg) are barely visible in 60 frames.
+    // (5e-4–2e-3 N·s/m on 0.01 kg) are barely visible in the 30 frames the bench observes.
     for (t, truth_type) in unknown.types.iter_mut().zip(&truth.types) {
         if t.kind == LinkKind::Spring {
             let k = t.kind.param_index("damping").expect("springs are damped");

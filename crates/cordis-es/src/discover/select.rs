@@ -120,8 +120,8 @@ pub struct Fit {
     pub gravity: Vector3<f64>,
     /// Residual variance per row, (m/s²)².
     pub sigma2: f64,
-    /// Noisy positions: the residual's power in the features' band over the noise's (≥ 1:
-    /// the covariance was scaled by it).
+    /// Noisy positions: the residual's power in the features' band over the noise's (the
+    /// covariance was scaled by it where it exceeds 1; below 1 it is reported as is).
     pub inflation: f64,
 }
 

@@ -224,7 +224,13 @@ fn rows_but_searched(problem: &Problem, cols: &[Col], dims: &[(usize, Vec<f64>)]
 /// The columns of type `t`'s K, K·l0 and Z, and Z₂ when it has a `damping_quadratic`: those a
 /// pair entering its range changes.
 fn range_columns(cols: &[Col], t: usize) -> Vec<usize> {
-    let col = |want: Col| cols.iter().position(|&c| c == want).unwrap_or(0);
+    // `generic_cols` gives every conditional type these three: a missing one would put a
+    // pair's terms into another unknown's column, so it is an invariant, not a fallback.
+    let col = |want: Col| {
+        cols.iter()
+            .position(|&c| c == want)
+            .expect("generic_cols gives a conditional type its K, K·l0 and Z columns")
+    };
     let mut dim_cols = vec![col(Col::K(t)), col(Col::KRest(t)), col(Col::Z(t))];
     if let Some(q) = cols.iter().position(|&c| c == Col::Quadratic(t)) {
         dim_cols.push(q);
