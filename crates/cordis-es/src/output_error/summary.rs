@@ -33,7 +33,8 @@ pub struct Estimate {
     /// then reports no uncertainty rather than a NaN).
     pub stderr: Vec<f64>,
     /// Where a standard error is NaN (not computed), a lower bound on it in the same unit
-    /// (the unsettled CG solve's last variance); NaN elsewhere.
+    /// (from the unsettled CG solve's last variance, `σ̂ |dθ/dz| √v`; possibly far below
+    /// the true one); NaN elsewhere.
     pub stderr_at_least: Vec<f64>,
     /// 95 % interval per unknown ([`interval95`]: `value ± 1.96 stderr`, on `ln value` for
     /// the log-searched ones).

@@ -73,7 +73,7 @@ pub struct StderrBound {
 mod tests {
     use super::*;
 
-    /// Correlations not computed survive the JSON line and a checkpoint as NaN (`"nan"`),
+    /// Correlations not computed survive the JSON line and a checkpoint as NaN (`"NaN"`),
     /// the others exactly.
     #[test]
     fn nan_correlations_round_trip_through_json() {
@@ -105,20 +105,20 @@ mod tests {
             uncertainty_computed: false,
             stderr_at_least: vec![StderrBound {
                 name: "types.a.damping".into(),
-                at_least: 1.5e-3,
+                at_least: 1.537e-3,
             }],
             ..OutputErrorReport::default()
         };
         let w = report.warnings();
         assert_eq!(w.len(), 1, "{w:?}");
         assert!(
-            w[0].contains("not computed") && w[0].ends_with("at least: types.a.damping ≥ 1.50e-3"),
+            w[0].contains("not computed") && w[0].ends_with("at least: types.a.damping ≥ 1.53e-3"),
             "{}",
             w[0]
         );
         let text = serde_json::to_string(&report).expect("serialises");
         assert!(
-            text.contains(r#""stderr_at_least":[{"name":"types.a.damping","at_least":0.0015}]"#),
+            text.contains(r#""stderr_at_least":[{"name":"types.a.damping","at_least":0.001537}]"#),
             "{text}"
         );
     }

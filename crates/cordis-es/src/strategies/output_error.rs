@@ -34,6 +34,9 @@ pub struct OutputError {
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 struct State {
     genome: Vec<f64>,
+    /// +inf for a failed fit or a diverging best point: written as `"inf"` (JSON has no
+    /// infinity; a plain f64 became `null`, which no checkpoint could load).
+    #[serde(with = "crate::run::float_json::lossless")]
     cost: f64,
     report: OutputErrorReport,
     uncertainty: Option<Vec<ParamUncertainty>>,
@@ -221,7 +224,7 @@ impl OutputErrorReport {
                 .iter()
                 .zip(&e.stderr)
                 .zip(&e.stderr_at_least)
-                .filter(|((_, se), lb)| se.is_nan() && lb.is_finite())
+                .filter(|((_, se), lb)| se.is_nan() && lb.is_finite() && **lb > 0.0)
                 .map(|((name, _), lb)| StderrBound {
                     name: name.to_string(),
                     at_least: *lb,
@@ -238,7 +241,7 @@ impl OutputErrorReport {
             let bounds: Vec<String> = self
                 .stderr_at_least
                 .iter()
-                .map(|b| format!("{} ≥ {:.2e}", b.name, b.at_least))
+                .map(|b| format!("{} ≥ {}", b.name, floor_3_digits(b.at_least)))
                 .collect();
             w.push(format!(
                 "output-error: standard errors not computed (the matrix-free solves for them \
@@ -257,6 +260,13 @@ impl OutputErrorReport {
         }
         w
     }
+}
+
+/// `v` (> 0) to three significant digits, rounded down: a printed lower bound stays one.
+fn floor_3_digits(v: f64) -> String {
+    let exponent = v.log10().floor();
+    let mantissa = (v / 10f64.powf(exponent) * 100.0).floor() / 100.0;
+    format!("{mantissa:.2}e{exponent}")
 }
 
 /// Standard errors and 95 % intervals of the unknowns; `None` when the matrix-free path could
@@ -424,5 +434,24 @@ impl Strategy for OutputError {
             solver: Some(SolverReport::OutputError(report)),
             uncertainty: self.state.uncertainty.clone(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A failed fit's state (cost +inf) is saved and loaded again: a checkpoint of it resumes.
+    #[test]
+    fn a_failed_fits_infinite_cost_survives_its_checkpoint() {
+        let state = State {
+            cost: f64::INFINITY,
+            error: Some("refused".into()),
+            ..State::default()
+        };
+        let json = serde_json::to_value(&state).expect("serialises");
+        assert_eq!(json["cost"], "inf");
+        let back: State = serde_json::from_value(json).expect("loads");
+        assert_eq!(back.cost, f64::INFINITY);
     }
 }

@@ -83,6 +83,7 @@ pub(crate) fn theta_inverse(
         true => None,
         false => Deflation::new(recycled, |v, k, out| mf.hv(v, k, out, work)),
     };
+    debug_assert_eq!(skip.len(), nt, "one skip flag per unknown");
     let mut solves = BlockSolves::start(mf.fit.len(), skip, &pre, deflation.as_ref());
     let mut its = 0;
     while its < stop.max_iterations && solves.any_running() {
@@ -101,7 +102,9 @@ pub(crate) fn theta_inverse(
             }
         } else {
             cgc.unconverged += 1;
-            at_least[c] = solves.variance[c].last().copied().unwrap_or(f64::NAN);
+            // The current iterate's variance: the last one before a failure, or the
+            // deflated start's when a column fails at once.
+            at_least[c] = solves.x[c * nt + c];
         }
     }
     (out, at_least)
