@@ -51,26 +51,29 @@ pub mod lossless {
         }
     }
 
+    /// One f64 written and read as above, for the containers below.
+    #[derive(serde::Serialize, Deserialize)]
+    struct Lossless(#[serde(with = "crate::run::float_json::lossless")] f64);
+
     /// Rows of f64, each as [`super::lossless`] writes one (a correlation matrix with rows
     /// not computed).
     pub mod matrix {
         use serde::ser::SerializeSeq;
         use serde::{Deserialize, Deserializer, Serializer};
 
-        #[derive(serde::Serialize, Deserialize)]
-        struct W(#[serde(with = "super")] f64);
+        use super::Lossless;
 
         pub fn serialize<S: Serializer>(m: &[Vec<f64>], s: S) -> Result<S::Ok, S::Error> {
             let mut seq = s.serialize_seq(Some(m.len()))?;
             for row in m {
-                let row: Vec<W> = row.iter().map(|&x| W(x)).collect();
+                let row: Vec<Lossless> = row.iter().map(|&x| Lossless(x)).collect();
                 seq.serialize_element(&row)?;
             }
             seq.end()
         }
 
         pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<Vec<f64>>, D::Error> {
-            let rows = Vec::<Vec<W>>::deserialize(d)?;
+            let rows = Vec::<Vec<Lossless>>::deserialize(d)?;
             Ok(rows
                 .into_iter()
                 .map(|r| r.into_iter().map(|w| w.0).collect())
@@ -89,9 +92,7 @@ pub mod lossless {
         }
 
         pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
-            #[derive(Deserialize)]
-            struct W(#[serde(with = "super")] f64);
-            Ok(Option::<W>::deserialize(d)?.map(|w| w.0))
+            Ok(Option::<super::Lossless>::deserialize(d)?.map(|w| w.0))
         }
     }
 }

@@ -220,12 +220,13 @@ impl OutputErrorReport {
             }),
             chosen_because: None,
             uncertainty_computed: !e.stderr.iter().any(|s| s.is_nan()),
+            // The estimate holds a bound only where the standard error is NaN; a zero one
+            // (a solve that never moved) says nothing.
             stderr_at_least: names
                 .iter()
-                .zip(&e.stderr)
                 .zip(&e.stderr_at_least)
-                .filter(|((_, se), lb)| se.is_nan() && lb.is_finite() && **lb > 0.0)
-                .map(|((name, _), lb)| StderrBound {
+                .filter(|(_, lb)| **lb > 0.0)
+                .map(|(name, lb)| StderrBound {
                     name: name.to_string(),
                     at_least: *lb,
                 })
