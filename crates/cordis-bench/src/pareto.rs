@@ -105,7 +105,14 @@ pub struct BenchScene {
 /// The example `name` at the bench's size: small enough that every strategy runs in seconds
 /// per budget decade, large enough to keep each experiment's character.
 pub fn bench_scene(name: &str, seed: u64) -> Result<BenchScene> {
-    let (truth, frames, skip, target_pct, target_source, setup) = bench_setup(name)?;
+    let BenchSetup {
+        truth,
+        frames,
+        skip,
+        target_pct,
+        target_source,
+        setup,
+    } = bench_setup(name)?;
     let traj = observed_window(name, &truth, frames, skip)?;
     let mut unknown = with_unknown_boxes(&truth, 25.0, seed);
     if name == "fluid" {
@@ -125,87 +132,103 @@ pub fn bench_scene(name: &str, seed: u64) -> Result<BenchScene> {
     })
 }
 
-/// The example `name` as the bench poses it: (the truth, frames observed, frames skipped
-/// before them, the thesis' mean error (%) for the experiment, where that number comes from,
-/// what the bench changed from the default example).
-fn bench_setup(name: &str) -> Result<(Scene, usize, usize, f64, &'static str, &'static str)> {
+/// An example as the bench poses it.
+struct BenchSetup {
+    truth: Scene,
+    /// Frames observed.
+    frames: usize,
+    /// Frames simulated and skipped before them.
+    skip: usize,
+    /// The thesis' mean error (%) for the experiment.
+    target_pct: f64,
+    /// Where that number comes from.
+    target_source: &'static str,
+    /// What the bench changed from the default example.
+    setup: &'static str,
+}
+
+/// The example `name` as the bench poses it.
+fn bench_setup(name: &str) -> Result<BenchSetup> {
     Ok(match name {
-        "rigid" => (
-            examples::rigid(),
-            100,
-            0,
-            0.01,
-            "thesis §4.1: mean error < 0.01 % after 1000 generations",
-            "default example, 100 frames",
-        ),
-        "cloth" => (
-            examples::cloth(8, 8),
-            30,
-            0,
+        "rigid" => BenchSetup {
+            truth: examples::rigid(),
+            frames: 100,
+            skip: 0,
+            target_pct: 0.01,
+            target_source: "thesis §4.1: mean error < 0.01 % after 1000 generations",
+            setup: "default example, 100 frames",
+        },
+        "cloth" => BenchSetup {
+            truth: examples::cloth(8, 8),
+            frames: 30,
+            skip: 0,
             // Table 4.1: 0.24, 0.09, 0.27, 2.1, 0.58 %.
-            0.656,
-            "thesis Table 4.1: mean of its five errors (0.09–2.1 %)",
-            "8×8 (302 springs, Provot limit on), 30 frames of the fall; K and l0 of the 6 types \
-             unknown, dampings known (as in the thesis)",
-        ),
-        "fluid" => (
-            examples::fluid(20, 12),
+            target_pct: 0.656,
+            target_source: "thesis Table 4.1: mean of its five errors (0.09–2.1 %)",
+            setup: "8×8 (302 springs, Provot limit on), 30 frames of the fall; K and l0 of the 6 \
+             types unknown, dampings known (as in the thesis)",
+        },
+        "fluid" => BenchSetup {
+            truth: examples::fluid(20, 12),
             // Twenty frames, once the jet has spread (Table 4.2's sequence was hundreds of
             // frames long): ten frames from frame 20 bracket the jet's viscous range only
             // between 1.99 and 2.33 m (0.60 % mean error at an exact fit); these twenty give
             // every range to 0.02 % (hybrid), well below the target.
-            20,
-            40,
+            frames: 20,
+            skip: 40,
             // Table 4.2: 0.04, 0.16, 0.0, 0.96, 2.6, 0.0, 0.0, 0.0 %.
-            0.47,
-            "thesis Table 4.2: mean of its eight errors (0.0–2.6 %)",
-            "20×12 jet in gas, frames 40–59; the gas's and the jet's K, l0, Z and range unknown \
-             (ranges in boxes 2× wide), the walls known",
-        ),
-        "horse" => (
-            examples::horse(),
-            examples::HORSE_FRAMES,
-            0,
-            0.01,
-            "none in the thesis (§4.4 real data, Annexe 2 timing only): §4.1's 0.01 % for \
+            target_pct: 0.47,
+            target_source: "thesis Table 4.2: mean of its eight errors (0.0–2.6 %)",
+            setup: "20×12 jet in gas, frames 40–59; the gas's and the jet's K, l0, Z and range \
+             unknown (ranges in boxes 2× wide), the walls known",
+        },
+        "horse" => BenchSetup {
+            truth: examples::horse(),
+            frames: examples::HORSE_FRAMES,
+            skip: 0,
+            target_pct: 0.01,
+            target_source: "none in the thesis (§4.4 real data, Annexe 2 timing only): §4.1's \
+                            0.01 % for noiseless data",
+            setup: "default example (158 unknowns), 53 frames",
+        },
+        "muscle" => BenchSetup {
+            truth: examples::muscle(),
+            frames: examples::MUSCLE_FRAMES,
+            skip: 0,
+            target_pct: 0.01,
+            target_source: "none in the thesis (§6.2 compares costs): §4.1's 0.01 % for noiseless \
+             data",
+            setup: "default example (6 mechanical parameters, 4 neural weights), 300 frames",
+        },
+        "horse-gait" => BenchSetup {
+            truth: examples::horse_gait(),
+            frames: examples::HORSE_FRAMES,
+            skip: 0,
+            target_pct: 0.01,
+            target_source: "none in the thesis (§6.2 compares costs): §4.1's 0.01 % for noiseless \
+             data",
+            setup: "default example (the horse with 4 leg muscles: their K, l0, Z, weights and \
+             every spring unknown), 53 frames",
+        },
+        "frog" | "follower" => BenchSetup {
+            truth: examples::by_name(name).expect("a shipped example"),
+            frames: 200,
+            skip: 0,
+            target_pct: 0.01,
+            target_source: "none in the thesis (a control demonstration): §4.1's 0.01 % for \
              noiseless data",
-            "default example (158 unknowns), 53 frames",
-        ),
-        "muscle" => (
-            examples::muscle(),
-            examples::MUSCLE_FRAMES,
-            0,
-            0.01,
-            "none in the thesis (§6.2 compares costs): §4.1's 0.01 % for noiseless data",
-            "default example (6 mechanical parameters, 4 neural weights), 300 frames",
-        ),
-        "horse-gait" => (
-            examples::horse_gait(),
-            examples::HORSE_FRAMES,
-            0,
-            0.01,
-            "none in the thesis (§6.2 compares costs): §4.1's 0.01 % for noiseless data",
-            "default example (the horse with 4 leg muscles: their K, l0, Z, weights and every \
-             spring unknown), 53 frames",
-        ),
-        "frog" | "follower" => (
-            examples::by_name(name).expect("a shipped example"),
-            200,
-            0,
-            0.01,
-            "none in the thesis (a control demonstration): §4.1's 0.01 % for noiseless data",
-            "default example, its first 200 frames",
-        ),
-        "tadpole" => (
-            examples::tadpole(),
-            100,
-            0,
+            setup: "default example, its first 200 frames",
+        },
+        "tadpole" => BenchSetup {
+            truth: examples::tadpole(),
+            frames: 100,
+            skip: 0,
             // Table 6.1: v_max 0.46 for 0.5 (8 %), z1 0 %, z2 1 %, L 0 %, k 0.05 %.
-            1.81,
-            "thesis Table 6.1: mean of its five errors (0–8 %)",
-            "the first 100 frames as in Table 6.1; the medium's z1, z2, v_max and the TGR's K, \
-             l0 unknown (the tendon and the signal known)",
-        ),
+            target_pct: 1.81,
+            target_source: "thesis Table 6.1: mean of its five errors (0–8 %)",
+            setup: "the first 100 frames as in Table 6.1; the medium's z1, z2, v_max and the \
+                    TGR's K, l0 unknown (the tendon and the signal known)",
+        },
         _ => bail!(
             "--scenes: no example named `{name}` (expected one of: {})",
             examples::NAMES.join(", ")

@@ -623,7 +623,7 @@ struct Changing {
     cols: Vec<(usize, Option<usize>, f64)>,
     /// The compact columns changed: the unknowns' in `cols` order, then the constant; `len`
     /// of them.
-    at: [usize; 5],
+    changed: [usize; 5],
     len: usize,
     /// Compact row width.
     cw: usize,
@@ -644,18 +644,18 @@ impl Changing {
                 cols.push((c, m, theta[k]));
             }
         }
-        let mut at = [0usize; 5];
+        let mut changed = [0usize; 5];
         let mut len = 0;
         for &(_, m, _) in &cols {
             if let Some(m) = m {
-                at[len] = m;
+                changed[len] = m;
                 len += 1;
             }
         }
-        at[len] = cw - 1;
+        changed[len] = cw - 1;
         Changing {
             cols,
-            at,
+            changed,
             len: len + 1,
             cw,
         }
@@ -665,7 +665,7 @@ impl Changing {
     /// per changed row, in the rows of the changed columns only (see [`Self::mirror`]).
     fn add(&self, pair: &Terms, wc: &mut [f64], g: &mut [f64]) {
         let (cw, nd) = (self.cw, self.len);
-        let dpos = &self.at[..nd];
+        let dpos = &self.changed[..nd];
         let mut delta = [0.0; 5];
         for (&r0, &sign) in pair.rows.iter().zip(&pair.inv) {
             if r0 == usize::MAX {
@@ -709,7 +709,7 @@ impl Changing {
     /// after [`Self::add`].
     fn mirror(&self, g: &mut [f64]) {
         let cw = self.cw;
-        for &c in &self.at[..self.len] {
+        for &c in &self.changed[..self.len] {
             for k in 0..cw {
                 g[k * cw + c] = g[c * cw + k];
             }
