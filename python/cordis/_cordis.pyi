@@ -645,7 +645,9 @@ class IdentifyResult:
     @property
     def stderr(self) -> Optional[Dict[str, float]]:
         """Standard error of each unknown (its own unit; inf: not determined), by name, for
-        ``output-error``; None for strategies that do not estimate it."""
+        ``output-error``; None for strategies that do not estimate it. An unknown whose
+        standard error was not computed (a matrix-free solve that did not settle) is absent;
+        ``report["stderr_at_least"]`` names it with a lower bound."""
     @property
     def intervals(self) -> Optional[Dict[str, Tuple[float, float]]]:
         """95 % interval ``(low, high)`` of each unknown, by name; None when not estimated.
@@ -656,7 +658,8 @@ class IdentifyResult:
     @property
     def covariance(self) -> Optional[npt.NDArray[np.float64]]:
         """Covariance of the unknowns in ``list(params)`` order, ``(n, n)``; inf on the diagonal
-        of an undetermined unknown (0 beside it); None when not estimated."""
+        of an undetermined unknown (0 beside it); None when not estimated or when some standard
+        error was not computed."""
     @property
     def sigma(self) -> Optional[float]:
         """Noise of the observed positions estimated from the residuals, m; None when not

@@ -897,20 +897,28 @@ struct Spread {
 /// Standard errors, intervals, the covariance (from the correlations and standard errors)
 /// and σ̂ of a report that has them.
 fn uncertainty_to_py(py: Python<'_>, report: &Report) -> PyResult<Spread> {
+    let mut spread = Spread::default();
+    let oe = match &report.solver {
+        Some(SolverReport::OutputError(r)) => Some(r),
+        _ => None,
+    };
+    // σ̂ of a finished fit (not of an interrupted one's best point, nor of a failed one).
+    spread.sigma = oe
+        .filter(|r| !matches!(r.end.as_str(), "" | "running" | "interrupted"))
+        .map(|r| r.sigma);
     let Some(u) = &report.uncertainty else {
-        return Ok(Spread::default());
+        return Ok(spread);
     };
     let (stderr, intervals) = (PyDict::new(py), PyDict::new(py));
     for p in u {
         stderr.set_item(&p.name, p.std_error)?;
         intervals.set_item(&p.name, (p.interval.0, p.interval.1))?;
     }
-    let mut spread = Spread {
-        stderr: Some(stderr.unbind()),
-        intervals: Some(intervals.unbind()),
-        ..Spread::default()
-    };
-    if let Some(SolverReport::OutputError(r)) = &report.solver {
+    spread.stderr = Some(stderr.unbind());
+    spread.intervals = Some(intervals.unbind());
+    // A matrix over every unknown in order: none when some standard error was not computed
+    // (those are absent from `u`).
+    if let Some(r) = oe.filter(|r| r.correlation.len() == u.len()) {
         let n = u.len();
         let cov = Array2::from_shape_fn((n, n), |(a, b)| {
             let (sa, sb) = (u[a].std_error, u[b].std_error);
@@ -923,7 +931,6 @@ fn uncertainty_to_py(py: Python<'_>, report: &Report) -> PyResult<Spread> {
             }
         });
         spread.covariance = Some(cov.into_pyarray(py).unbind());
-        spread.sigma = Some(r.sigma);
     }
     Ok(spread)
 }

@@ -21,6 +21,7 @@ mod svg;
 use std::fmt::Write as _;
 
 use cordis_core::{CordisError, LinkKind, Observations, Result, Scene, Simulator, Trajectory};
+use cordis_es::report::StderrBound;
 
 use crate::render::{escape_html, render_html, render_html_labelled};
 use svg::{bar_chart, line_chart, Chart, Series};
@@ -503,9 +504,24 @@ fn parameter_section(out: &mut String, input: &ReportInput) {
         .and_then(|s| s["solver"]["uncertainty"].as_array())
         .map(|a| a.iter().collect())
         .unwrap_or_default();
+    let not_computed: Vec<&serde_json::Value> = input
+        .summary
+        .and_then(|s| s["solver"]["stderr_at_least"].as_array())
+        .map(|a| a.iter().collect())
+        .unwrap_or_default();
     let interval = |name: &str| -> String {
         let Some(u) = uncertainty.iter().find(|u| u["name"] == name) else {
-            return String::new();
+            // A standard error the solver could not compute, with its lower bound.
+            return match not_computed.iter().find(|b| b["name"] == name) {
+                Some(b) => {
+                    let bound = serde_json::from_value::<StderrBound>((*b).clone()).ok();
+                    match bound.as_ref().and_then(StderrBound::rounded_down) {
+                        Some(v) => format!("not computed (at least {v})"),
+                        None => "not computed".into(),
+                    }
+                }
+                None => String::new(),
+            };
         };
         let se = u["std_error"].as_f64();
         let (lo, hi) = (u["interval"][0].as_f64(), u["interval"][1].as_f64());
@@ -731,7 +747,9 @@ mod tests {
         let observed = Observations::from_trajectory(&scene.simulate(60).unwrap());
         let summary = serde_json::json!({"strategy": "output-error", "cost": 1e-3,
             "solver": {"sigma": 1e-3, "uncertainty": [{"name": "types.h_top.stiffness",
-            "std_error": 2.5, "interval": [945.1, 954.9], "level": 0.95}]}});
+            "std_error": 2.5, "interval": [945.1, 954.9], "level": 0.95}],
+            "stderr_at_least": [{"name": "types.h_middle.stiffness", "at_least": 3.04159},
+            {"name": "types.h_bottom.stiffness", "at_least": 0.0}]}});
         let log =
             parse_convergence("c.csv", "generation,evals,best_cost\n0,10,5.0\n1,20,0.5\n").unwrap();
         let page = report_html(&ReportInput {
@@ -755,6 +773,12 @@ mod tests {
         }
         assert!(page.contains("<title>rigid &lt;fit&gt;</title>"));
         assert!(page.contains("± 2.5 <span class=\"muted\">[945.1, 954.9] (95 %)</span>"));
+        // Standard errors not computed are said so, with their lower bound rounded down.
+        assert!(
+            page.contains("<td>not computed (at least 3.04e0)</td>"),
+            "{page}"
+        );
+        assert!(page.contains("<td>not computed</td>"));
         assert!(page.contains("Every observed free particle (15)."));
         assert!(
             page.contains("position RMS error</th><td>0 m"),

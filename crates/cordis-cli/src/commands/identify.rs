@@ -355,12 +355,15 @@ fn print_human(ran: &str, outcome: &Outcome) {
             .unwrap_or_default()
     );
     let spread = outcome.report.uncertainty.as_deref();
-    for (k, (u, v)) in problem
+    let not_computed = match &outcome.report.solver {
+        Some(cordis_es::report::SolverReport::OutputError(r)) => r.stderr_at_least.as_slice(),
+        _ => &[],
+    };
+    for (u, v) in problem
         .space
         .unknowns
         .iter()
         .zip(problem.space.values(&result.genome))
-        .enumerate()
     {
         let truth = problem
             .truth
@@ -368,16 +371,20 @@ fn print_human(ran: &str, outcome: &Outcome) {
             .map(|t| format!("  (truth {:.6e})", t[u.slot]))
             .unwrap_or_default();
         // A standard error and the 95 % interval, when the strategy estimates them.
-        let se = spread
-            .and_then(|s| s.get(k))
-            .map(|p| match p.std_error.is_finite() {
-                true => format!(
-                    " ± {:.2e}  [{:.6e}, {:.6e}]",
-                    p.std_error, p.interval.0, p.interval.1
-                ),
-                false => " ± not determined".to_string(),
-            })
-            .unwrap_or_default();
+        let se = match spread.and_then(|s| s.iter().find(|p| p.name == u.name)) {
+            Some(p) if p.std_error.is_finite() => format!(
+                " ± {:.2e}  [{:.6e}, {:.6e}]",
+                p.std_error, p.interval.0, p.interval.1
+            ),
+            Some(_) => " ± not determined".to_string(),
+            None => match not_computed.iter().find(|b| b.name == u.name) {
+                Some(b) => match b.rounded_down() {
+                    Some(v) => format!(" ± not computed (≥ {v})"),
+                    None => " ± not computed".to_string(),
+                },
+                None => String::new(),
+            },
+        };
         eprintln!("  {:<40} {:>14.6e}{se}{truth}", u.name, v);
     }
 }

@@ -30,7 +30,7 @@ pub struct Estimate {
     pub variables: usize,
     /// Standard error per unknown in its physical unit (inf: not determined; NaN: not
     /// computed, when the matrix-free path's solve for it did not converge — the strategy
-    /// then reports no uncertainty rather than a NaN).
+    /// then leaves that unknown out of its uncertainty rather than report a NaN).
     pub stderr: Vec<f64>,
     /// Where a standard error is NaN (not computed), a lower bound on it in the same unit
     /// (from the unsettled CG solve's last variance, `σ̂ |dθ/dz| √v`; possibly far below

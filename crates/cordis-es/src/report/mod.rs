@@ -65,8 +65,9 @@ pub struct Report {
     /// The solver's own report; `None` for the evolution strategies, which have nothing to
     /// add to the history.
     pub solver: Option<SolverReport>,
-    /// Per-parameter standard errors and intervals, for strategies that estimate them (in
-    /// unknown order); `None` otherwise.
+    /// Per-parameter standard errors and intervals, by name, for strategies that estimate
+    /// them (in unknown order; an unknown whose standard error was not computed is left out,
+    /// output-error names it in `stderr_at_least`); `None` otherwise or when none was.
     pub uncertainty: Option<Vec<ParamUncertainty>>,
 }
 

@@ -55,7 +55,8 @@ pub struct OutputErrorReport {
     /// Whether every standard error could be computed.
     pub uncertainty_computed: bool,
     /// The unknowns whose standard error was not computed (the matrix-free solve did not
-    /// settle), each with a lower bound on it in the unknown's unit; empty when every one was.
+    /// settle), each with a lower bound on it in the unknown's unit (0 when the solve never
+    /// moved); empty when every one was. They are absent from `Report::uncertainty`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub stderr_at_least: Vec<StderrBound>,
 }
@@ -67,6 +68,20 @@ pub struct StderrBound {
     pub name: String,
     #[serde(with = "lossless")]
     pub at_least: f64,
+}
+
+impl StderrBound {
+    /// The bound to three significant digits, rounded down so the printed value stays a lower
+    /// bound (`1.53e-3`); `None` when it is 0 (a solve that never moved bounds nothing).
+    pub fn rounded_down(&self) -> Option<String> {
+        let v = self.at_least;
+        if !(v > 0.0 && v.is_finite()) {
+            return None;
+        }
+        let exponent = v.log10().floor();
+        let mantissa = (v / 10f64.powf(exponent) * 100.0).floor() / 100.0;
+        Some(format!("{mantissa:.2}e{exponent}"))
+    }
 }
 
 #[cfg(test)]
@@ -97,28 +112,37 @@ mod tests {
         assert!(back.correlation[0][1].is_nan() && back.correlation[1].iter().all(|x| x.is_nan()));
     }
 
-    /// A fit whose standard errors were not all computed warns so, with the lower bounds.
+    /// A fit whose standard errors were not all computed warns so, naming each with its lower
+    /// bound (none where the solve never moved), and counts them against the unknowns.
     #[test]
     fn standard_errors_not_computed_are_warned_with_their_lower_bounds() {
         let report = OutputErrorReport {
             end: "converged".into(),
             uncertainty_computed: false,
-            stderr_at_least: vec![StderrBound {
-                name: "types.a.damping".into(),
-                at_least: 1.537e-3,
-            }],
+            correlation: vec![vec![f64::NAN; 3]; 3],
+            stderr_at_least: vec![
+                StderrBound {
+                    name: "types.a.damping".into(),
+                    at_least: 1.537e-3,
+                },
+                StderrBound {
+                    name: "types.a.stiffness".into(),
+                    at_least: 0.0,
+                },
+            ],
             ..OutputErrorReport::default()
         };
         let w = report.warnings();
         assert_eq!(w.len(), 1, "{w:?}");
         assert!(
-            w[0].contains("not computed") && w[0].ends_with("at least: types.a.damping ≥ 1.53e-3"),
+            w[0].contains("2 of 3 standard errors not computed")
+                && w[0].ends_with(": types.a.damping ≥ 1.53e-3, types.a.stiffness"),
             "{}",
             w[0]
         );
         let text = serde_json::to_string(&report).expect("serialises");
         assert!(
-            text.contains(r#""stderr_at_least":[{"name":"types.a.damping","at_least":0.001537}]"#),
+            text.contains(r#""stderr_at_least":[{"name":"types.a.damping","at_least":0.001537},"#),
             "{text}"
         );
     }

@@ -220,15 +220,16 @@ impl OutputErrorReport {
             }),
             chosen_because: None,
             uncertainty_computed: !e.stderr.iter().any(|s| s.is_nan()),
-            // The estimate holds a bound only where the standard error is NaN; a zero one
-            // (a solve that never moved) says nothing.
+            // Every unknown whose standard error was not computed, so a reader finds them all
+            // in one place; a solve that never moved bounds it by 0 only.
             stderr_at_least: names
                 .iter()
+                .zip(&e.stderr)
                 .zip(&e.stderr_at_least)
-                .filter(|(_, lb)| **lb > 0.0)
-                .map(|(name, lb)| StderrBound {
+                .filter(|((_, se), _)| se.is_nan())
+                .map(|((name, _), lb)| StderrBound {
                     name: name.to_string(),
-                    at_least: *lb,
+                    at_least: if *lb > 0.0 { *lb } else { 0.0 },
                 })
                 .collect(),
         }
@@ -239,18 +240,20 @@ impl OutputErrorReport {
         let mut w: Vec<String> = self.unconverged.iter().cloned().collect();
         let finished = self.end != "running" && self.end != "interrupted";
         if finished && !self.uncertainty_computed {
-            let bounds: Vec<String> = self
+            let missing: Vec<String> = self
                 .stderr_at_least
                 .iter()
-                .map(|b| format!("{} ≥ {}", b.name, floor_3_digits(b.at_least)))
+                .map(|b| match b.rounded_down() {
+                    Some(v) => format!("{} ≥ {v}", b.name),
+                    None => b.name.clone(),
+                })
                 .collect();
             w.push(format!(
-                "output-error: standard errors not computed (the matrix-free solves for them \
-                 did not converge){}",
-                match bounds.is_empty() {
-                    true => String::new(),
-                    false => format!("; at least: {}", bounds.join(", ")),
-                }
+                "output-error: {} of {} standard errors not computed (the matrix-free solves \
+                 for them did not converge; the others are reported): {}",
+                missing.len(),
+                self.correlation.len(),
+                missing.join(", ")
             ));
         }
         for d in &self.undetermined_directions {
@@ -263,24 +266,17 @@ impl OutputErrorReport {
     }
 }
 
-/// `v` (> 0) to three significant digits, rounded down: a printed lower bound stays one.
-fn floor_3_digits(v: f64) -> String {
-    let exponent = v.log10().floor();
-    let mantissa = (v / 10f64.powf(exponent) * 100.0).floor() / 100.0;
-    format!("{mantissa:.2}e{exponent}")
-}
-
-/// Standard errors and 95 % intervals of the unknowns; `None` when the matrix-free path could
-/// not compute them all (a NaN never leaves a result: the report says why instead).
+/// Standard errors and 95 % intervals of the unknowns, by name, in unknown order; an unknown
+/// whose standard error was not computed (the matrix-free path's solve for it did not settle)
+/// is left out, its lower bound is in the report's `stderr_at_least` (a NaN never leaves a
+/// result); `None` when none was computed.
 fn uncertainty(problem: &Problem, e: &Estimate) -> Option<Vec<ParamUncertainty>> {
-    if e.stderr.iter().any(|s| s.is_nan()) {
-        return None;
-    }
-    let list = problem
+    let list: Vec<ParamUncertainty> = problem
         .space
         .unknowns
         .iter()
         .enumerate()
+        .filter(|&(k, _)| !e.stderr[k].is_nan())
         .map(|(k, u)| ParamUncertainty {
             name: u.name.clone(),
             std_error: e.stderr[k],
@@ -288,7 +284,7 @@ fn uncertainty(problem: &Problem, e: &Estimate) -> Option<Vec<ParamUncertainty>>
             level: 0.95,
         })
         .collect();
-    Some(list)
+    (!list.is_empty()).then_some(list)
 }
 
 impl Strategy for OutputError {
@@ -454,5 +450,65 @@ mod tests {
         assert_eq!(json["cost"], "inf");
         let back: State = serde_json::from_value(json).expect("loads");
         assert_eq!(back.cost, f64::INFINITY);
+    }
+
+    /// A standard error the matrix-free path did not compute (NaN) leaves the others reported,
+    /// by name, and is named in `stderr_at_least` with its bound; none computed gives `None`.
+    #[test]
+    fn a_standard_error_not_computed_leaves_the_others_reported() {
+        use crate::cost::CostKind;
+        use crate::identify::with_unknown_boxes;
+        let truth = cordis_core::examples::rigid();
+        let traj = truth.simulate(40).expect("simulates");
+        let problem =
+            Problem::new(&with_unknown_boxes(&truth, 2.0, 0), &traj, CostKind::Short).unwrap();
+        let take = output_error::Take::complete(&traj);
+        let mut e = output_error::estimate(
+            &problem.scene,
+            &problem.space,
+            std::slice::from_ref(&take),
+            &Config::default(),
+        )
+        .expect("fits");
+        let n = e.stderr.len();
+        assert!(
+            n >= 3 && e.stderr.iter().all(|s| s.is_finite()),
+            "{:?}",
+            e.stderr
+        );
+        let names: Vec<&str> = problem
+            .space
+            .unknowns
+            .iter()
+            .map(|u| u.name.as_str())
+            .collect();
+        e.stderr[1] = f64::NAN;
+        e.stderr_at_least[1] = 0.25;
+
+        let listed = uncertainty(&problem, &e).expect("the others are reported");
+        assert_eq!(listed.len(), n - 1);
+        assert!(listed
+            .iter()
+            .all(|p| p.name != names[1] && p.std_error.is_finite()));
+        assert_eq!(
+            (listed[1].name.as_str(), listed[1].std_error),
+            (names[2], e.stderr[2])
+        );
+        let report = OutputErrorReport::new(&problem, &e);
+        assert!(!report.uncertainty_computed);
+        assert_eq!(
+            report.stderr_at_least,
+            vec![StderrBound {
+                name: names[1].to_string(),
+                at_least: 0.25
+            }]
+        );
+
+        e.stderr.iter_mut().for_each(|s| *s = f64::NAN);
+        assert!(uncertainty(&problem, &e).is_none());
+        assert_eq!(
+            OutputErrorReport::new(&problem, &e).stderr_at_least.len(),
+            n
+        );
     }
 }
