@@ -650,7 +650,8 @@ class IdentifyResult:
         ``report["stderr_at_least"]`` names it with a lower bound."""
     @property
     def intervals(self) -> Optional[Dict[str, Tuple[float, float]]]:
-        """95 % interval ``(low, high)`` of each unknown, by name; None when not estimated.
+        """95 % interval ``(low, high)`` of each unknown, by name; None when not estimated (an
+        unknown whose standard error was not computed is absent, as in ``stderr``).
 
         ``value ± 1.96 stderr``, or on ``ln value`` (``value * exp(±1.96 stderr / value)``)
         for a positive unknown searched in log coordinates (a box wider than a factor 10:
