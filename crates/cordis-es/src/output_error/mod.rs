@@ -101,7 +101,7 @@ pub(crate) fn grow_windows(
     let (noise, samples) = fitter
         .takes
         .iter()
-        .map(start::noise_level_and_samples)
+        .map(start::unit_weight_noise_level)
         .fold((0.0, 0), |a, b| if b.0 > a.0 { b } else { a });
     let robust = config.loss != Loss::Squared;
     let mut schedule = windows::Schedule::new(fitter, config.first_window, noise, samples, robust);

@@ -128,6 +128,20 @@ impl Take {
         self.weights.iter().any(|&w| w != 0.0 && w != 1.0)
     }
 
+    /// The root mean square of the observed coordinates' weights (1 unweighted; 0 when nothing
+    /// is observed): a weight-1 noise level over it is the positions' typical noise, m.
+    pub fn rms_weight(&self) -> f64 {
+        let (sum, count) = self
+            .weights
+            .iter()
+            .filter(|w| **w > 0.0)
+            .fold((0.0, 0usize), |(s, n), w| (s + w * w, n + 1));
+        match count {
+            0 => 0.0,
+            n => (sum / n as f64).sqrt(),
+        }
+    }
+
     pub fn frames(&self) -> usize {
         self.frames
     }

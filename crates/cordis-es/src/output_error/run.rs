@@ -49,7 +49,7 @@ pub struct Prepared {
     /// Above [`Config::dense_max_columns`] the dense normal equations cost more than the
     /// whole matrix-free fit.
     large: bool,
-    /// Noise level of each take read from its third differences, m.
+    /// Noise level of each take read from its third differences, m, of a weight-1 coordinate.
     noise_level: Vec<f64>,
     /// How many third differences each take's noise level was read from.
     noise_samples: Vec<usize>,
@@ -204,7 +204,7 @@ impl Prepared {
         // A given level is exact: no spread from the differences it would be read from.
         let (noise_level, noise_samples) = match config.noise_level {
             Some(s) => (vec![s; takes.len()], vec![usize::MAX; takes.len()]),
-            None => takes.iter().map(start::noise_level_and_samples).unzip(),
+            None => takes.iter().map(start::unit_weight_noise_level).unzip(),
         };
         // Kinks in the cost: contacts, pairs appearing and vanishing, Provot's projection.
         let kinked = !tangent.plan.planes.is_empty()
@@ -331,7 +331,18 @@ impl Prepared {
         let (mut q, start_note) = match &config.start {
             Some(g) if g.len() == space.dim() => (g.clone(), "given start".to_string()),
             Some(g) => return Err(CostError::length("start", space.dim(), g.len())),
-            None => start::start_genome(scene, space, &self.takes[0], self.noise_level[0]),
+            // The smoother reads positions: their own level from the data (the weights are
+            // the user's claim, the differences what the tracker did), or a given weight-1
+            // level over the take's typical weight.
+            None => {
+                let take = &self.takes[0];
+                let position_noise = match config.noise_level {
+                    Some(unit) if take.weighted() => unit / take.rms_weight(),
+                    Some(unit) => unit,
+                    None => start::noise_level(take),
+                };
+                start::start_genome(scene, space, take, position_noise)
+            }
         };
         let fitter = self.fitter(space);
         for (k, take) in self.takes.iter().enumerate() {

@@ -70,6 +70,50 @@ pub fn difference_noise_level(take: &Take, order: usize) -> (f64, usize) {
     ((median / 0.455 / var_gain).sqrt(), sq.len())
 }
 
+/// [`noise_level_and_samples`] in the unit of the fit's weighted residuals: the noise σ̂
+/// estimates (weights are 1/σ relative), `√(mean over coordinates of w² σ_k²)` with σ_k each
+/// coordinate series' own level (the median of its third differences, a weight the same along
+/// a series or scaled per difference by `C(6, 3) / Σ c_j²/w_j²`), each series counted by its
+/// differences. Right whether the weights are (every `w σ_k` alike) or not (a uniform σ,
+/// weights claimed: the global median of weighted differences then fell below σ̂ and called
+/// a fit at the noise "above" it). Without weights, [`noise_level_and_samples`] as it is.
+pub fn unit_weight_noise_level(take: &Take) -> (f64, usize) {
+    if !take.weighted() {
+        return noise_level_and_samples(take);
+    }
+    const COEF: [f64; 4] = [-1.0, 3.0, -3.0, 1.0];
+    const GAIN: f64 = 20.0;
+    let (mut total, mut samples) = (0.0, 0usize);
+    let mut sq = Vec::new();
+    for i in 0..take.particles() {
+        for c in 0..3 {
+            sq.clear();
+            for t in 3..take.frames() {
+                let (mut d, mut gain, mut seen) = (0.0, 0.0, true);
+                for (j, k) in COEF.iter().enumerate() {
+                    let (x, weight) = take.at(t - 3 + j, i, c);
+                    seen &= weight > 0.0;
+                    d += k * x;
+                    gain += k * k / (weight * weight);
+                }
+                if seen {
+                    sq.push(d * d * (GAIN / gain));
+                }
+            }
+            if sq.is_empty() {
+                continue;
+            }
+            sq.sort_by(f64::total_cmp);
+            total += sq.len() as f64 * sq[sq.len() / 2] / 0.455 / GAIN;
+            samples += sq.len();
+        }
+    }
+    match samples {
+        0 => (0.0, 0),
+        n => ((total / n as f64).sqrt(), n),
+    }
+}
+
 /// The starting genome: the short cost's exact minimum on smoothed, gap-filled positions when
 /// the scene is linear in its unknowns and every particle is tracked (clamped into the boxes);
 /// otherwise (or when that solve fails) the heuristic start every strategy uses.

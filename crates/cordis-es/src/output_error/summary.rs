@@ -23,7 +23,8 @@ pub struct Estimate {
     pub cost: f64,
     /// Estimated noise of a unit-weight coordinate, m: `√(C / (m - P))`.
     pub sigma: f64,
-    /// Noise level read from the data before the fit (third differences), m, per take.
+    /// Noise level read from the data before the fit (third differences), m, per take, of a
+    /// weight-1 coordinate (σ's unit).
     pub noise_level: Vec<f64>,
     /// Observed coordinates m and fit variables P.
     pub observed: usize,

@@ -26,7 +26,8 @@ pub struct OutputErrorReport {
     /// σ̂, m (unit-weight noise from the residuals).
     #[serde(with = "lossless")]
     pub sigma: f64,
-    /// Noise level of each take from its third differences before the fit, m.
+    /// Noise level of each take from its third differences before the fit, m, of a weight-1
+    /// coordinate (σ's unit).
     pub noise_level: Vec<f64>,
     /// The loss on each residual (`squared`, `huber`, `cauchy`) and, with a robust one, the
     /// observed coordinates it weighs at less than half (outliers).
