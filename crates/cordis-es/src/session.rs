@@ -23,7 +23,7 @@ use cordis_core::{Observations, Scene, Trajectory};
 
 use crate::cost::{CostKind, LocalCost};
 use crate::evaluator::Evaluator;
-use crate::executor::{self, Fingerprint, Observer, RunConfig, RunResult, StopRules};
+use crate::executor::{self, Fingerprint, Observer, RunConfig, RunResult, StopReason, StopRules};
 use crate::identify::{self, make_islands, make_strategy, StrategyName, StrategyOptions};
 use crate::output_error::Take;
 use crate::problem::Problem;
@@ -377,7 +377,7 @@ impl Session {
         let mut warnings = self.warnings;
         warnings.extend(report.warnings());
         if !result.cost.is_finite() {
-            warnings.push(match self.problem.stable_horizon() {
+            let why = match self.problem.stable_horizon() {
                 Some(h) => format!(
                     "stable horizon {}: every candidate evaluated was rejected as unstable \
                      (widen the budget, or narrow the boxes)",
@@ -387,7 +387,19 @@ impl Session {
                          observed one's size and speeds a millionfold, or was not finite); \
                          widen the budget, or narrow the boxes"
                     .to_string(),
-            });
+            };
+            // No finite cost is no estimate: an error, not the best diverging candidate as a
+            // model. Ctrl-C keeps its own ending (the best so far, the checkpoint resumes).
+            if result.stopped_by != StopReason::Interrupted {
+                return Err(CostError::run(
+                    self.strategy.name(),
+                    format!(
+                        "no estimate ({} reached): {why}",
+                        result.stopped_by.as_str()
+                    ),
+                ));
+            }
+            warnings.push(why);
         }
         Ok(Outcome {
             result,

@@ -199,7 +199,9 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     if let Some(e) = &outcome.result.checkpoint_error {
         failed.get_or_insert(cordis_es::CostError::run("--checkpoint", e.as_str()).into());
     }
-    if let Some(out) = &a.out {
+    // A run stopped (Ctrl-C) before any finite cost has no model to write.
+    let finite = outcome.result.cost.is_finite();
+    if let Some(out) = a.out.as_ref().filter(|_| finite) {
         if let Err(e) = super::write_scene(&outcome.scene, Some(out)) {
             failed.get_or_insert(e);
         }
@@ -210,6 +212,12 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     // Warnings print even with --quiet: they say the answer is not to be trusted as it is.
     for w in &outcome.warnings[early..] {
         eprintln!("warning: {w}");
+    }
+    if let Some(out) = a.out.as_ref().filter(|_| !finite) {
+        eprintln!(
+            "warning: nothing written to {}: no candidate had a finite cost",
+            out.display()
+        );
     }
     output.json_line(&summary(ran, &outcome, a.stable_horizon))?;
     if let Some(e) = failed {
@@ -389,13 +397,22 @@ fn print_human(ran: &str, outcome: &Outcome) {
     }
 }
 
+/// A number as JSON writes it, or the string `"inf"` / `"NaN"` as the solver's report writes
+/// a non-finite one (a Ctrl-C before any finite cost), never `null`.
+fn lossless(x: f64) -> serde_json::Value {
+    match x.is_finite() {
+        true => x.into(),
+        false => x.to_string().into(),
+    }
+}
+
 /// The one JSON line of a run.
 fn summary(ran: &str, outcome: &Outcome, stable_horizon: Option<usize>) -> serde_json::Value {
     let result = &outcome.result;
     let mut summary = serde_json::json!({
         "strategy": ran,
-        "cost": result.cost,
-        "rmse": result.rmse,
+        "cost": lossless(result.cost),
+        "rmse": lossless(result.rmse),
         "evals": result.evals,
         "generations": result.generations,
         "seconds": result.seconds,

@@ -243,13 +243,18 @@ impl Schedule {
         self.stuck_diverged = false;
         let diverged = end == StageEnd::Diverged;
         if diverged && self.good.is_none() {
-            return Err(CostError::mismatch(
-                "fit",
-                format!(
-                    "the model diverged from its start within {w} frames: \
-                     narrow the boxes or check dt"
-                ),
-            ));
+            // Diverged from this attempt's start: stuck, so another start (multiple shooting,
+            // a seeded restart) gets its turn; an error only when every one did
+            // ([`Self::keep_going`]).
+            self.last = Some(Last {
+                end,
+                rms: f64::INFINITY,
+                tolerance: self.tolerance(fitter, w),
+                lag: 0.0,
+                lag_bound: 0.0,
+            });
+            self.stuck_diverged = true;
+            return Ok(After::Stuck);
         }
         let rms = match diverged {
             true => f64::INFINITY,
@@ -322,13 +327,20 @@ impl Schedule {
     pub fn keep_going(&mut self, q: &[f64]) -> Result<After, CostError> {
         let w = self.windows.last().copied().unwrap_or(self.next);
         if self.stuck_diverged {
-            let from = self.good.as_ref().map_or(0, |g| g.window);
             return Err(CostError::mismatch(
                 "fit",
-                format!(
-                    "the model fitted to {from} frames diverges within {w}: \
-                     narrow the boxes or check dt"
-                ),
+                match &self.good {
+                    Some(g) => format!(
+                        "the model fitted to {} frames diverges within {w}: narrow the boxes \
+                         or check dt",
+                        g.window
+                    ),
+                    None => format!(
+                        "the model diverged within {w} frames from every start (the first, \
+                         multiple shooting, the seeded restarts): narrow the boxes, check dt, \
+                         or against outliers (a swapped marker) try a robust loss"
+                    ),
+                },
             ));
         }
         if w >= self.longest {
@@ -439,6 +451,21 @@ mod tests {
         );
         assert_eq!(after, After::Done(StageEnd::AboveNoise));
         assert!(off.above_noise());
+    }
+
+    /// A first window that diverges is stuck, not an error: the fit's other starts (multiple
+    /// shooting, seeded restarts) get their turn (a swapped marker or weights 2 on every
+    /// marker once ended the whole fit here). Going on from it, every start having diverged,
+    /// is the error, which says so.
+    #[test]
+    fn a_first_window_that_diverges_is_stuck_and_an_error_only_from_every_start() {
+        let thrown = Thrown::new();
+        let mut schedule = thrown.schedule();
+        let after = thrown.end_at(10.0, StageEnd::Diverged, &mut schedule);
+        assert_eq!(after, After::Stuck);
+        assert!(schedule.above_noise() && schedule.last_rms() == f64::INFINITY);
+        let e = schedule.keep_going(&[]).unwrap_err().to_string();
+        assert!(e.contains("from every start"), "{e}");
     }
 
     /// Guards the budget rule of the dense fits: a whole-take stage that ends on its budget

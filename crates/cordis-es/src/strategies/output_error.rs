@@ -208,7 +208,8 @@ impl OutputErrorReport {
                     "above_noise" => format!(
                         "output-error: the fit of the whole take ({window} frames) leaves \
                          residuals (σ̂ {:.3e} m) above the data's noise level ({:.3e} m) from \
-                         every start: a wrong basin, or a model that cannot follow this motion",
+                         every start: a wrong basin, a model that cannot follow this motion, or \
+                         outliers (a swapped marker: try a robust loss, huber)",
                         e.sigma,
                         e.noise_level.iter().cloned().fold(0.0, f64::max)
                     ),
