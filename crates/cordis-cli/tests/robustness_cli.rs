@@ -45,7 +45,7 @@ mod numeric_options {
     //! Every numeric option of `identify`, `simulate`, `example`, `check`, `import` and
     //! `discover` driven with arbitrary values — ±0, ±inf, NaN, subnormals, 1e308, integers at
     //! their limits and past them, text that is no number — through the built binary: no
-    //! panic, exit 0 or 2, and a failure is one `error:` line. (`render` has no numeric
+    //! panic, exit 0 or 2 (or 1 when no candidate has a finite cost), and a failure is one `error:` line. (`render` has no numeric
     //! option.) Bounded in time: 48 cases per command, each a process of a few ms on the
     //! 15-particle rigid scene; frame counts are small or beyond memory, never in between (a
     //! run of 10⁸ frames would pass the memory check and take the machine).
@@ -109,7 +109,8 @@ mod numeric_options {
         ]
     }
 
-    /// The run ended as bad input allows: exit 0, or exit 2 with one `error:` line.
+    /// The run ended as bad input allows: exit 0, exit 2 with one `error:` line, or exit 1
+    /// with one saying there is no estimate.
     fn well_behaved(out: &Output, args: &[String]) -> Result<(), TestCaseError> {
         let err = stderr(out);
         prop_assert!(!err.contains("panicked"), "{args:?}: {err}");
@@ -121,6 +122,15 @@ mod numeric_options {
             Some(2) => {
                 prop_assert_eq!(err.lines().count(), 1, "{:?}: {}", args, err);
                 prop_assert!(err.starts_with("error: "), "{args:?}: {err}");
+            }
+            // A valid option that leaves no finite cost (a stability spread no candidate
+            // keeps): no estimate, said in one line.
+            Some(1) => {
+                prop_assert_eq!(err.lines().count(), 1, "{:?}: {}", args, err);
+                prop_assert!(
+                    err.starts_with("error: ") && err.contains("no estimate"),
+                    "{args:?}: {err}"
+                );
             }
             code => prop_assert!(false, "{args:?}: exit {code:?}: {err}"),
         }
