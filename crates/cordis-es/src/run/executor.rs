@@ -511,13 +511,19 @@ fn resume(
 fn make_row(problem: &Problem, s: &dyn Strategy, generation: u64, seconds: f64) -> HistoryRow {
     let st = s.stats();
     let (genome, _) = s.best();
+    // A strategy with a cost of its own (output-error's position residuals) logs that, the
+    // cost the summary reports, not the problem's it is never steered by.
+    let (best_cost, best_rmse, mean_cost) = match s.own_cost() {
+        Some((own, terms)) => (own, (own / terms.max(1) as f64).sqrt(), own),
+        None => (st.best_cost, problem.rmse(st.best_cost), st.mean_cost),
+    };
     HistoryRow {
         generation,
         evals: problem.evals(),
         seconds,
-        best_cost: st.best_cost,
-        best_rmse: problem.rmse(st.best_cost),
-        mean_cost: st.mean_cost,
+        best_cost,
+        best_rmse,
+        mean_cost,
         mean_mutability: st.mean_mutability,
         param_error_pct: problem.error_pct(genome),
     }

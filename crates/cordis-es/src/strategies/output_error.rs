@@ -325,13 +325,17 @@ impl Strategy for OutputError {
         };
         let space = &problem.space;
         let rollouts = progress.counts().1;
-        let step = prepared.stage(space, &mut progress, halt);
+        // The stages are the run's evaluations (rollouts with their sensitivities, and the
+        // Gauss–Newton solves they interleave with): `eval_seconds` is their time.
+        let step = problem.timed(|| prepared.stage(space, &mut progress, halt));
         problem.set_evals(problem.evals() + (progress.counts().1 - rollouts) as u64);
         match step {
-            Ok(Step::Done) => match prepared.finish(&problem.scene, space, &progress) {
-                Ok(e) => self.finished_with(problem, e, progress.counts().1),
-                Err(err) => self.fail(problem, err.to_string()),
-            },
+            Ok(Step::Done) => {
+                match problem.timed(|| prepared.finish(&problem.scene, space, &progress)) {
+                    Ok(e) => self.finished_with(problem, e, progress.counts().1),
+                    Err(err) => self.fail(problem, err.to_string()),
+                }
+            }
             Ok(Step::More | Step::Stopped) => self.show(problem, progress),
             Err(err) => self.fail(problem, err.to_string()),
         }
