@@ -407,15 +407,42 @@ pub fn report_html(input: &ReportInput) -> Result<String> {
     Ok(page)
 }
 
+/// Missing coordinates of `particles` in `obs`.
+fn missing_of(obs: &Observations, particles: impl Iterator<Item = usize>) -> usize {
+    let (flat, n) = (obs.as_flat(), obs.particles());
+    particles
+        .map(|i| {
+            (0..obs.frames())
+                .map(|t| {
+                    flat[(t * n + i) * 3..][..3]
+                        .iter()
+                        .filter(|v| v.is_nan())
+                        .count()
+                })
+                .sum::<usize>()
+        })
+        .sum()
+}
+
 fn summary_section(out: &mut String, input: &ReportInput, fit: &Fit, dt: f64) {
     let (scene, obs) = (input.scene, input.observed);
     let n = scene.num_particles();
-    let total = obs.frames() * obs.particles() * 3;
-    let missing = obs.missing();
-    let hidden = n - obs.particles()
-        + (0..obs.particles())
-            .filter(|&i| fit.per_particle_rms[i].is_nan())
-            .count();
+    // A fixed particle the file does not track is where the scene puts it: not data the
+    // motion lacks, so neither missing nor hidden (nor "in the motion").
+    let untracked_fixed = |i: usize| {
+        scene.particles[i].fixed && (i >= obs.particles() || fit.per_particle_rms[i].is_nan())
+    };
+    let counted = (0..obs.particles()).filter(|&i| !untracked_fixed(i));
+    let total = counted.clone().count() * obs.frames() * 3;
+    let missing = missing_of(obs, counted.clone());
+    let in_motion = counted
+        .clone()
+        .filter(|&i| fit.per_particle_rms[i].is_finite())
+        .count();
+    let hidden = (0..n)
+        .filter(|&i| !untracked_fixed(i))
+        .filter(|&i| i >= obs.particles() || fit.per_particle_rms[i].is_nan())
+        .count();
     let fixed = scene.particles.iter().filter(|p| p.fixed).count();
     let worst = fit
         .per_particle_rms
@@ -435,7 +462,7 @@ fn summary_section(out: &mut String, input: &ReportInput, fit: &Fit, dt: f64) {
         obs.frames(),
         num((obs.frames() - 1) as f64 * dt),
         num(dt),
-        obs.particles(),
+        in_motion,
         100.0 * missing as f64 / total.max(1) as f64,
         scene.links.len() + scene.couplings.len(),
         scene.types.len(),
@@ -703,12 +730,33 @@ fn convergence_section(out: &mut String, convergence: Option<&[ConvergencePoint]
     out.push_str("</section>");
 }
 
+/// `obs` with each fixed particle's missing coordinates at the scene's position (it does not
+/// move: a file need not track it).
+fn with_fixed_filled(obs: &Observations, scene: &Scene) -> Option<Observations> {
+    let (n, mut data) = (obs.particles(), obs.as_flat().to_vec());
+    for (i, p) in scene.particles.iter().enumerate().filter(|(_, p)| p.fixed) {
+        for t in 0..obs.frames() {
+            for (c, v) in data[(t * n + i) * 3..][..3].iter_mut().enumerate() {
+                if v.is_nan() {
+                    *v = p.pos[c];
+                }
+            }
+        }
+    }
+    let mut filled = Observations::from_flat(obs.frames(), n, data).ok()?;
+    filled.dt = obs.dt;
+    Some(filled)
+}
+
 /// The 3-D replay: the viewer page in an inline frame, the observed motion solid and the model
 /// dashed when the observation is complete, else the model alone.
 fn replay_section(out: &mut String, input: &ReportInput, model: &Trajectory) -> Result<()> {
     let obs = input.observed;
-    let complete = (obs.missing() == 0 && obs.particles() == input.scene.num_particles())
-        .then(|| obs.clone().into_trajectory())
+    let complete = (obs.particles() == input.scene.num_particles())
+        .then(|| with_fixed_filled(obs, input.scene))
+        .flatten()
+        .filter(|o| o.missing() == 0)
+        .map(Observations::into_trajectory)
         .transpose()?;
     let (page, note) = match &complete {
         Some(observed) => (
@@ -740,6 +788,36 @@ fn replay_section(out: &mut String, input: &ReportInput, model: &Trajectory) -> 
 mod tests {
     use super::*;
     use cordis_core::examples;
+
+    /// A fixed particle the file does not track is neither missing data nor hidden, and the
+    /// replay still overlays the observed motion (the report said 33 % missing and showed
+    /// the model alone for a block whose clamped layer was, rightly, not tracked).
+    #[test]
+    fn untracked_fixed_particles_are_not_missing_data() {
+        let mut scene = examples::rigid();
+        scene.particles[0].fixed = true;
+        let traj = scene.simulate(40).unwrap();
+        let mut data = traj.as_flat().to_vec();
+        for t in 0..40 {
+            data[t * 15 * 3..][..3].fill(f64::NAN);
+        }
+        let observed = Observations::from_flat(40, 15, data).unwrap();
+        let page = report_html(&ReportInput {
+            scene: &scene,
+            observed: &observed,
+            convergence: None,
+            summary: None,
+            weights: None,
+            title: "clamped",
+        })
+        .unwrap();
+        assert!(page.contains("15 in the scene (1 fixed), 14 in the motion, 0 never observed"));
+        assert!(
+            page.contains("<td>0 of 1680 coordinates (0.00 %)</td>"),
+            "{page}"
+        );
+        assert!(page.contains("observed solid, model dashed"));
+    }
 
     #[test]
     fn the_page_has_every_section_and_the_intervals_it_is_given() {

@@ -172,6 +172,19 @@ fn gaps_are_refused_by_name_where_they_cannot_be_read() {
     assert_eq!(out.status.code(), Some(2));
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(e.contains("41 particles but the scene has 27"), "{e}");
+    // A misspelt z header (`q`): read as planar, it once went silently to a fit that diverged.
+    let text = std::fs::read_to_string(soft_block().join("markers.csv")).unwrap();
+    let typo = text.replacen("frame,particle,x,y,z", "frame,particle,x,y,q", 1);
+    assert_ne!(typo, text, "the header the test changes");
+    std::fs::write(d.join("typo.csv"), typo).unwrap();
+    let out = cordis(d, &["identify", guess.to_str().unwrap(), "-t", "typo.csv"]);
+    assert_eq!(out.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        e.starts_with("error: typo.csv: every z is 0") && e.contains("particles[3]"),
+        "{e}"
+    );
+    assert_eq!(e.lines().count(), 1, "{e}");
 }
 
 #[test]
@@ -297,8 +310,11 @@ fn markers_map_a_file_in_its_own_order_without_the_fixed_particles() {
     assert_eq!(s["strategy"], "output-error", "{s}");
     assert_eq!(s["stopped_by"], "converged", "{s}");
     assert!(s["param_error_pct"].as_f64().unwrap() < 5.0, "{s}");
-    // 18 tracked markers × 200 frames × 3 coordinates: the clamped particles are not data.
+    // 18 tracked markers × 200 frames × 3 coordinates: the clamped particles are not data,
+    // nor missing (`auto` chose the estimator for the noise, not for gaps there are none of).
     assert_eq!(s["solver"]["observed"], 18 * 200 * 3);
+    let why = s["solver"]["chosen_because"].as_str().unwrap_or_default();
+    assert!(why.contains("noisy") && !why.contains("missing"), "{why}");
 
     // Down-weighting two markers (three weights each) changes the estimate, not its quality.
     let mut weights = vec!["1"; 3 * order.len()];
@@ -414,7 +430,13 @@ fn report_maps_markers_and_weights_as_identify_does() {
     let weights = vec!["2"; order.len()].join(",");
     assert_eq!(rms(&["--markers", &map, "--weights", &weights]), mapped);
     let page = std::fs::read_to_string(d.join("r.html")).unwrap();
-    assert!(page.contains("9 never observed"), "the clamped particles");
+    // The 9 clamped particles the file does not track are where the scene puts them: not
+    // hidden, not missing.
+    assert!(
+        page.contains("27 in the scene (9 fixed), 18 in the motion, 0 never observed"),
+        "the clamped particles"
+    );
+    assert!(page.contains("<td>0 of 10800 coordinates (0.00 %)</td>"));
     assert!(page.contains("weighted position RMS error</th><td>"));
     let out = cordis(
         d,

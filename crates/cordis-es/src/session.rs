@@ -678,9 +678,14 @@ fn check(req: &IdentifyRequest, ran: &str, problem: &Problem) -> Result<(), Cost
             req.opt("total_mass"),
             format!(
                 "is honoured by least-squares and hybrid only (they constrain the free masses' \
-                 sum in their solve); `{ran}` would ignore it: use {} least-squares or hybrid, \
-                 or leave it out",
-                req.opt("strategy")
+                 sum in their solve); `{ran}` would ignore it: leave it out and make one mass \
+                 known instead (a value in the scene, not a box: that fixes the scale for every \
+                 strategy), or use {} least-squares or hybrid{}",
+                req.opt("strategy"),
+                match ran {
+                    "output-error" => " (exact, but on noisy data they differentiate the noise)",
+                    _ => "",
+                }
             ),
         ));
     }
@@ -693,7 +698,8 @@ fn check(req: &IdentifyRequest, ran: &str, problem: &Problem) -> Result<(), Cost
                         &place,
                         format!(
                             "masses and forces are unknown together and only their ratios show \
-                             in the motion: pass {} (kg){}, or make a mass or a force known",
+                             in the motion: make a mass or a force known (a value in the scene, \
+                             not a box), or pass {} (kg){}",
                             req.opt("total_mass"),
                             if honours_total {
                                 String::new()

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::Result;
-use cordis_core::Scene;
+use cordis_core::{Observations, Scene};
 use cordis_es::cost::{CostKind, LocalCost};
 use cordis_es::executor::{HistoryRow, Observer, StopReason};
 use cordis_es::identify::StrategyName;
@@ -229,6 +229,31 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     Ok(())
 }
 
+/// Refuses a take whose every observed z is 0 for a scene with depth: a table with no z
+/// column reads as planar (z = 0), so a misspelt `z` header (`q`) read silently flat, and the
+/// fit then diverged with advice about boxes and dt.
+fn check_not_flattened(scene: &Scene, obs: &Observations, path: &Path) -> Result<()> {
+    let mut z = obs
+        .as_flat()
+        .iter()
+        .skip(2)
+        .step_by(3)
+        .filter(|v| !v.is_nan());
+    let flat = z.clone().next().is_some() && z.all(|v| *v == 0.0);
+    match scene.particles.iter().position(|p| p.pos[2] != 0.0) {
+        Some(k) if flat => Err(cordis_core::CordisError::trajectory(
+            path.display().to_string(),
+            format!(
+                "every z is 0 (a table without a z column reads as planar), but the scene has \
+                 depth (particles[{k}] starts at z = {}): name the z column, --columns z=…",
+                scene.particles[k].pos[2]
+            ),
+        )
+        .into()),
+        _ => Ok(()),
+    }
+}
+
 /// Issue 17 hook: outputs off the inputs and each other, writable, before any work.
 /// `--checkpoint` may be the `--resume` file (a run that goes on saving where it resumed).
 fn guard(a: &Args) -> Result<()> {
@@ -285,6 +310,7 @@ fn request(a: &Args) -> Result<IdentifyRequest> {
     for path in &a.trajectory {
         let obs = cordis_core::io::read_observations_with(path, &a.read.options()?)?;
         super::check_dt(&scene, a.dt.or(obs.dt), path)?;
+        check_not_flattened(&scene, &obs, path)?;
         takes.push(obs);
     }
     let cost: CostKind = a.cost.parse().map_err(|e| anyhow::anyhow!("--cost: {e}"))?;

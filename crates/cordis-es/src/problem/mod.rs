@@ -155,11 +155,18 @@ impl Problem {
         self.takes.as_ref().map_or(1, Vec::len)
     }
 
-    /// Whether some observation is missing (a gap, a hidden particle) in the recorded takes.
+    /// Whether some observation of a free particle is missing (a gap, a hidden particle) in
+    /// the recorded takes.
     pub fn has_missing(&self) -> bool {
+        // A fixed particle is where the scene puts it: untracked, it is no missing data.
+        let free: Vec<usize> = (0..self.scene.particles.len())
+            .filter(|&i| !self.scene.particles[i].fixed)
+            .collect();
         self.takes.as_ref().is_some_and(|ts| {
-            ts.iter()
-                .any(|t| t.observed() < t.frames() * t.particles() * 3)
+            ts.iter().any(|t| {
+                (0..t.frames())
+                    .any(|f| free.iter().any(|&i| (0..3).any(|c| t.at(f, i, c).1 == 0.0)))
+            })
         })
     }
 
