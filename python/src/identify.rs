@@ -154,7 +154,7 @@ impl IdentifyResult {
                     scene.num_particles(),
                     markers.as_deref(),
                     weights.as_deref(),
-                    ["markers", "weights"],
+                    ["markers", "weights", "trajectory"],
                 )?,
                 false => (observed, None),
             };

@@ -58,33 +58,35 @@ pub struct ReportInput<'a> {
 /// The markers of `obs` in scene order, as `identify --markers` reads them: marker m is the
 /// scene's particle `markers[m]`; particles no marker names are missing throughout. With
 /// `weights` (one per marker, or three: x, y, z; positive, finite), also each coordinate's
-/// weight in the same order. Errors name the option (`names`: how the front end spells
-/// markers and weights, `--markers` or `markers`) and the index.
+/// weight in the same order. Errors name the option and the index, and a count that does not
+/// fit the markers the trajectory too (`names`: how the front end spells markers, weights and
+/// the trajectory: `--markers`, `--weights` and the file, or `markers`, `weights`,
+/// `trajectory`).
 pub fn in_scene_order(
     obs: &Observations,
     particles: usize,
     markers: Option<&[usize]>,
     weights: Option<&[f64]>,
-    names: [&str; 2],
+    names: [&str; 3],
 ) -> Result<(Observations, Option<Vec<f64>>)> {
-    let [markers_opt, weights_opt] = names;
+    let [markers_opt, weights_opt, source] = names;
     let count = obs.particles();
     let map: Vec<usize> = match markers {
         Some(m) if m.len() != count => {
             return Err(CordisError::argument(
                 markers_opt,
                 format!(
-                    "names {} particles for the {count} markers of the trajectory",
+                    "names {} particles for the {count} markers of {source}",
                     m.len()
                 ),
             ))
         }
         Some(m) => m.to_vec(),
+        // No mapping helps: markers name distinct particles.
         None if count > particles => {
-            let message = format!("has {count} markers but the scene has {particles} particles");
             return Err(CordisError::trajectory(
-                "trajectory",
-                format!("{message} (pass {markers_opt})"),
+                source,
+                format!("has {count} particles but the scene has {particles}"),
             ));
         }
         None => (0..count).collect(),
@@ -124,7 +126,8 @@ pub fn in_scene_order(
                     return Err(CordisError::argument(
                         weights_opt,
                         format!(
-                            "holds {l} values for {count} markers: give one per marker or three (x, y, z)"
+                            "holds {l} values for the {count} markers of {source}: give one per \
+                             marker or three (x, y, z)"
                         ),
                     ))
                 }
@@ -904,7 +907,7 @@ mod tests {
     /// given in reverse order, then mapped back: the same page as the motion in scene order.
     #[test]
     fn markers_map_to_the_scene_and_weights_weigh_the_fit() {
-        const NAMES: [&str; 2] = ["--markers", "--weights"];
+        const NAMES: [&str; 3] = ["--markers", "--weights", "obs.csv"];
         let scene = examples::rigid();
         let truth = scene.simulate(20).unwrap();
         let n = scene.num_particles();
@@ -953,7 +956,11 @@ mod tests {
                 None,
                 "--markers[1]: particle 99 does not exist (the scene has 15",
             ),
-            (&[5], None, "--markers: names 1 particles for the 2 markers"),
+            (
+                &[5],
+                None,
+                "--markers: names 1 particles for the 2 markers of obs.csv",
+            ),
             (
                 &[5, 2],
                 Some(&[1.0, f64::NAN][..]),
@@ -962,7 +969,7 @@ mod tests {
             (
                 &[5, 2],
                 Some(&[1.0, 1.0, 1.0]),
-                "--weights: holds 3 values for 2 markers",
+                "--weights: holds 3 values for the 2 markers of obs.csv",
             ),
         ] {
             let e = in_scene_order(&two, n, Some(markers), weights, NAMES)

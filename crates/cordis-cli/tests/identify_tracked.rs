@@ -359,10 +359,19 @@ fn bad_markers_and_weights_are_refused_by_name() {
             &["--markers", "0,1,99"],
             &["--markers[2]", "particle 99 does not exist"],
         ),
-        (&["--markers", "0,1,2"], &["markers", "3 particles for 27"]),
+        (
+            &["--markers", "0,1,2"],
+            &[
+                "--markers: names 3 particles for the 27 markers of",
+                "markers.csv",
+            ],
+        ),
         (
             &["--weights", "1,2"],
-            &["--weights", "2 values for 27 markers"],
+            &[
+                "--weights: holds 2 values for the 27 markers of",
+                "markers.csv",
+            ],
         ),
         (
             &[
@@ -385,6 +394,66 @@ fn bad_markers_and_weights_are_refused_by_name() {
     ];
     for (extra, says) in cases {
         common::fails(d, &[&base[..], extra].concat(), 2, says);
+    }
+}
+
+/// A take that cannot be read is bad input (exit 2) named by its file wherever it stands on
+/// the line: a short second take used to fail as a run (exit 1, `output-error: take 1: …`),
+/// and a marker count that did not fit was blamed on `--trajectory` without the file.
+#[test]
+fn a_bad_take_is_bad_input_named_by_its_file_at_any_position() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let sb = soft_block();
+    let guess = sb.join("guess.json");
+    let text = std::fs::read_to_string(sb.join("markers.csv")).unwrap();
+    let header = text.lines().next().unwrap();
+    let rows = |keep: &dyn Fn(&[&str]) -> Option<String>| -> String {
+        let mut out = format!("{header}\n");
+        for line in text.lines().skip(1) {
+            if let Some(row) = keep(&line.split(',').collect::<Vec<_>>()) {
+                out.push_str(&row);
+                out.push('\n');
+            }
+        }
+        out
+    };
+    std::fs::copy(sb.join("markers.csv"), d.join("markers.csv")).unwrap();
+    let two = rows(&|f| (f[0].parse::<usize>().unwrap() < 2).then(|| f.join(",")));
+    std::fs::write(d.join("two.csv"), two).unwrap();
+    let gone = rows(&|f| Some(format!("{},{},,,", f[0], f[1])));
+    std::fs::write(d.join("gone.csv"), gone).unwrap();
+    // The 18 free markers only, renumbered from 0.
+    let free = rows(&|f| {
+        let p: usize = f[1].parse().unwrap();
+        (p >= 9).then(|| format!("{},{},{},{},{}", f[0], p - 9, f[2], f[3], f[4]))
+    });
+    std::fs::write(d.join("free.csv"), free).unwrap();
+    let all: Vec<String> = (0..27).map(|p| p.to_string()).collect();
+    let all = all.join(",");
+    let g = guess.to_str().unwrap();
+    let cases: [(&[&str], &str); 5] = [
+        (
+            &["-t", "two.csv"],
+            "two.csv: has 2 frames, at least 3 are needed",
+        ),
+        (
+            &["-t", "markers.csv", "-t", "two.csv"],
+            "two.csv: has 2 frames, at least 3 are needed",
+        ),
+        (&["-t", "gone.csv"], "gone.csv: every coordinate is missing"),
+        (
+            &["-t", "markers.csv", "-t", "gone.csv"],
+            "gone.csv: every coordinate is missing",
+        ),
+        (
+            &["-t", "markers.csv", "-t", "free.csv", "--markers", &all],
+            "--markers: names 27 particles for the 18 markers of free.csv",
+        ),
+    ];
+    for (takes, says) in cases {
+        let err = common::fails(d, &[&["identify", g][..], takes].concat(), 2, &[says]);
+        assert_eq!(err.trim_end(), format!("error: {says}"));
     }
 }
 
@@ -452,7 +521,14 @@ fn report_maps_markers_and_weights_as_identify_does() {
         ],
     );
     assert_eq!(out.status.code(), Some(2));
-    assert!(stderr(&out).contains("--markers: names 2 particles for the 18 markers"));
+    let e = stderr(&out);
+    assert!(
+        e.contains(&format!(
+            "--markers: names 2 particles for the 18 markers of {}",
+            file.display()
+        )),
+        "{e}"
+    );
     assert!(!d.join("bad.html").exists());
 }
 

@@ -90,6 +90,9 @@ pub struct IdentifyRequest {
     /// coordinate and particles beyond a take's are hidden (only `output-error` reads gaps
     /// and several takes; the other strategies refuse them by name).
     pub takes: Vec<Observations>,
+    /// Where each take came from (a file name), to place messages about it; a take with no
+    /// entry is named as the front end spells the option (`--trajectory`, `trajectory[1]`).
+    pub take_places: Vec<String>,
     /// Which scene particle each tracked marker (a take's particle index) is, the same for
     /// every take (`None`: marker `i` is particle `i`). Particles no marker names are hidden;
     /// fixed ones need not be tracked at all.
@@ -178,6 +181,7 @@ impl IdentifyRequest {
             scene,
             scene_place: "scene".into(),
             takes,
+            take_places: Vec::new(),
             markers: None,
             weights: None,
             loss: crate::output_error::Loss::Squared,
@@ -213,6 +217,16 @@ impl IdentifyRequest {
 
     fn opt(&self, name: &str) -> String {
         self.style.opt(name)
+    }
+
+    /// Take `k` as messages name it: its file, else the option (indexed when there are
+    /// several takes).
+    fn take_place(&self, k: usize) -> String {
+        match self.take_places.get(k) {
+            Some(place) => place.clone(),
+            None if self.takes.len() == 1 => self.opt("trajectory"),
+            None => format!("{}[{k}]", self.opt("trajectory")),
+        }
     }
 }
 
@@ -411,9 +425,8 @@ impl Session {
     }
 }
 
-/// Every numeric option in range, once, for every front end.
 /// Every marker names a particle of the scene, no particle twice; every weight is a positive
-/// finite number, one (or three) per marker.
+/// finite number (their counts are each take's, checked with it: [`check_take`]).
 fn validate_markers(req: &IdentifyRequest) -> Result<(), CostError> {
     let n = req.scene.num_particles();
     let at = |name: &str, k: usize| format!("{}[{k}]", req.opt(name));
@@ -445,21 +458,66 @@ fn validate_markers(req: &IdentifyRequest) -> Result<(), CostError> {
                 ),
             ));
         }
-        let markers = req.markers.as_ref().map(Vec::len);
-        let tracked = markers.unwrap_or_else(|| req.takes.first().map_or(0, |t| t.particles()));
-        if weights.len() != tracked && weights.len() != 3 * tracked {
-            return Err(CostError::invalid(
-                req.opt("weights"),
-                format!(
-                    "holds {} values for {tracked} markers: give one per marker or three (x, y, z)",
-                    weights.len()
-                ),
-            ));
-        }
     }
     Ok(())
 }
 
+/// Take `k` against the request before it is read: as many markers as `markers` names and
+/// `weights` weighs (the counts are the file's, so the refusal names both the option and the
+/// file), and enough frames for the cost. Every take is bad input alike, whatever its
+/// position: a short second take used to reach the estimator and fail as a run (exit 1).
+fn check_take(req: &IdentifyRequest, k: usize, obs: &Observations) -> Result<(), CostError> {
+    let place = req.take_place(k);
+    let (count, n) = (obs.particles(), req.scene.num_particles());
+    match &req.markers {
+        Some(m) if m.len() != count => {
+            return Err(CostError::invalid(
+                req.opt("markers"),
+                format!(
+                    "names {} particles for the {count} markers of {place}",
+                    m.len()
+                ),
+            ))
+        }
+        // No mapping helps: markers name distinct particles.
+        None if count > n => {
+            return Err(cordis_core::CordisError::trajectory(
+                place,
+                format!("has {count} particles but the scene has {n}"),
+            )
+            .into())
+        }
+        _ => {}
+    }
+    if let Some(w) = req
+        .weights
+        .as_ref()
+        .filter(|w| w.len() != count && w.len() != 3 * count)
+    {
+        return Err(CostError::invalid(
+            req.opt("weights"),
+            format!(
+                "holds {} values for the {count} markers of {place}: give one per marker or \
+                 three (x, y, z)",
+                w.len()
+            ),
+        ));
+    }
+    let min = req.cost.min_frames();
+    if obs.frames() < min {
+        return Err(cordis_core::CordisError::trajectory(
+            place,
+            match obs.frames() {
+                1 => format!("has 1 frame, at least {min} are needed"),
+                f => format!("has {f} frames, at least {min} are needed"),
+            },
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// Every numeric option in range, once, for every front end.
 fn validate(req: &IdentifyRequest) -> Result<(), CostError> {
     let bad = |name: &str, m: String| Err(CostError::invalid(req.opt(name), m));
     if !req.scene.has_unknowns() {
@@ -938,10 +996,8 @@ fn prepare_takes(req: &IdentifyRequest, noise: f64) -> Result<(Trajectory, Vec<T
     let mut takes = Vec::with_capacity(req.takes.len());
     let mut first = None;
     for (k, obs) in req.takes.iter().enumerate() {
-        let place = match req.takes.len() {
-            1 => req.opt("trajectory"),
-            _ => format!("{}[{k}]", req.opt("trajectory")),
-        };
+        check_take(req, k, obs)?;
+        let place = req.take_place(k);
         let noisy = match noise > 0.0 {
             true => identify::try_add_noise_observations(obs, noise, req.seed + k as u64)
                 .ok_or_else(|| {
@@ -964,12 +1020,18 @@ fn prepare_takes(req: &IdentifyRequest, noise: f64) -> Result<(Trajectory, Vec<T
                 None,
             ),
         };
+        // What is left to refuse is the data's own (every coordinate missing, a value not
+        // finite): the take's file is the place, the take's own place (a frame, a marker)
+        // follows it.
         let take = take.map_err(|e| {
-            let message = match e {
-                CostError::Mismatch { message, .. } => message,
-                e => e.to_string(),
+            let (at, message) = match e {
+                CostError::Mismatch { place: at, message } if at == "trajectory" => {
+                    (place, message)
+                }
+                CostError::Mismatch { place: at, message } => (format!("{place}, {at}"), message),
+                e => (place, e.to_string()),
             };
-            CostError::Core(cordis_core::CordisError::trajectory(place, message))
+            CostError::Core(cordis_core::CordisError::trajectory(at, message))
         })?;
         if k == 0 {
             first = Some(noisy);

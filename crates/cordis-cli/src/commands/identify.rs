@@ -320,6 +320,11 @@ fn request(a: &Args) -> Result<IdentifyRequest> {
     };
     let mut r = IdentifyRequest::with_takes(scene, takes);
     r.scene_place = a.scene.display().to_string();
+    r.take_places = a
+        .trajectory
+        .iter()
+        .map(|t| t.display().to_string())
+        .collect();
     r.markers = a.markers.clone();
     r.weights = a.weights.clone();
     r.loss = a.loss.parse().map_err(|e| anyhow::anyhow!("--loss: {e}"))?;

@@ -38,18 +38,15 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         ("--summary", a.summary.as_deref()),
     ])?;
     let read = read_observations_with(&a.page.trajectory, &a.page.read.options()?)?;
+    let file = a.page.trajectory.display().to_string();
     let (observed, weights) = match a.markers.is_some() || a.weights.is_some() {
-        true => {
-            let (o, w) = in_scene_order(
-                &read,
-                scene.num_particles(),
-                a.markers.as_deref(),
-                a.weights.as_deref(),
-                ["--markers", "--weights"],
-            )
-            .map_err(|e| name_trajectory(e, &a))?;
-            (o, w)
-        }
+        true => in_scene_order(
+            &read,
+            scene.num_particles(),
+            a.markers.as_deref(),
+            a.weights.as_deref(),
+            ["--markers", "--weights", &file],
+        )?,
         false => (read, None),
     };
     let convergence = a

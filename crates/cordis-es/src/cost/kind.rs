@@ -180,6 +180,15 @@ impl CostKind {
 }
 
 impl CostKind {
+    /// The fewest frames a trajectory needs for this kind: 3 for the kinds that predict
+    /// motion (a step reads the two frames before it), 1 for the static kind's poses.
+    pub fn min_frames(self) -> usize {
+        match self {
+            CostKind::Static => 1,
+            _ => 3,
+        }
+    }
+
     /// Whether this kind can read `scene` (compiled as `plan`): `Err` naming what it cannot.
     /// The static kind refuses couplings by the type's name: they carry a state between steps
     /// (a TGR's tendon follows a signal in time, a quadripole remembers Δ(n-1)) that a pose

@@ -124,7 +124,7 @@ impl Objective {
         let plan = Plan::compile(scene)?;
         let is_static = kind == CostKind::Static;
         kind.check_scene(scene, &plan)?;
-        let mut obs = Observed::new(scene, &plan, traj, if is_static { 1 } else { 3 })?;
+        let mut obs = Observed::new(scene, &plan, traj, kind.min_frames())?;
         if is_static {
             // Frames are independent poses at rest: no velocity between them.
             obs.vs.fill(Vec3::zeros());

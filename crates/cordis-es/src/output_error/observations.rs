@@ -276,7 +276,10 @@ fn marker_particles(
         Some(m) if m.len() != count => {
             return Err(CostError::mismatch(
                 "markers",
-                format!("names {} particles for {count} tracked markers", m.len()),
+                format!(
+                    "names {} particles for the {count} markers of the trajectory",
+                    m.len()
+                ),
             ))
         }
         Some(m) => m.to_vec(),
