@@ -655,7 +655,9 @@ class IdentifyResult:
 
         ``value ± 1.96 stderr``, or on ``ln value`` (``value * exp(±1.96 stderr / value)``)
         for a positive unknown searched in log coordinates (a box wider than a factor 10:
-        usually stiffness, rest length, damping, mass): never below zero (docs/identification.md, Uncertainty)."""
+        usually stiffness, rest length, damping, mass): never below zero. An unknown the data
+        do not determine (``stderr`` inf) has its box ``(min, max)``, finite: the data do not
+        narrow it (docs/identification.md, Uncertainty)."""
     @property
     def covariance(self) -> Optional[npt.NDArray[np.float64]]:
         """Covariance of the unknowns in ``list(params)`` order, ``(n, n)``; inf on the diagonal

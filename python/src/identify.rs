@@ -101,7 +101,8 @@ pub struct IdentifyResult {
     /// name, for strategies that estimate it (`output-error`); None otherwise.
     #[pyo3(get)]
     stderr: Option<Py<PyDict>>,
-    /// 95 % interval `(low, high)` of each unknown, by name; None when not estimated.
+    /// 95 % interval `(low, high)` of each unknown, by name (an undetermined unknown's box:
+    /// the data do not narrow it); None when not estimated.
     #[pyo3(get)]
     intervals: Option<Py<PyDict>>,
     /// Covariance of the unknowns (unknown order, `list(params)`), float64 `(n, n)`; an

@@ -21,7 +21,7 @@ mod svg;
 use std::fmt::Write as _;
 
 use cordis_core::{CordisError, LinkKind, Observations, Result, Scene, Simulator, Trajectory};
-use cordis_es::report::StderrBound;
+use cordis_es::report::{ParamUncertainty, StderrBound};
 
 use crate::render::{escape_html, render_html, render_html_labelled};
 use svg::{bar_chart, line_chart, Chart, Series};
@@ -553,19 +553,19 @@ fn parameter_section(out: &mut String, input: &ReportInput) {
                 None => String::new(),
             };
         };
-        let se = u["std_error"].as_f64();
-        let (lo, hi) = (u["interval"][0].as_f64(), u["interval"][1].as_f64());
-        let level = u["level"].as_f64().unwrap_or(0.95) * 100.0;
-        match (se, lo, hi) {
-            (Some(se), Some(lo), Some(hi)) if se.is_finite() => {
-                format!(
-                    "± {} <span class=\"muted\">[{}, {}] ({level:.0} %)</span>",
-                    num(se),
-                    num(lo),
-                    num(hi)
-                )
-            }
-            _ => "not determined".into(),
+        // Read as identify wrote it: an infinite standard error is the string "inf".
+        let Ok(u) = serde_json::from_value::<ParamUncertainty>((*u).clone()) else {
+            return "not determined".into();
+        };
+        let (lo, hi) = (num(u.interval.0), num(u.interval.1));
+        match u.std_error.is_finite() {
+            true => format!(
+                "± {} <span class=\"muted\">[{lo}, {hi}] ({:.0} %)</span>",
+                num(u.std_error),
+                u.level * 100.0
+            ),
+            // Its interval is the box it was searched in: the data do not narrow it.
+            false => format!("not determined <span class=\"muted\">[{lo}, {hi}] (its box)</span>"),
         }
     };
     out.push_str("<section id=\"parameters\"><h2>Parameters</h2>");

@@ -457,6 +457,82 @@ fn a_bad_take_is_bad_input_named_by_its_file_at_any_position() {
     }
 }
 
+/// An unknown the data do not determine (a spring between two fixed particles) has an
+/// infinite standard error, written `"inf"`, and its box as its interval: it was written
+/// `[0.0, null]`, infinity two ways in one object and a lower end below the box's 1. The
+/// report reads the summary back and shows the box.
+#[test]
+fn an_undetermined_unknown_s_interval_is_its_box_in_the_summary_and_the_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let sb = soft_block();
+    let mut guess: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(sb.join("guess.json")).unwrap()).unwrap();
+    let fixed = guess["particles"].as_array().unwrap();
+    assert!(fixed[0]["fixed"] == true && fixed[1]["fixed"] == true);
+    guess["types"]["dummy"] = serde_json::json!({
+        "kind": "spring", "stiffness": {"min": 1, "max": 100}, "rest_length": 0.1
+    });
+    let link = serde_json::json!({"type": "dummy", "particles": [0, 1]});
+    guess["links"].as_array_mut().unwrap().push(link);
+    std::fs::write(d.join("dummy.json"), guess.to_string()).unwrap();
+    let markers = sb.join("markers.csv");
+    let args = [
+        "identify",
+        "dummy.json",
+        "-t",
+        markers.to_str().unwrap(),
+        "--out",
+        "fit.json",
+        "--json",
+        "-q",
+    ];
+    let out = cordis(d, &args);
+    let line = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(!line.contains("null"), "{line}");
+    let s = summary(&out);
+    let u = s["solver"]["uncertainty"].as_array().unwrap();
+    let dummy = u
+        .iter()
+        .find(|p| p["name"] == "types.dummy.stiffness")
+        .expect("the undetermined unknown is reported");
+    assert_eq!(dummy["std_error"], "inf", "{dummy}");
+    assert_eq!(
+        dummy["interval"],
+        serde_json::json!([1.0, 100.0]),
+        "{dummy}"
+    );
+    // The determined ones keep their Wald intervals, finite and around their values.
+    assert_eq!(u.len(), 10);
+    for p in u.iter().filter(|p| p["name"] != "types.dummy.stiffness") {
+        let se = p["std_error"].as_f64().unwrap();
+        let (lo, hi) = (
+            p["interval"][0].as_f64().unwrap(),
+            p["interval"][1].as_f64().unwrap(),
+        );
+        assert!(se > 0.0 && lo < hi && hi - lo < 10.0 * se, "{p}");
+    }
+    std::fs::write(d.join("summary.json"), &line).unwrap();
+    let report = [
+        "report",
+        "fit.json",
+        "-t",
+        markers.to_str().unwrap(),
+        "--summary",
+        "summary.json",
+        "--html",
+        "r.html",
+        "-q",
+    ];
+    let out = cordis(d, &report);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let page = std::fs::read_to_string(d.join("r.html")).unwrap();
+    assert!(
+        page.contains("not determined <span class=\"muted\">[1, 100] (its box)</span>"),
+        "the page shows the box"
+    );
+}
+
 /// Issue 18: `cordis report` reads `--markers` and `--weights` as `identify` does. On the
 /// reordered file the mapped page fits the truth as the scene-order file does; unmapped, the
 /// file's particle j is drawn as the scene's particle j and the fit is far off.

@@ -415,7 +415,11 @@ fn print_human(ran: &str, outcome: &Outcome) {
                 " ± {:.2e}  [{:.6e}, {:.6e}]",
                 p.std_error, p.interval.0, p.interval.1
             ),
-            Some(_) => " ± not determined".to_string(),
+            // Its interval is its box: the data do not narrow it.
+            Some(p) => format!(
+                " ± not determined  [{:.6e}, {:.6e}] (its box)",
+                p.interval.0, p.interval.1
+            ),
             None => match not_computed.iter().find(|b| b.name == u.name) {
                 Some(b) => match b.rounded_down() {
                     Some(v) => format!(" ± not computed (≥ {v})"),

@@ -38,7 +38,7 @@ pub struct Estimate {
     /// the true one); NaN elsewhere.
     pub stderr_at_least: Vec<f64>,
     /// 95 % interval per unknown ([`interval95`]: `value ± 1.96 stderr`, on `ln value` for
-    /// the log-searched ones).
+    /// the log-searched ones; an undetermined unknown's box `(min, max)`, [`box_interval`]).
     pub intervals: Vec<(f64, f64)>,
     /// Covariance of the unknowns (physical units), row-major dim × dim.
     pub covariance: DMatrix<f64>,
@@ -132,7 +132,8 @@ pub(crate) fn end_text(end: StageEnd) -> &'static str {
     }
 }
 
-/// Standard errors (the covariance's diagonal) and 95 % intervals ([`interval95`]).
+/// Standard errors (the covariance's diagonal) and 95 % intervals ([`interval95`]; an
+/// undetermined unknown's is its box, [`box_interval`]).
 pub(crate) fn spread(
     fitter: &Fitter<'_>,
     params: &[f64],
@@ -144,9 +145,21 @@ pub(crate) fn spread(
     let intervals = stderr
         .iter()
         .zip(fitter.unknowns)
-        .map(|(&se, u)| interval95(params[u.slot], se, u.log))
+        .map(|(&se, u)| box_interval(interval95(params[u.slot], se, u.log), se, (u.min, u.max)))
         .collect();
     (stderr, intervals)
+}
+
+/// The interval of an unknown with standard error `se` searched in `bounds`: `wald`, or the
+/// box itself when `se` is infinite (undetermined). The data do not narrow such an unknown,
+/// so what is known of it is the box it was given: the Wald interval's `(0, inf)` or
+/// `(-inf, inf)` reached outside it (a stiffness in [1, 100] reported as [0, inf]) and wrote
+/// infinity into JSON as `null`.
+pub(crate) fn box_interval(wald: (f64, f64), se: f64, bounds: (f64, f64)) -> (f64, f64) {
+    match se == f64::INFINITY {
+        true => bounds,
+        false => wald,
+    }
 }
 
 /// The 95 % Wald interval of a value `v` with standard error `se`: on `ln v` for a parameter

@@ -40,7 +40,10 @@ pub struct ParamUncertainty {
     /// Standard error of the estimate.
     #[serde(with = "lossless")]
     pub std_error: f64,
-    /// A confidence interval (lower, upper) around the estimate.
+    /// A confidence interval (lower, upper) around the estimate; an undetermined parameter's
+    /// is its search box (the data do not narrow it). Written as `std_error` is, an infinite
+    /// end as a string, never `null`.
+    #[serde(with = "lossless::pair")]
     pub interval: (f64, f64),
     /// Confidence level of `interval` (0.95 for a 95 % interval).
     pub level: f64,

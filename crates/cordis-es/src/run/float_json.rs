@@ -81,6 +81,23 @@ pub mod lossless {
         }
     }
 
+    /// A pair of f64 (an interval's ends) as a two-element array, each as
+    /// [`super::lossless`] writes one.
+    pub mod pair {
+        use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+        use super::Lossless;
+
+        pub fn serialize<S: Serializer>(v: &(f64, f64), s: S) -> Result<S::Ok, S::Error> {
+            (Lossless(v.0), Lossless(v.1)).serialize(s)
+        }
+
+        pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<(f64, f64), D::Error> {
+            let (a, b) = <(Lossless, Lossless)>::deserialize(d)?;
+            Ok((a.0, b.0))
+        }
+    }
+
     pub mod option {
         use serde::{Deserialize, Deserializer, Serializer};
 
@@ -94,5 +111,33 @@ pub mod lossless {
         pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
             Ok(Option::<super::Lossless>::deserialize(d)?.map(|w| w.0))
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[derive(Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+    struct Interval(#[serde(with = "super::lossless::pair")] (f64, f64));
+
+    /// Guards the interval's JSON: an infinite end is the string `lossless` writes (serde
+    /// wrote it `null`, which reads back as no number), finite ends stay numbers, and both
+    /// read back bit for bit.
+    #[test]
+    fn a_pair_keeps_infinite_ends_as_strings_and_reads_back_exactly() {
+        for (pair, text) in [
+            ((0.0, f64::INFINITY), r#"[0.0,"inf"]"#),
+            ((f64::NEG_INFINITY, 2.5), r#"["-inf",2.5]"#),
+            ((0.1, 1e-300), "[0.1,1e-300]"),
+        ] {
+            let written = serde_json::to_string(&Interval(pair)).unwrap();
+            assert_eq!(written, text);
+            assert_eq!(
+                serde_json::from_str::<Interval>(&written).unwrap(),
+                Interval(pair)
+            );
+        }
+        // Numbers written before the change (plain JSON numbers) still read.
+        let old: Interval = serde_json::from_str("[1, 100]").unwrap();
+        assert_eq!(old, Interval((1.0, 100.0)));
     }
 }

@@ -714,8 +714,8 @@ fn the_newton_confirmation_stops_once_the_decrement_decides() {
 
 /// Guards the matrix-free path's undetermined directions: a spring type no link uses has an
 /// unknown stiffness the motion cannot see. The fit names it (by the unknown's own name), gives
-/// it an infinite standard error and no correlation, and still gives every other unknown a
-/// finite one — as the dense path reports such a parameter.
+/// it an infinite standard error, its box as its interval and no correlation, and still gives
+/// every other unknown a finite one — as the dense path reports such a parameter.
 #[test]
 fn an_unknown_no_motion_sees_is_named_undetermined_on_the_matrix_free_path() {
     let spare = |k: Param| {
@@ -744,6 +744,8 @@ fn an_unknown_no_motion_sees_is_named_undetermined_on_the_matrix_free_path() {
         .expect("the spare type's stiffness is an unknown");
     assert_eq!(e.undetermined, vec![vec![fit.unknowns[a].name.clone()]]);
     assert_eq!(e.stderr[a], f64::INFINITY);
+    // Its interval is its box, not the Wald interval's (0, inf) past the box's floor.
+    assert_eq!(e.intervals[a], (0.5, 20.0));
     for b in 0..fit.theta() {
         if b != a {
             assert!(
