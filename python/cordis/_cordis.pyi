@@ -666,7 +666,8 @@ class IdentifyResult:
     @property
     def sigma(self) -> Optional[float]:
         """Noise of the observed positions estimated from the residuals, m; None when not
-        estimated."""
+        estimated. With ``weights``, the noise of a weight-1 coordinate (a coordinate of weight
+        w is read as noise ``sigma / w``)."""
     def write_report(
         self,
         path: _PathLike,

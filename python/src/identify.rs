@@ -109,8 +109,8 @@ pub struct IdentifyResult {
     /// undetermined unknown has inf on the diagonal and 0 beside it; None when not estimated.
     #[pyo3(get)]
     covariance: Option<Py<PyArray2<f64>>>,
-    /// Noise of the observed positions estimated from the residuals, m; None when not
-    /// estimated.
+    /// Noise of the observed positions estimated from the residuals, m (with `weights`, a
+    /// weight-1 coordinate's); None when not estimated.
     #[pyo3(get)]
     sigma: Option<f64>,
     /// The run as `cordis identify --json` prints it, for [`IdentifyResult::write_report`].
