@@ -607,7 +607,23 @@ fn wide_identification(a: &Args) -> Result<()> {
                 let start = Instant::now();
                 let session = Session::new(req)?;
                 let ran = session.strategy();
-                let outcome = session.run(&mut [], None)?;
+                let outcome = match session.run(&mut [], None) {
+                    Ok(o) => o,
+                    // No candidate with a finite cost: no estimate, a measured outcome here.
+                    Err(e @ cordis_es::CostError::Run { .. }) => {
+                        let secs = start.elapsed().as_secs_f64();
+                        eprintln!("  {name:<11} {ran:<8} {seed:>4} no estimate: {e}");
+                        emit(
+                            "wide_identification",
+                            json!({"example": name, "strategy": ran, "seed": seed,
+                                   "evals": a.identify_evals, "cost": "inf", "rmse": "inf",
+                                   "finite": false, "nan": false, "in_box": false,
+                                   "no_estimate": true, "seconds": secs}),
+                        );
+                        continue;
+                    }
+                    Err(e) => return Err(e.into()),
+                };
                 let (r, problem) = (&outcome.result, &outcome.problem);
                 let secs = start.elapsed().as_secs_f64();
                 let in_box = problem
