@@ -65,14 +65,21 @@ def test_output_error_no_worse_than_short_cost_on_noisy_positions(noisy_rows):
     assert oe["predict_rms_m"] <= ls["predict_rms_m"], (oe, ls)
 
 
-def test_a_runaway_output_error_fit_is_refused_not_returned(bench):
+def test_a_runaway_output_error_fit_is_never_returned(bench):
     # Issue 17: on this cable (seed 0, 17 points, no noise, wide boxes) the fit used to end on a
     # model replaying to 5e44 m (fit RMS 5.7e44 m), returned as an estimate because only a
     # non-finite position counted as diverged. The divergence guard is now relative to the
-    # observed motion: the fit is refused, naming why.
+    # observed motion, and since 2026-12-05 a first window that diverges hands over to the fit's
+    # other starts (multiple shooting, seeded restarts) instead of ending it: the outcome is a
+    # refusal naming the divergence or a model that replays within the motion's scale, never
+    # a runaway (measured: a fit on its budget, fit RMS 6 mm on the 0.4 m cable).
     cable = bench.mujoco_cable(seed=0)
     rows = {r["method"]: r for r in bench.run_case(cable, noise=0.0, seed=0,
                                                    methods=["output-error:wide"])}
     oe = rows["output-error:wide"]
-    assert "diverged" in oe.get("error", ""), oe
-    assert "fit_rms_m" not in oe, oe
+    if "error" in oe:
+        assert "diverged" in oe["error"], oe
+        assert "fit_rms_m" not in oe, oe
+    else:
+        assert oe["fit_rms_m"] < 0.05 * oe["size_m"], oe
+        assert oe["predict_rms_m"] < 0.25 * oe["size_m"], oe

@@ -168,7 +168,7 @@ def test_markers_map_data_in_its_own_order_and_weights_match_the_cli(tmp_path):
     ({"markers": [0, -1]}, r"markers\[1\]: must be a non-negative integer"),
     ({"weights": [1.0] * 26 + [float("nan")]}, r"weights\[26\]: must be a positive finite"),
     ({"weights": [1.0, 0.0]}, r"weights\[1\]: must be a positive finite"),
-    ({"weights": [1.0, 2.0]}, r"weights: holds 2 values for 27 markers"),
+    ({"weights": [1.0, 2.0]}, r"weights: holds 2 values for the 27 markers of trajectory"),
     ({"weights": [2.0] * 27, "strategy": "least-squares"}, r"per-marker weights"),
 ])
 def test_bad_markers_and_weights_are_refused_by_name(kw, says):
