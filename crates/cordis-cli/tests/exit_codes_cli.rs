@@ -82,6 +82,12 @@ fn an_unbounded_input_exits_1_with_the_limit_and_bad_content_exits_2() {
     // Read, but wrong: 2, whichever input it is.
     std::fs::write(d.join("bad.json"), "{\"dt\": 0.01, \"dt\": 0.02}").unwrap();
     std::fs::write(d.join("bad.csv"), "frame,particle,x,y,z\n0,0,1,2\n").unwrap();
+    // Reads, but holds two frames: too few for a motion cost, named by its file.
+    std::fs::write(
+        d.join("short.csv"),
+        "frame,particle,x,y,z\n0,0,1,2,3\n1,0,1,2,3\n",
+    )
+    .unwrap();
     std::fs::write(d.join("cp.json"), "garbage").unwrap();
     std::fs::write(d.join("p.gene"), "population = -3\n").unwrap();
     // Param.gene's `damping` is read by no strategy: any value but the thesis' 0 is refused.
@@ -89,6 +95,10 @@ fn an_unbounded_input_exits_1_with_the_limit_and_bad_content_exits_2() {
     for (args, says) in [
         (&["check", "bad.json"][..], "duplicate key `dt`"),
         (&["cost", "r.json", "-t", "bad.csv"], "bad.csv"),
+        (
+            &["cost", "r.json", "-t", "short.csv"],
+            "short.csv: has 2 frames, the short cost needs at least 3",
+        ),
         (
             &["export", "r.json", "-t", "bad.csv", "--gltf", "o.json"],
             "bad.csv",

@@ -26,6 +26,18 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     let traj = cordis_core::io::read_trajectory_with(&a.trajectory, &a.read.options()?)?;
     super::check_dt(&scene, traj.dt, &a.trajectory)?;
     let kind: CostKind = a.cost.parse().map_err(|e| anyhow::anyhow!("--cost: {e}"))?;
+    // Too short a file is bad input named by the file (as `identify` names it).
+    if traj.frames() < kind.min_frames() {
+        return Err(cordis_core::CordisError::trajectory(
+            a.trajectory.display().to_string(),
+            format!(
+                "has {} frames, the {kind} cost needs at least {}",
+                traj.frames(),
+                kind.min_frames()
+            ),
+        )
+        .into());
+    }
     let start = Instant::now();
     let objective = Objective::new(&scene, &traj, kind)?;
     let report = objective.report(&scene.param_values())?;
