@@ -904,9 +904,7 @@ fn uncertainty_to_py(py: Python<'_>, report: &Report) -> PyResult<Spread> {
         _ => None,
     };
     // σ̂ of a finished fit (not of an interrupted one's best point, nor of a failed one).
-    spread.sigma = oe
-        .filter(|r| !matches!(r.end.as_str(), "" | "running" | "interrupted"))
-        .map(|r| r.sigma);
+    spread.sigma = oe.filter(|r| r.finished()).map(|r| r.sigma);
     let Some(u) = &report.uncertainty else {
         return Ok(spread);
     };

@@ -58,19 +58,10 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     }
     output.json_line(&serde_json::json!({
             "kind": kind.to_string(),
-            "total": finite_or_string(report.total),
-            "rmse": finite_or_string(report.rmse),
+            "total": super::finite_or_string(report.total),
+            "rmse": super::finite_or_string(report.rmse),
             "terms": report.terms,
-            "per_particle": report.per_particle.iter().map(|c| finite_or_string(*c)).collect::<Vec<_>>(),
+            "per_particle": report.per_particle.iter().map(|c| super::finite_or_string(*c)).collect::<Vec<_>>(),
             "seconds": seconds,
     }))
-}
-
-/// JSON has no infinity: a diverged cost is written as the string "inf".
-fn finite_or_string(v: f64) -> serde_json::Value {
-    if v.is_finite() {
-        v.into()
-    } else {
-        v.to_string().into()
-    }
 }

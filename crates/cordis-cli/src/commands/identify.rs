@@ -432,22 +432,13 @@ fn print_human(ran: &str, outcome: &Outcome) {
     }
 }
 
-/// A number as JSON writes it, or the string `"inf"` / `"NaN"` as the solver's report writes
-/// a non-finite one (a Ctrl-C before any finite cost), never `null`.
-fn lossless(x: f64) -> serde_json::Value {
-    match x.is_finite() {
-        true => x.into(),
-        false => x.to_string().into(),
-    }
-}
-
 /// The one JSON line of a run.
 fn summary(ran: &str, outcome: &Outcome, stable_horizon: Option<usize>) -> serde_json::Value {
     let result = &outcome.result;
     let mut summary = serde_json::json!({
         "strategy": ran,
-        "cost": lossless(result.cost),
-        "rmse": lossless(result.rmse),
+        "cost": super::finite_or_string(result.cost),
+        "rmse": super::finite_or_string(result.rmse),
         "evals": result.evals,
         "generations": result.generations,
         "seconds": result.seconds,

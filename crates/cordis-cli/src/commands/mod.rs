@@ -218,3 +218,14 @@ pub fn print_stdout(text: &str) -> Result<()> {
         _ => Ok(()),
     }
 }
+
+/// A number for a JSON summary line: JSON has no infinity nor NaN, so a non-finite one (a
+/// diverged cost, a Ctrl-C before any finite cost) is the string `"inf"` / `"NaN"`, as the
+/// solvers' reports write it, never `null`.
+pub(crate) fn finite_or_string(v: f64) -> serde_json::Value {
+    if v.is_finite() {
+        v.into()
+    } else {
+        v.to_string().into()
+    }
+}

@@ -236,11 +236,16 @@ impl OutputErrorReport {
         }
     }
 
+    /// Whether the fit reached its end (not running, interrupted, nor failed before any end):
+    /// σ̂ and the standard errors are then the estimate's.
+    pub fn finished(&self) -> bool {
+        !matches!(self.end.as_str(), "" | "running" | "interrupted")
+    }
+
     /// What a user must read before trusting the estimate.
     pub fn warnings(&self) -> Vec<String> {
         let mut w: Vec<String> = self.unconverged.iter().cloned().collect();
-        let finished = self.end != "running" && self.end != "interrupted";
-        if finished && !self.uncertainty_computed {
+        if self.finished() && !self.uncertainty_computed {
             let missing: Vec<String> = self
                 .stderr_at_least
                 .iter()
