@@ -63,9 +63,15 @@ pub struct IdentifiedParam {
     pub discovered: f64,
     pub value: f64,
     /// Standard error (inf: not determined) and the 95 % interval (`value ± 1.96 se`, on
-    /// `ln value` for a positive log-searched one: `output_error::interval95`).
+    /// `ln value` for a positive log-searched one: `output_error::interval95`); a not
+    /// determined unknown's interval is its box (the data do not narrow it), as
+    /// `cordis identify` reports it. Non-finite values are written `"inf"` in JSON, as
+    /// `identify`'s `std_error`, never `null`.
+    #[serde(with = "crate::run::float_json::lossless")]
     pub stderr: f64,
+    #[serde(with = "crate::run::float_json::lossless")]
     pub low: f64,
+    #[serde(with = "crate::run::float_json::lossless")]
     pub high: f64,
     /// The fit ended on the edge of this unknown's box (a damping's floor 0 excepted): the
     /// box, not the data, stopped it (the interval says nothing about the values beyond).
@@ -156,6 +162,12 @@ pub fn identify_discovered(
                 cov[(a, a)],
                 u.log,
             );
+            if !r.stderr.is_finite() {
+                // The box in the reported unit: rescaled to the total mass as the value is.
+                let scale = params[u.slot] / e.params[u.slot];
+                let scale = if scale.is_finite() && scale > 0.0 { scale } else { 1.0 };
+                (r.low, r.high) = (u.min * scale, u.max * scale);
+            }
             let v = e.params[u.slot];
             let tol = 1e-9 * (u.max - u.min);
             // A damping's floor 0 is physics, not the box: ending there is an answer.
@@ -378,4 +390,23 @@ fn rescaled(
         }
     }
     (params, cov)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An undetermined unknown's JSON once read `"stderr": null, "high": null` (serde writes
+    /// infinities as null, which reads back as "missing", and Python got None).
+    #[test]
+    fn a_not_determined_rows_infinities_are_written_as_strings_not_null() {
+        let mut r = row("types.a.stiffness", 10.0, 12.0, f64::NAN, true);
+        assert!(r.stderr.is_infinite() && r.high.is_infinite());
+        let v = serde_json::to_value(&r).unwrap();
+        assert_eq!(v["stderr"], "inf");
+        assert_eq!(v["high"], "inf");
+        (r.low, r.high) = (1.0, 100.0);
+        let v = serde_json::to_value(&r).unwrap();
+        assert_eq!((v["low"].as_f64(), v["high"].as_f64()), (Some(1.0), Some(100.0)));
+    }
 }
