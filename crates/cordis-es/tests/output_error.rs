@@ -195,6 +195,49 @@ fn soft_block_with_the_defaults_is_within_5_pct_and_replays_like_the_truth() {
     assert!(replay_rms(&space.scene_with(&guess, &e.genome), &obs) > 3.0 * mine);
 }
 
+/// The soft block with its centre particle (13, linked to all 26 others) or its bottom face's
+/// centre (22) never observed: holding a hidden particle's neighbours left the short-cost start
+/// no row, the heuristic start from the 25×-wide boxes diverged from every start and the fit
+/// gave no estimate. The start now also solves with the hidden particle's motion imputed from
+/// the deformation of the particles seen around it, and keeps whichever start's first window
+/// costs less: here the imputed one (the heuristic diverges there).
+#[test]
+fn a_hidden_particle_linked_to_every_free_one_still_gets_a_short_cost_start() {
+    let (guess, truth, obs) = soft_block();
+    let space = ParameterSpace::from_scene(&guess);
+    for hidden in [13, 22] {
+        let markers: Vec<usize> = (0..obs.particles()).filter(|&i| i != hidden).collect();
+        let mut data = Vec::new();
+        for t in 0..obs.frames() {
+            for &i in &markers {
+                data.extend(obs.pos(t, i).iter());
+            }
+        }
+        let take = Take::from_markers(
+            obs.frames(),
+            &data,
+            guess.particles.len(),
+            Some(&markers),
+            None,
+            None,
+        )
+        .unwrap();
+        let e = estimate(&guess, &space, &[take], &Config::default()).unwrap();
+        assert!(
+            e.start.contains("imputed"),
+            "particle {hidden}: {}",
+            e.start
+        );
+        assert!(e.start.contains("chosen over heuristic"), "{}", e.start);
+        assert!(e.converged, "particle {hidden}: {}", e.end);
+        let error = space.error_pct(&e.genome, &truth.param_values());
+        assert!(
+            error < 5.0,
+            "particle {hidden}: mean parameter error {error} %"
+        );
+    }
+}
+
 /// Weights are 1/σ relative: scaling every one by the same factor changes nothing but the
 /// unit of σ̂ and of the noise level (the soft block with every weight 2 once failed, "diverged
 /// within 32 frames": the windows compared weighted residuals to the unweighted noise level).
@@ -392,14 +435,17 @@ fn a_fit_stopped_midway_and_resumed_from_its_saved_progress_ends_bit_for_bit_whe
 
 #[test]
 fn a_fit_stuck_in_a_wrong_basin_restarts_and_reaches_the_noise_level() {
-    // `cordis bench noise`'s draw 14 with a quarter of the particles hidden at σ = 1e-3 of the
-    // size: from the heuristic start every window past 64 frames stays far above the noise
-    // (it ended at 122 % error, σ̂ = 17 σ, before restarts).
-    let truth = cordis_core::examples::tracked_network(14, 12, 7);
-    let guess = with_unknown_boxes(&truth, 25.0, 14);
+    // A generated 12-mass network with a quarter of the particles hidden at σ = 1e-3 of the
+    // size whose first attempt sticks in a wrong basin: seed 14 until the start learnt to
+    // impute hidden particles (from the heuristic start every window past 64 frames stayed far
+    // above the noise, 122 % error, σ̂ = 17 σ); from the imputed start seed 14 converges at
+    // once and seed 8 is one that sticks (12 of seeds 0–39 restart, all converge).
+    let seed = 8;
+    let truth = cordis_core::examples::tracked_network(seed, 12, 7);
+    let guess = with_unknown_boxes(&truth, 25.0, seed);
     let traj = truth.simulate(200).unwrap();
     let sigma = 1e-3 * traj.scale();
-    let take = Take::complete(&add_noise(&traj, sigma, 14)).masked(|_, i, _| i % 4 != 3);
+    let take = Take::complete(&add_noise(&traj, sigma, seed)).masked(|_, i, _| i % 4 != 3);
     let space = ParameterSpace::from_scene(&guess);
     let e = estimate(
         &guess,

@@ -165,7 +165,11 @@ pub fn identify_discovered(
             if !r.stderr.is_finite() {
                 // The box in the reported unit: rescaled to the total mass as the value is.
                 let scale = params[u.slot] / e.params[u.slot];
-                let scale = if scale.is_finite() && scale > 0.0 { scale } else { 1.0 };
+                let scale = if scale.is_finite() && scale > 0.0 {
+                    scale
+                } else {
+                    1.0
+                };
                 (r.low, r.high) = (u.min * scale, u.max * scale);
             }
             let v = e.params[u.slot];
@@ -407,6 +411,9 @@ mod tests {
         assert_eq!(v["high"], "inf");
         (r.low, r.high) = (1.0, 100.0);
         let v = serde_json::to_value(&r).unwrap();
-        assert_eq!((v["low"].as_f64(), v["high"].as_f64()), (Some(1.0), Some(100.0)));
+        assert_eq!(
+            (v["low"].as_f64(), v["high"].as_f64()),
+            (Some(1.0), Some(100.0))
+        );
     }
 }

@@ -49,6 +49,7 @@ mod checks;
 mod config;
 pub(crate) mod continuity;
 pub mod fit;
+mod impute;
 pub mod loss;
 pub mod matrix_free;
 pub mod observations;

@@ -328,8 +328,8 @@ impl Prepared {
         space: &ParameterSpace,
         config: &Config,
     ) -> Result<Progress, CostError> {
-        let (mut q, start_note) = match &config.start {
-            Some(g) if g.len() == space.dim() => (g.clone(), "given start".to_string()),
+        let genomes = match &config.start {
+            Some(g) if g.len() == space.dim() => vec![(g.clone(), "given start".to_string())],
             Some(g) => return Err(CostError::length("start", space.dim(), g.len())),
             // The smoother reads positions: their own level from the data (the weights are
             // the user's claim, the differences what the tracker did), or a given weight-1
@@ -341,13 +341,14 @@ impl Prepared {
                     Some(unit) => unit,
                     None => start::noise_level(take),
                 };
-                start::start_genome(scene, space, take, position_noise)
+                start::start_genomes(scene, space, take, position_noise)
             }
         };
         let fitter = self.fitter(space);
+        let mut states = Vec::new();
         for (k, take) in self.takes.iter().enumerate() {
             match config.start_states.as_ref().and_then(|s| s.get(k)) {
-                Some(s) if s.len() == fitter.state_len() => q.extend_from_slice(s),
+                Some(s) if s.len() == fitter.state_len() => states.extend_from_slice(s),
                 Some(s) => {
                     return Err(CostError::length(
                         format!("start_states[{k}]"),
@@ -355,10 +356,10 @@ impl Prepared {
                         s.len(),
                     ))
                 }
-                None => q.extend(start::initial_state(scene, &self.tangent.free, take)),
+                None => states.extend(start::initial_state(scene, &self.tangent.free, take)),
             }
         }
-        fitter.project(&mut q);
+        let (q, start_note) = self.cheapest_start(&fitter, genomes, &states);
         Ok(Progress {
             states0: q[space.dim()..].to_vec(),
             genome0: q[..space.dim()].to_vec(),
@@ -379,6 +380,46 @@ impl Prepared {
             partial: None,
             last_end: None,
         })
+    }
+
+    /// Of several starting genomes (each followed by `states`, projected into the boxes), the
+    /// one whose first window costs least, its note saying what it was chosen over; the first
+    /// when every one diverges there (a fit and its restarts then take it from there).
+    fn cheapest_start(
+        &self,
+        fitter: &Fitter<'_>,
+        genomes: Vec<(Vec<f64>, String)>,
+        states: &[f64],
+    ) -> (Vec<f64>, String) {
+        let mut starts: Vec<(Vec<f64>, String, f64)> = genomes
+            .into_iter()
+            .map(|(mut q, note)| {
+                q.extend_from_slice(states);
+                fitter.project(&mut q);
+                (q, note, f64::NAN)
+            })
+            .collect();
+        if starts.len() == 1 {
+            let (q, note, _) = starts.pop().expect("one start");
+            return (q, note);
+        }
+        let window = self.first_window;
+        for s in &mut starts {
+            s.2 = fitter.cost(&s.0, window, &mut Sens::default());
+        }
+        let best = (0..starts.len())
+            .min_by(|&a, &b| starts[a].2.total_cmp(&starts[b].2))
+            .expect("several starts");
+        let others: Vec<String> = (0..starts.len())
+            .filter(|&k| k != best)
+            .map(|k| format!("{} (cost {:.3e})", starts[k].1, starts[k].2))
+            .collect();
+        let (q, note, cost) = starts.swap_remove(best);
+        let note = format!(
+            "{note}; first {window} frames cost {cost:.3e}, chosen over {}",
+            others.join(", ")
+        );
+        (q, note)
     }
 
     /// Fits the next window (or reruns a stopped one) from where `progress` stands.

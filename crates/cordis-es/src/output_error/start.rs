@@ -114,15 +114,19 @@ pub fn unit_weight_noise_level(take: &Take) -> (f64, usize) {
     }
 }
 
-/// The starting genome: the short cost's exact minimum on smoothed, gap-filled positions when
-/// the scene is linear in its unknowns and every particle is tracked (clamped into the boxes);
-/// otherwise (or when that solve fails) the heuristic start every strategy uses.
-pub fn start_genome(
+/// The starting genomes, each with the note that says where it comes from: the short cost's
+/// exact minimum on smoothed, gap-filled positions when the scene is linear in its unknowns
+/// (clamped into the boxes); otherwise (or when that solve fails) the heuristic start every
+/// strategy uses. Two when hidden particles leave the short cost no row of observed positions
+/// alone: the solve on imputed hidden positions ([`imputed_start`]) and the heuristic; the
+/// fit keeps the one whose first window costs less (`Session::start`), as neither is better
+/// everywhere (measured: BENCHMARKS.md "A start for hidden particles").
+pub fn start_genomes(
     scene: &Scene,
     space: &ParameterSpace,
     take: &Take,
     noise: f64,
-) -> (Vec<f64>, String) {
+) -> Vec<(Vec<f64>, String)> {
     let fallback: Vec<Vec3> = scene.particles.iter().map(|p| Vec3::from(p.pos)).collect();
     let filled = take.filled(&fallback).with_dt(scene.dt);
     let heuristic = |why: String| -> (Vec<f64>, String) {
@@ -163,7 +167,11 @@ pub fn start_genome(
         }
     }
     if !hidden.is_empty() && scene_rows.particles.iter().all(|p| p.fixed) {
-        return heuristic("heuristic start (hidden particles leave no short-cost row)".into());
+        let no_row = "heuristic start (hidden particles leave no short-cost row";
+        return match imputed_start(scene, space, take, &filled, &hidden, noise) {
+            Ok(imputed) => vec![imputed, heuristic(format!("{no_row})"))],
+            Err(why) => vec![heuristic(format!("{no_row}; {why})"))],
+        };
     }
     let scene = &scene_rows;
     let fixed: Vec<bool> = scene.particles.iter().map(|p| p.fixed).collect();
@@ -172,24 +180,68 @@ pub fn start_genome(
         _ => filled.clone(),
     };
     let Ok(mut problem) = Problem::new(scene, &smoothed, CostKind::Short) else {
-        return heuristic("heuristic start (no short cost on this take)".into());
+        return vec![heuristic(
+            "heuristic start (no short cost on this take)".into(),
+        )];
     };
     problem.space = space.clone();
-    match least_squares::solve(&problem) {
-        Ok(sol) => {
-            let genome = space
-                .unknowns
-                .iter()
-                .zip(&sol.genome)
-                .map(|(u, &z)| u.clamp_internal(z))
-                .collect();
-            (
-                genome,
-                "short-cost least squares on smoothed positions".into(),
-            )
-        }
+    vec![match least_squares::solve(&problem) {
+        Ok(sol) => (
+            clamped(space, &sol.genome),
+            "short-cost least squares on smoothed positions".into(),
+        ),
         Err(why) => heuristic(format!("heuristic start (short-cost solve refused: {why})")),
+    }]
+}
+
+/// A solve's genome clamped into the unknowns' internal boxes.
+fn clamped(space: &ParameterSpace, genome: &[f64]) -> Vec<f64> {
+    space
+        .unknowns
+        .iter()
+        .zip(genome)
+        .map(|(u, &z)| u.clamp_internal(z))
+        .collect()
+}
+
+/// The short cost's exact minimum when holding the hidden particles' neighbours leaves no row
+/// (a hidden particle linked to every free one): the hidden particles held on positions
+/// imputed from the known particles around them ([`super::impute`]) on the smoothed take, so
+/// their neighbours keep their rows. Err with why it cannot otherwise.
+fn imputed_start(
+    scene: &Scene,
+    space: &ParameterSpace,
+    take: &Take,
+    filled: &Trajectory,
+    hidden: &[usize],
+    noise: f64,
+) -> Result<(Vec<f64>, String), String> {
+    let fixed: Vec<bool> = scene.particles.iter().map(|p| p.fixed).collect();
+    let smoothed = match smooth(filled, &fixed, noise) {
+        Some((s, _)) if noise > 0.0 => s,
+        _ => filled.clone(),
+    };
+    let known: Vec<bool> = (0..take.particles())
+        .map(|i| fixed[i] || take.tracks(i))
+        .collect();
+    let Some(imputed) = super::impute::with_hidden_imputed(scene, &smoothed, hidden, &known) else {
+        return Err("no particle is seen to impute them from".into());
+    };
+    let mut held = scene.clone();
+    for &h in hidden {
+        held.particles[h].fixed = true;
     }
+    let mut problem = Problem::new(&held, &imputed, CostKind::Short)
+        .map_err(|e| format!("with them imputed: {e}"))?;
+    problem.space = space.clone();
+    let sol = least_squares::solve(&problem)
+        .map_err(|e| format!("with them imputed the solve refused: {e}"))?;
+    Ok((
+        clamped(space, &sol.genome),
+        "short-cost least squares on smoothed positions, hidden particles imputed from the \
+         deformation of the seen ones around them"
+            .into(),
+    ))
 }
 
 /// The start of restart `attempt` (1, 2, …) after a fit stuck in a wrong basin: the unknowns a

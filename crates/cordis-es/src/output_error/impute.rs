@@ -1,0 +1,248 @@
+//! Positions for the particles a take never observes, for the short-cost start only: each
+//! hidden particle follows the local deformation of the known particles around it.
+//!
+//! Why: the short cost reads every particle's positions, so a hidden particle leaves no row for
+//! itself nor for its neighbours. Holding them (what [`super::start`] does first) leaves no row
+//! at all when the hidden particle is linked to every free one — the soft block's centre, whose
+//! edge, face and body springs reach all 26 others — and the heuristic start from 25×-wide boxes
+//! then diverges from every start. Imputed positions give the neighbours their rows back; the
+//! fit itself never sees them (it simulates hidden particles).
+//!
+//! For a hidden particle laid out at `p_h` in the scene, with donors `j` (the known — tracked or
+//! fixed — particles nearest in the layout: the 4 nearest and every one within 1.5 × the 4th's
+//! distance, weighted `w_j = 1/|p_j − p_h|²`):
+//!
+//! ```text
+//! p̄ = Σ w_j p_j / Σ w_j,   a_j = p_j − p̄,   A = Σ w_j a_j a_jᵀ
+//! c(t) = Σ w_j x_j(t) / Σ w_j,   b_j(t) = x_j(t) − c(t),   B(t) = Σ w_j b_j a_jᵀ
+//! x_h(t) = c(t) + (B(t) A⁺ + R(t) (1 − A A⁺)) (p_h − p̄)
+//! ```
+//!
+//! the weighted affine map of the donors' layout onto their frame-t positions, on the directions
+//! the donors span; on the others (donors on a plane or a line) the Kabsch rotation `R(t)` of
+//! `a` onto `b` carries the offset rigidly, so a particle off a plane of donors stays off it.
+
+use cordis_core::{Scene, Trajectory, Vec3};
+use nalgebra::Matrix3;
+
+/// How many nearest known particles every hidden one reads at least.
+const MIN_DONORS: usize = 4;
+/// Donors reach out to this factor times the `MIN_DONORS`-th nearest distance, so a symmetric
+/// shell of neighbours is taken whole (the block's centre reads its 6 face and 12 edge
+/// neighbours, not 4 of the 6 picked by index).
+const SHELL: f64 = 1.5;
+
+/// `traj` with the positions of every `hidden` particle replaced by the local deformation of
+/// the known particles around it (module docs). `known[i]` says particle i's positions in
+/// `traj` are data (tracked or fixed). None when no particle is known.
+pub fn with_hidden_imputed(
+    scene: &Scene,
+    traj: &Trajectory,
+    hidden: &[usize],
+    known: &[bool],
+) -> Option<Trajectory> {
+    let layout: Vec<Vec3> = scene.particles.iter().map(|p| Vec3::from(p.pos)).collect();
+    let maps: Vec<LocalMap> = hidden
+        .iter()
+        .map(|&h| LocalMap::new(&layout, known, h))
+        .collect::<Option<_>>()?;
+    let mut out = traj.clone();
+    let mut frame = vec![Vec3::zeros(); traj.particles()];
+    for t in 0..traj.frames() {
+        traj.frame_into(t, &mut frame);
+        let imputed: Vec<Vec3> = maps.iter().map(|m| m.position(&frame)).collect();
+        for (&h, x) in hidden.iter().zip(imputed) {
+            frame[h] = x;
+        }
+        out.set_frame(t, &frame);
+    }
+    Some(out)
+}
+
+/// One hidden particle's donors and the parts of its map that do not change over frames.
+struct LocalMap {
+    donors: Vec<(usize, f64, Vec3)>,
+    /// `A⁺` and the projector `A A⁺` on the donors' span.
+    spread_inverse: Matrix3<f64>,
+    span: Matrix3<f64>,
+    /// `p_h − p̄`.
+    offset: Vec3,
+}
+
+impl LocalMap {
+    fn new(layout: &[Vec3], known: &[bool], hidden: usize) -> Option<Self> {
+        let home = layout[hidden];
+        let mut near: Vec<(usize, f64)> = (0..layout.len())
+            .filter(|&j| known[j])
+            .map(|j| (j, (layout[j] - home).norm()))
+            .collect();
+        if near.is_empty() {
+            return None;
+        }
+        near.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+        let reach = SHELL * near[near.len().min(MIN_DONORS) - 1].1;
+        near.retain(|&(_, d)| d <= reach);
+        // A donor laid out where the hidden particle is would take infinite weight: the
+        // smallest positive distance stands in for it.
+        let floor = near.iter().map(|n| n.1).find(|&d| d > 0.0).unwrap_or(1.0);
+        let weights: Vec<f64> = near.iter().map(|n| 1.0 / n.1.max(floor).powi(2)).collect();
+        let total: f64 = weights.iter().sum();
+        let centre = near
+            .iter()
+            .zip(&weights)
+            .map(|(n, w)| layout[n.0] * *w)
+            .sum::<Vec3>()
+            / total;
+        let donors: Vec<(usize, f64, Vec3)> = near
+            .iter()
+            .zip(&weights)
+            .map(|(n, &w)| (n.0, w / total, layout[n.0] - centre))
+            .collect();
+        let spread: Matrix3<f64> = donors.iter().map(|(_, w, a)| a * a.transpose() * *w).sum();
+        let scale = spread.norm().max(f64::MIN_POSITIVE);
+        let spread_inverse = spread.pseudo_inverse(1e-9 * scale).ok()?;
+        Some(LocalMap {
+            span: spread * spread_inverse,
+            spread_inverse,
+            offset: home - centre,
+            donors,
+        })
+    }
+
+    /// The hidden particle's position when the particles are at `frame`.
+    fn position(&self, frame: &[Vec3]) -> Vec3 {
+        let centre: Vec3 = self.donors.iter().map(|(j, w, _)| frame[*j] * *w).sum();
+        let mut cross = Matrix3::zeros();
+        for (j, w, a) in &self.donors {
+            cross += (frame[*j] - centre) * a.transpose() * *w;
+        }
+        let affine = cross * self.spread_inverse;
+        let rotation = kabsch(&cross);
+        centre + (affine + rotation * (Matrix3::identity() - self.span)) * self.offset
+    }
+}
+
+/// The rotation `R` maximising `tr(Rᵀ B)` for `B = Σ w b aᵀ` (Kabsch, reflections excluded);
+/// the identity when the SVD fails.
+fn kabsch(cross: &Matrix3<f64>) -> Matrix3<f64> {
+    let svd = cross.svd(true, true);
+    match (svd.u, svd.v_t) {
+        (Some(u), Some(v_t)) => {
+            let d = (u * v_t).determinant().signum();
+            let r = u * Matrix3::from_diagonal(&Vec3::new(1.0, 1.0, d)) * v_t;
+            if r.iter().all(|x| x.is_finite()) {
+                r
+            } else {
+                Matrix3::identity()
+            }
+        }
+        _ => Matrix3::identity(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+    use cordis_core::Particle;
+
+    /// A 3 × 3 × 3 lattice of pitch 0.1 m.
+    fn block() -> Scene {
+        let mut s = Scene::new(0.01);
+        for z in 0..3 {
+            for y in 0..3 {
+                for x in 0..3 {
+                    let p = [0.1 * x as f64, 0.1 * y as f64, 0.1 * z as f64];
+                    s.add_particle(Particle::new(0.02, p));
+                }
+            }
+        }
+        s
+    }
+
+    /// Every particle moved by `f(p)` at each of 4 frames scaled by `t`.
+    fn moved(s: &Scene, f: impl Fn(Vec3, f64) -> Vec3) -> Trajectory {
+        let n = s.particles.len();
+        let mut data = Vec::new();
+        for t in 0..4 {
+            for p in &s.particles {
+                data.extend(f(Vec3::from(p.pos), t as f64).iter());
+            }
+        }
+        Trajectory::from_flat(4, n, data).unwrap()
+    }
+
+    fn hidden_error(s: &Scene, truth: &Trajectory, hidden: &[usize]) -> f64 {
+        let mut known = vec![true; s.particles.len()];
+        let mut garbled = truth.clone();
+        let mut frame = vec![Vec3::zeros(); s.particles.len()];
+        for t in 0..truth.frames() {
+            truth.frame_into(t, &mut frame);
+            for &h in hidden {
+                frame[h] = Vec3::new(9.0, 9.0, 9.0);
+            }
+            garbled.set_frame(t, &frame);
+        }
+        for &h in hidden {
+            known[h] = false;
+        }
+        let out = with_hidden_imputed(s, &garbled, hidden, &known).unwrap();
+        let mut worst: f64 = 0.0;
+        for t in 0..truth.frames() {
+            for &h in hidden {
+                worst = worst.max((out.pos(t, h) - truth.pos(t, h)).norm());
+            }
+        }
+        worst
+    }
+
+    #[test]
+    fn any_affine_motion_is_imputed_exactly() {
+        let s = block();
+        let shear = |p: Vec3, t: f64| {
+            let m = Matrix3::new(1.0, 0.3 * t, 0.0, 0.0, 1.0 + 0.1 * t, 0.0, 0.2, 0.0, 0.9);
+            m * p + Vec3::new(0.05 * t, -0.02, 0.1)
+        };
+        let truth = moved(&s, shear);
+        // The centre, a face centre and a corner (its donors lie on one side only).
+        assert!(hidden_error(&s, &truth, &[13]) < 1e-12);
+        assert!(hidden_error(&s, &truth, &[13, 22]) < 1e-12);
+        assert!(hidden_error(&s, &truth, &[26]) < 1e-12);
+    }
+
+    #[test]
+    fn a_particle_off_its_donors_plane_turns_with_them() {
+        // A flat 3 × 3 sheet at z = 0 and one particle 0.1 m above its centre; the whole thing
+        // turns a quarter about x: the imputed particle must leave the sheet's plane with it.
+        let mut s = Scene::new(0.01);
+        for y in 0..3 {
+            for x in 0..3 {
+                s.add_particle(Particle::new(0.02, [0.1 * x as f64, 0.1 * y as f64, 0.0]));
+            }
+        }
+        s.add_particle(Particle::new(0.02, [0.1, 0.1, 0.1]));
+        let turn = |p: Vec3, t: f64| {
+            let a = 0.5 * t;
+            Matrix3::new(1.0, 0.0, 0.0, 0.0, a.cos(), -a.sin(), 0.0, a.sin(), a.cos()) * p
+        };
+        let truth = moved(&s, turn);
+        assert!(hidden_error(&s, &truth, &[9]) < 1e-12);
+    }
+
+    #[test]
+    fn no_known_particle_gives_no_imputation() {
+        let s = block();
+        let traj = moved(&s, |p, _| p);
+        let hidden: Vec<usize> = (0..27).collect();
+        assert!(with_hidden_imputed(&s, &traj, &hidden, &[false; 27]).is_none());
+        // Known particles keep their positions bit for bit.
+        let mut known = vec![true; 27];
+        known[13] = false;
+        let out = with_hidden_imputed(&s, &traj, &[13], &known).unwrap();
+        for t in 0..4 {
+            for i in (0..27).filter(|&i| i != 13) {
+                assert_relative_eq!(out.pos(t, i), traj.pos(t, i), epsilon = 0.0);
+            }
+        }
+    }
+}
