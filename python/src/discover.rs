@@ -126,7 +126,11 @@ fn to_py(
         notes: d.notes,
         identification: id
             .as_ref()
-            .map(|id| json(serde_json::to_value(id).unwrap_or_default()))
+            .map(|id| {
+                let dict = json(serde_json::to_value(id).unwrap_or_default())?;
+                infinities_as_floats(dict.bind(py))?;
+                Ok::<_, PyErr>(dict)
+            })
             .transpose()?,
         identified: id
             .map(|id| Py::new(py, Scene::from_core(id.scene)))
@@ -224,5 +228,23 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<DiscoverResult>()?;
     m.add_function(wrap_pyfunction!(discover, m)?)?;
     m.add_function(wrap_pyfunction!(random_network, m)?)?;
+    Ok(())
+}
+
+/// The identification's rows with the JSON line's `"inf"` (JSON has no infinity: a not
+/// determined unknown's standard error, a log interval's end) back as Python floats, as
+/// `identify`'s `res.stderr` gives them: `stderr * 2` works on every row.
+fn infinities_as_floats(identification: &Bound<'_, PyAny>) -> PyResult<()> {
+    for row in identification.get_item("params")?.try_iter()? {
+        let row = row?;
+        for key in ["stderr", "low", "high"] {
+            let value = row.get_item(key)?;
+            if let Ok(text) = value.extract::<String>() {
+                if let Ok(x) = text.parse::<f64>() {
+                    row.set_item(key, x)?;
+                }
+            }
+        }
+    }
     Ok(())
 }

@@ -103,6 +103,8 @@ def test_discover_identify_returns_what_the_cli_writes(tmp_path):
     assert ident["gravity_fitted"] is True
     for p in ident["params"]:
         assert p["low"] < p["value"] < p["high"]
+        # Floats as identify's stderr, never JSON's "inf" strings.
+        assert all(isinstance(p[k], float) for k in ("stderr", "low", "high"))
     masses = [p["mass"] for p in d["particles"] if not p.get("fixed", False)]
     found = [p["mass"] for p in res.scene.to_dict()["particles"] if not p.get("fixed", False)]
     fitted = [p["mass"] for p in res.identified.to_dict()["particles"] if not p.get("fixed", False)]

@@ -228,7 +228,7 @@ fn a_hidden_particle_linked_to_every_free_one_still_gets_a_short_cost_start() {
             "particle {hidden}: {}",
             e.start
         );
-        assert!(e.start.contains("chosen over heuristic"), "{}", e.start);
+        assert!(e.start.contains("chosen over “heuristic"), "{}", e.start);
         assert!(e.converged, "particle {hidden}: {}", e.end);
         let error = space.error_pct(&e.genome, &truth.param_values());
         assert!(

@@ -258,13 +258,16 @@ fn report_identified(id: &Identified, path: &std::path::Path, seconds: f64) {
         path.display()
     );
     for p in &id.params {
+        // A not determined unknown's range is its box (the held mass, which has none: [0, inf]).
+        let spread = match p.stderr.is_finite() {
+            true => format!("95 % [{:.6e}, {:.6e}]", p.low, p.high),
+            false => format!("not determined, in [{:.6e}, {:.6e}]", p.low, p.high),
+        };
         eprintln!(
-            "  {}: {:.6e} (discovered {:.6e}), 95 % [{:.6e}, {:.6e}]{}",
+            "  {}: {:.6e} (discovered {:.6e}), {spread}{}",
             p.name,
             p.value,
             p.discovered,
-            p.low,
-            p.high,
             if p.at_bound { " at its box's edge" } else { "" }
         );
     }

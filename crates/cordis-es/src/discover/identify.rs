@@ -38,7 +38,7 @@ use serde::Serialize;
 
 use super::{DiscoverOptions, Discovery};
 use crate::error::CostError;
-use crate::output_error::{self, interval95, Config, Estimate, Take};
+use crate::output_error::{self, box_interval, interval95, Config, Estimate, Take};
 use crate::space::{ParameterSpace, Role, Unknown};
 use cordis_core::Trajectory;
 
@@ -65,7 +65,8 @@ pub struct IdentifiedParam {
     /// Standard error (inf: not determined) and the 95 % interval (`value ± 1.96 se`, on
     /// `ln value` for a positive log-searched one: `output_error::interval95`); a not
     /// determined unknown's interval is its box (the data do not narrow it), as
-    /// `cordis identify` reports it. Non-finite values are written `"inf"` in JSON, as
+    /// `cordis identify` reports it; the held reference mass, which has no box, `[0, inf]`.
+    /// Non-finite values are written `"inf"` in JSON, as
     /// `identify`'s `std_error`, never `null`.
     #[serde(with = "crate::run::float_json::lossless")]
     pub stderr: f64,
@@ -144,9 +145,13 @@ pub fn identify_discovered(
     let take = Take::complete(&traj.clone().with_dt(d.scene.dt));
     let e = output_error::estimate(&scene, &space, &[take], &config)?;
     let discovered = d.scene.param_values();
-    let (params, cov) = match (reference, total_mass) {
+    let (params, cov, slot_scale) = match (reference, total_mass) {
         (Some(r), Some(m)) => rescaled(&scene, &space, &e, r, m),
-        _ => (e.params.clone(), e.covariance.clone()),
+        _ => (
+            e.params.clone(),
+            e.covariance.clone(),
+            vec![1.0; e.params.len()],
+        ),
     };
     let mut out = output_error::identified_scene(&scene, &e, 0);
     out.set_param_values(&params);
@@ -162,16 +167,9 @@ pub fn identify_discovered(
                 cov[(a, a)],
                 u.log,
             );
-            if !r.stderr.is_finite() {
-                // The box in the reported unit: rescaled to the total mass as the value is.
-                let scale = params[u.slot] / e.params[u.slot];
-                let scale = if scale.is_finite() && scale > 0.0 {
-                    scale
-                } else {
-                    1.0
-                };
-                (r.low, r.high) = (u.min * scale, u.max * scale);
-            }
+            // Not determined: the box, in the reported unit (rescaled as the value is).
+            let k = slot_scale[u.slot];
+            (r.low, r.high) = box_interval((r.low, r.high), r.stderr, (u.min * k, u.max * k));
             let v = e.params[u.slot];
             let tol = 1e-9 * (u.max - u.min);
             // A damping's floor 0 is physics, not the box: ending there is an answer.
@@ -316,14 +314,15 @@ pub(super) fn moving_mass(scene: &Scene, params: &[f64]) -> f64 {
 
 /// The estimate rescaled so that the moving masses sum to `total` (module docs), and the
 /// covariance carried through: the unknowns' block, then one more row and column for the
-/// reference mass `r`. A variance that depends on an undetermined one is infinite.
+/// reference mass `r`. A variance that depends on an undetermined one is infinite. Last, each
+/// parameter slot's factor (`total / Σm` for the masses, stiffnesses and dampings, else 1).
 fn rescaled(
     scene: &Scene,
     space: &ParameterSpace,
     e: &Estimate,
     r: usize,
     total: f64,
-) -> (Vec<f64>, DMatrix<f64>) {
+) -> (Vec<f64>, DMatrix<f64>, Vec<f64>) {
     let layout = scene.param_layout();
     let sum = moving_mass(scene, &e.params);
     let c = total / sum;
@@ -393,7 +392,8 @@ fn rescaled(
             cov[(a, a)] = f64::INFINITY;
         }
     }
-    (params, cov)
+    let slot_scale = scales.iter().map(|&s| if s { c } else { 1.0 }).collect();
+    (params, cov, slot_scale)
 }
 
 #[cfg(test)]

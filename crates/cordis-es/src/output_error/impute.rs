@@ -59,9 +59,27 @@ pub fn with_hidden_imputed(
     Some(out)
 }
 
+/// A spread's eigenvalue below this fraction of its norm is a direction the donors do not span
+/// (`1e-6` of squared lengths: donors thinner than 0.1 % of their size count as flat, so the
+/// noise across a nearly flat layer is not amplified by size/thickness off it).
+const FLAT: f64 = 1e-6;
+
+/// How many directions a donors' spread `A` (symmetric, positive semi-definite) spans.
+fn flat_rank(spread: &Matrix3<f64>) -> usize {
+    let scale = spread.norm();
+    spread
+        .symmetric_eigenvalues()
+        .iter()
+        .filter(|&&l| l > FLAT * scale)
+        .count()
+}
+
+/// Donors: (particle, normalised weight, layout offset from their weighted centre).
+type Donors = Vec<(usize, f64, Vec3)>;
+
 /// One hidden particle's donors and the parts of its map that do not change over frames.
 struct LocalMap {
-    donors: Vec<(usize, f64, Vec3)>,
+    donors: Donors,
     /// `A⁺` and the projector `A A⁺` on the donors' span.
     spread_inverse: Matrix3<f64>,
     span: Matrix3<f64>,
@@ -81,7 +99,28 @@ impl LocalMap {
         }
         near.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
         let reach = SHELL * near[near.len().min(MIN_DONORS) - 1].1;
-        near.retain(|&(_, d)| d <= reach);
+        let mut count = near.iter().take_while(|n| n.1 <= reach).count();
+        // Donors on a line leave the turn about it free (Kabsch cannot fix it, and its SVD
+        // would pick one per frame at random): the next nearest join until they span a plane.
+        loop {
+            let (donors, centre, spread) = Self::weighed(layout, &near[..count]);
+            if count == near.len() || flat_rank(&spread) >= 2 {
+                let scale = spread.norm().max(f64::MIN_POSITIVE);
+                let spread_inverse = spread.pseudo_inverse(FLAT * scale).ok()?;
+                return Some(LocalMap {
+                    span: spread * spread_inverse,
+                    spread_inverse,
+                    offset: home - centre,
+                    donors,
+                });
+            }
+            count += 1;
+        }
+    }
+
+    /// The donors `near` (particle, layout distance) with their normalised weights `1/d²` and
+    /// layout offsets, their weighted centre and spread `A`.
+    fn weighed(layout: &[Vec3], near: &[(usize, f64)]) -> (Donors, Vec3, Matrix3<f64>) {
         // A donor laid out where the hidden particle is would take infinite weight: the
         // smallest positive distance stands in for it.
         let floor = near.iter().map(|n| n.1).find(|&d| d > 0.0).unwrap_or(1.0);
@@ -93,20 +132,13 @@ impl LocalMap {
             .map(|(n, w)| layout[n.0] * *w)
             .sum::<Vec3>()
             / total;
-        let donors: Vec<(usize, f64, Vec3)> = near
+        let donors: Donors = near
             .iter()
             .zip(&weights)
             .map(|(n, &w)| (n.0, w / total, layout[n.0] - centre))
             .collect();
-        let spread: Matrix3<f64> = donors.iter().map(|(_, w, a)| a * a.transpose() * *w).sum();
-        let scale = spread.norm().max(f64::MIN_POSITIVE);
-        let spread_inverse = spread.pseudo_inverse(1e-9 * scale).ok()?;
-        Some(LocalMap {
-            span: spread * spread_inverse,
-            spread_inverse,
-            offset: home - centre,
-            donors,
-        })
+        let spread = donors.iter().map(|(_, w, a)| a * a.transpose() * *w).sum();
+        (donors, centre, spread)
     }
 
     /// The hidden particle's position when the particles are at `frame`.
@@ -117,26 +149,24 @@ impl LocalMap {
             cross += (frame[*j] - centre) * a.transpose() * *w;
         }
         let affine = cross * self.spread_inverse;
-        let rotation = kabsch(&cross);
+        let rotation = kabsch(&cross.transpose());
         centre + (affine + rotation * (Matrix3::identity() - self.span)) * self.offset
     }
 }
 
-/// The rotation `R` maximising `tr(Rᵀ B)` for `B = Σ w b aᵀ` (Kabsch, reflections excluded);
-/// the identity when the SVD fails.
-fn kabsch(cross: &Matrix3<f64>) -> Matrix3<f64> {
+/// The rotation `R` carrying layout offsets `a` onto current offsets `b` best, from
+/// `cross = Σ w a bᵀ` (Kabsch: with `cross = U S Vᵀ`, `R = V diag(1, 1, d) Uᵀ`, `d` excluding
+/// reflections); the identity when that is not finite. Shared with the rigid start.
+pub(super) fn kabsch(cross: &Matrix3<f64>) -> Matrix3<f64> {
     let svd = cross.svd(true, true);
-    match (svd.u, svd.v_t) {
-        (Some(u), Some(v_t)) => {
-            let d = (u * v_t).determinant().signum();
-            let r = u * Matrix3::from_diagonal(&Vec3::new(1.0, 1.0, d)) * v_t;
-            if r.iter().all(|x| x.is_finite()) {
-                r
-            } else {
-                Matrix3::identity()
-            }
-        }
-        _ => Matrix3::identity(),
+    let (Some(u), Some(vt)) = (svd.u, svd.v_t) else {
+        return Matrix3::identity();
+    };
+    let d = (vt.transpose() * u.transpose()).determinant().signum();
+    let rotation = vt.transpose() * Matrix3::from_diagonal(&Vec3::new(1.0, 1.0, d)) * u.transpose();
+    match rotation.iter().all(|x| x.is_finite()) {
+        true => rotation,
+        false => Matrix3::identity(),
     }
 }
 
@@ -170,6 +200,12 @@ mod tests {
             }
         }
         Trajectory::from_flat(4, n, data).unwrap()
+    }
+
+    /// `p` turned by 0.5 t rad about the x axis.
+    fn turn_about_x(p: Vec3, t: f64) -> Vec3 {
+        let a = 0.5 * t;
+        Matrix3::new(1.0, 0.0, 0.0, 0.0, a.cos(), -a.sin(), 0.0, a.sin(), a.cos()) * p
     }
 
     fn hidden_error(s: &Scene, truth: &Trajectory, hidden: &[usize]) -> f64 {
@@ -221,12 +257,23 @@ mod tests {
             }
         }
         s.add_particle(Particle::new(0.02, [0.1, 0.1, 0.1]));
-        let turn = |p: Vec3, t: f64| {
-            let a = 0.5 * t;
-            Matrix3::new(1.0, 0.0, 0.0, 0.0, a.cos(), -a.sin(), 0.0, a.sin(), a.cos()) * p
-        };
-        let truth = moved(&s, turn);
+        let truth = moved(&s, turn_about_x);
         assert!(hidden_error(&s, &truth, &[9]) < 1e-12);
+    }
+
+    #[test]
+    fn donors_on_a_line_take_the_next_nearest_until_they_span_a_plane() {
+        // Five particles on the x axis and two 0.5 m off it; the hidden one 5 cm off the axis.
+        // The whole turns about x: the five nearest, on the axis, cannot see that turn.
+        let mut s = Scene::new(0.01);
+        for x in 0..5 {
+            s.add_particle(Particle::new(0.02, [0.1 * x as f64, 0.0, 0.0]));
+        }
+        s.add_particle(Particle::new(0.02, [0.0, 0.5, 0.0]));
+        s.add_particle(Particle::new(0.02, [0.4, 0.5, 0.0]));
+        s.add_particle(Particle::new(0.02, [0.2, 0.05, 0.0]));
+        let truth = moved(&s, turn_about_x);
+        assert!(hidden_error(&s, &truth, &[7]) < 1e-12);
     }
 
     #[test]

@@ -67,8 +67,8 @@ pub use config::Config;
 pub use loss::Loss;
 pub use observations::Take;
 pub use run::{Prepared, Progress, Step};
-pub(crate) use summary::interval95;
 pub use summary::Estimate;
+pub(crate) use summary::{box_interval, interval95};
 
 use crate::error::CostError;
 use crate::space::ParameterSpace;

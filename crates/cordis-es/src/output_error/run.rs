@@ -391,35 +391,43 @@ impl Prepared {
         genomes: Vec<(Vec<f64>, String)>,
         states: &[f64],
     ) -> (Vec<f64>, String) {
-        let mut starts: Vec<(Vec<f64>, String, f64)> = genomes
-            .into_iter()
-            .map(|(mut q, note)| {
-                q.extend_from_slice(states);
-                fitter.project(&mut q);
-                (q, note, f64::NAN)
-            })
-            .collect();
-        if starts.len() == 1 {
-            let (q, note, _) = starts.pop().expect("one start");
-            return (q, note);
+        let longest = self.takes.iter().map(Take::frames).max().unwrap_or(0);
+        let frames = self.first_window.min(longest);
+        let several = genomes.len() > 1;
+        let mut starts = genomes.into_iter().map(|(mut q, note)| {
+            q.extend_from_slice(states);
+            fitter.project(&mut q);
+            // One rollout per take; only a choice needs it.
+            let cost = match several {
+                true => fitter.cost(&q, frames, &mut Sens::default()),
+                false => 0.0,
+            };
+            (q, note, cost)
+        });
+        let first = starts
+            .next()
+            .expect("start_genomes gives one start or more");
+        let (mut best, mut others) = (first, Vec::new());
+        for s in starts {
+            match s.2 < best.2 {
+                true => others.push(std::mem::replace(&mut best, s)),
+                false => others.push(s),
+            }
         }
-        let window = self.first_window;
-        for s in &mut starts {
-            s.2 = fitter.cost(&s.0, window, &mut Sens::default());
+        if others.is_empty() {
+            return (best.0, best.1);
         }
-        let best = (0..starts.len())
-            .min_by(|&a, &b| starts[a].2.total_cmp(&starts[b].2))
-            .expect("several starts");
-        let others: Vec<String> = (0..starts.len())
-            .filter(|&k| k != best)
-            .map(|k| format!("{} (cost {:.3e})", starts[k].1, starts[k].2))
+        let others: Vec<String> = others
+            .iter()
+            .map(|(_, note, cost)| format!("“{note}” (cost {cost:.3e})"))
             .collect();
-        let (q, note, cost) = starts.swap_remove(best);
         let note = format!(
-            "{note}; first {window} frames cost {cost:.3e}, chosen over {}",
-            others.join(", ")
+            "{}; its first {frames} frames cost {:.3e}, chosen over {}",
+            best.1,
+            best.2,
+            others.join(" and ")
         );
-        (q, note)
+        (best.0, note)
     }
 
     /// Fits the next window (or reruns a stopped one) from where `progress` stands.

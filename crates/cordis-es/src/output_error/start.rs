@@ -119,7 +119,7 @@ pub fn unit_weight_noise_level(take: &Take) -> (f64, usize) {
 /// (clamped into the boxes); otherwise (or when that solve fails) the heuristic start every
 /// strategy uses. Two when hidden particles leave the short cost no row of observed positions
 /// alone: the solve on imputed hidden positions ([`imputed_start`]) and the heuristic; the
-/// fit keeps the one whose first window costs less (`Session::start`), as neither is better
+/// fit keeps the one whose first window costs less (`Prepared::start`), as neither is better
 /// everywhere (measured: BENCHMARKS.md "A start for hidden particles").
 pub fn start_genomes(
     scene: &Scene,
@@ -155,6 +155,16 @@ pub fn start_genomes(
     let hidden: Vec<usize> = (0..take.particles())
         .filter(|&i| !take.tracks(i) && !scene.particles[i].fixed)
         .collect();
+    // The smoother puts a "fixed" particle at its mean position and judges its width on the
+    // others' residuals: the scene's fixed particles and the hidden ones (at their constant
+    // scene positions) are fixed for it, the held neighbours (tracked, moving) are not.
+    let constant: Vec<bool> = (0..take.particles())
+        .map(|i| scene.particles[i].fixed || hidden.contains(&i))
+        .collect();
+    let smoothed: Trajectory = match smooth(&filled, &constant, noise) {
+        Some((s, _)) if noise > 0.0 => s,
+        _ => filled.clone(),
+    };
     let mut scene_rows = scene.clone();
     for &h in &hidden {
         scene_rows.particles[h].fixed = true;
@@ -168,18 +178,12 @@ pub fn start_genomes(
     }
     if !hidden.is_empty() && scene_rows.particles.iter().all(|p| p.fixed) {
         let no_row = "heuristic start (hidden particles leave no short-cost row";
-        return match imputed_start(scene, space, take, &filled, &hidden, noise) {
+        return match imputed_start(scene, space, take, &smoothed, &hidden) {
             Ok(imputed) => vec![imputed, heuristic(format!("{no_row})"))],
             Err(why) => vec![heuristic(format!("{no_row}; {why})"))],
         };
     }
-    let scene = &scene_rows;
-    let fixed: Vec<bool> = scene.particles.iter().map(|p| p.fixed).collect();
-    let smoothed: Trajectory = match smooth(&filled, &fixed, noise) {
-        Some((s, _)) if noise > 0.0 => s,
-        _ => filled.clone(),
-    };
-    let Ok(mut problem) = Problem::new(scene, &smoothed, CostKind::Short) else {
+    let Ok(mut problem) = Problem::new(&scene_rows, &smoothed, CostKind::Short) else {
         return vec![heuristic(
             "heuristic start (no short cost on this take)".into(),
         )];
@@ -206,25 +210,19 @@ fn clamped(space: &ParameterSpace, genome: &[f64]) -> Vec<f64> {
 
 /// The short cost's exact minimum when holding the hidden particles' neighbours leaves no row
 /// (a hidden particle linked to every free one): the hidden particles held on positions
-/// imputed from the known particles around them ([`super::impute`]) on the smoothed take, so
-/// their neighbours keep their rows. Err with why it cannot otherwise.
+/// imputed from the known particles around them ([`super::impute`]) on the take's `smoothed`
+/// positions, so their neighbours keep their rows. Err with why it cannot otherwise.
 fn imputed_start(
     scene: &Scene,
     space: &ParameterSpace,
     take: &Take,
-    filled: &Trajectory,
+    smoothed: &Trajectory,
     hidden: &[usize],
-    noise: f64,
 ) -> Result<(Vec<f64>, String), String> {
-    let fixed: Vec<bool> = scene.particles.iter().map(|p| p.fixed).collect();
-    let smoothed = match smooth(filled, &fixed, noise) {
-        Some((s, _)) if noise > 0.0 => s,
-        _ => filled.clone(),
-    };
     let known: Vec<bool> = (0..take.particles())
-        .map(|i| fixed[i] || take.tracks(i))
+        .map(|i| scene.particles[i].fixed || take.tracks(i))
         .collect();
-    let Some(imputed) = super::impute::with_hidden_imputed(scene, &smoothed, hidden, &known) else {
+    let Some(imputed) = super::impute::with_hidden_imputed(scene, smoothed, hidden, &known) else {
         return Err("no particle is seen to impute them from".into());
     };
     let mut held = scene.clone();
@@ -449,21 +447,12 @@ impl RigidStart {
             inertia += Matrix3::identity() * b.norm_squared() - b * b.transpose();
             moment += b.cross(&(v - vbar));
         }
-        let svd = cross.svd(true, true);
-        let (u, vt) = (svd.u?, svd.v_t?);
-        let d = (vt.transpose() * u.transpose()).determinant().signum();
-        let rotation =
-            vt.transpose() * Matrix3::from_diagonal(&Vec3::new(1.0, 1.0, d)) * u.transpose();
+        let rotation = super::impute::kabsch(&cross);
         let scale = inertia.norm().max(f64::MIN_POSITIVE);
         let spin = inertia
             .svd(true, true)
             .solve(&moment, 1e-9 * scale)
             .unwrap_or_else(|_| Vec3::zeros());
-        let rotation = if rotation.iter().all(|x| x.is_finite()) {
-            rotation
-        } else {
-            Matrix3::identity()
-        };
         Some(RigidStart {
             layout_centre: pbar,
             centre: cbar,
