@@ -238,6 +238,35 @@ fn a_hidden_particle_linked_to_every_free_one_still_gets_a_short_cost_start() {
     }
 }
 
+/// Several takes: each one's starts compete. Take 0 hides the soft block's centre (its own
+/// start can only be imputed or heuristic); take 1 tracks every particle, so its plain
+/// short-cost start reads no imputed position. The start once came from take 0 alone.
+#[test]
+fn every_takes_start_competes_so_a_take_that_tracks_all_gives_the_start() {
+    let (guess, truth, obs) = soft_block();
+    let space = ParameterSpace::from_scene(&guess);
+    let markers: Vec<usize> = (0..obs.particles()).filter(|&i| i != 13).collect();
+    let mut data = Vec::new();
+    for t in 0..obs.frames() {
+        for &i in &markers {
+            data.extend(obs.pos(t, i).iter());
+        }
+    }
+    let n = guess.particles.len();
+    let hiding = Take::from_markers(obs.frames(), &data, n, Some(&markers), None, None).unwrap();
+    let takes = [hiding, Take::complete(&obs)];
+    let e = estimate(&guess, &space, &takes, &Config::default()).unwrap();
+    assert!(
+        e.start
+            .starts_with("short-cost least squares on smoothed positions, take 1;"),
+        "{}",
+        e.start
+    );
+    assert!(e.converged, "{}", e.end);
+    let error = space.error_pct(&e.genome, &truth.param_values());
+    assert!(error < 5.0, "mean parameter error {error} %");
+}
+
 /// Weights are 1/σ relative: scaling every one by the same factor changes nothing but the
 /// unit of σ̂ and of the noise level (the soft block with every weight 2 once failed, "diverged
 /// within 32 frames": the windows compared weighted residuals to the unweighted noise level).

@@ -331,17 +331,25 @@ impl Prepared {
         let genomes = match &config.start {
             Some(g) if g.len() == space.dim() => vec![(g.clone(), "given start".to_string())],
             Some(g) => return Err(CostError::length("start", space.dim(), g.len())),
-            // The smoother reads positions: their own level from the data (the weights are
-            // the user's claim, the differences what the tracker did), or a given weight-1
-            // level over the take's typical weight.
+            // Each take's starts compete (one take may track what another hides). The
+            // smoother reads positions: their own level from the data (the weights are the
+            // user's claim, the differences what the tracker did), or a given weight-1 level
+            // over the take's typical weight.
             None => {
-                let take = &self.takes[0];
-                let position_noise = match config.noise_level {
-                    Some(unit) if take.weighted() => unit / take.rms_weight(),
-                    Some(unit) => unit,
-                    None => start::noise_level(take),
-                };
-                start::start_genomes(scene, space, take, position_noise)
+                let mut genomes = Vec::new();
+                for (k, take) in self.takes.iter().enumerate() {
+                    let position_noise = match config.noise_level {
+                        Some(unit) if take.weighted() => unit / take.rms_weight(),
+                        Some(unit) => unit,
+                        None => start::noise_level(take),
+                    };
+                    let starts = start::start_genomes(scene, space, take, position_noise);
+                    genomes.extend(starts.into_iter().map(|(g, note)| match self.takes.len() {
+                        1 => (g, note),
+                        _ => (g, format!("{note}, take {k}")),
+                    }));
+                }
+                genomes
             }
         };
         let fitter = self.fitter(space);
