@@ -101,7 +101,8 @@ impl LocalMap {
         let reach = SHELL * near[near.len().min(MIN_DONORS) - 1].1;
         let mut count = near.iter().take_while(|n| n.1 <= reach).count();
         // Donors on a line leave the turn about it free (Kabsch cannot fix it, and its SVD
-        // would pick one per frame at random): the next nearest join until they span a plane.
+        // would pick one per frame at random): the next nearest join until they span a plane,
+        // their count doubling so that a long straight chain costs log n tries, not n.
         loop {
             let (donors, centre, spread) = Self::weighed(layout, &near[..count]);
             if count == near.len() || flat_rank(&spread) >= 2 {
@@ -114,7 +115,7 @@ impl LocalMap {
                     donors,
                 });
             }
-            count += 1;
+            count = (2 * count).min(near.len());
         }
     }
 
