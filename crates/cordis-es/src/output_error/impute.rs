@@ -50,9 +50,9 @@ pub fn with_hidden_imputed(
     let mut frame = vec![Vec3::zeros(); traj.particles()];
     for t in 0..traj.frames() {
         traj.frame_into(t, &mut frame);
-        let imputed: Vec<Vec3> = maps.iter().map(|m| m.position(&frame)).collect();
-        for (&h, x) in hidden.iter().zip(imputed) {
-            frame[h] = x;
+        // In place: a map reads its donors, known particles, never a hidden one.
+        for (m, &h) in maps.iter().zip(hidden) {
+            frame[h] = m.position(&frame);
         }
         out.set_frame(t, &frame);
     }

@@ -399,43 +399,39 @@ impl Prepared {
         genomes: Vec<(Vec<f64>, String)>,
         states: &[f64],
     ) -> (Vec<f64>, String) {
+        let mut starts: Vec<(Vec<f64>, String)> = genomes
+            .into_iter()
+            .map(|(mut q, note)| {
+                q.extend_from_slice(states);
+                fitter.project(&mut q);
+                (q, note)
+            })
+            .collect();
+        if starts.len() == 1 {
+            return starts.pop().expect("one start");
+        }
+        // One rollout per take and start; the first of equal costs (every one diverging) wins.
         let longest = self.takes.iter().map(Take::frames).max().unwrap_or(0);
         let frames = self.first_window.min(longest);
-        let several = genomes.len() > 1;
-        let mut starts = genomes.into_iter().map(|(mut q, note)| {
-            q.extend_from_slice(states);
-            fitter.project(&mut q);
-            // One rollout per take; only a choice needs it.
-            let cost = match several {
-                true => fitter.cost(&q, frames, &mut Sens::default()),
-                false => 0.0,
-            };
-            (q, note, cost)
-        });
-        let first = starts
-            .next()
-            .expect("start_genomes gives one start or more");
-        let (mut best, mut others) = (first, Vec::new());
-        for s in starts {
-            match s.2 < best.2 {
-                true => others.push(std::mem::replace(&mut best, s)),
-                false => others.push(s),
-            }
-        }
-        if others.is_empty() {
-            return (best.0, best.1);
-        }
-        let others: Vec<String> = others
+        let buf = &mut Sens::default();
+        let costs: Vec<f64> = starts
             .iter()
-            .map(|(_, note, cost)| format!("“{note}” (cost {cost:.3e})"))
+            .map(|(q, _)| fitter.cost(q, frames, buf))
             .collect();
+        let best = (0..starts.len())
+            .min_by(|&a, &b| costs[a].total_cmp(&costs[b]))
+            .expect("start_genomes gives one start or more");
+        let others: Vec<String> = (0..starts.len())
+            .filter(|&k| k != best)
+            .map(|k| format!("“{}” (cost {:.3e})", starts[k].1, costs[k]))
+            .collect();
+        let (q, note) = starts.swap_remove(best);
         let note = format!(
-            "{}; its first {frames} frames cost {:.3e}, chosen over {}",
-            best.1,
-            best.2,
+            "{note}; its first {frames} frames cost {:.3e}, chosen over {}",
+            costs[best],
             others.join(" and ")
         );
-        (best.0, note)
+        (q, note)
     }
 
     /// Fits the next window (or reruns a stopped one) from where `progress` stands.

@@ -158,8 +158,15 @@ pub fn start_genomes(
     // The smoother puts a "fixed" particle at its mean position and judges its width on the
     // others' residuals: the scene's fixed particles and the hidden ones (at their constant
     // scene positions) are fixed for it, the held neighbours (tracked, moving) are not.
-    let constant: Vec<bool> = (0..take.particles())
-        .map(|i| scene.particles[i].fixed || hidden.contains(&i))
+    let mut is_hidden = vec![false; take.particles()];
+    for &h in &hidden {
+        is_hidden[h] = true;
+    }
+    let constant: Vec<bool> = scene
+        .particles
+        .iter()
+        .zip(&is_hidden)
+        .map(|(p, &h)| p.fixed || h)
         .collect();
     let smoothed: Trajectory = match smooth(&filled, &constant, noise) {
         Some((s, _)) if noise > 0.0 => s,
@@ -178,7 +185,7 @@ pub fn start_genomes(
     }
     if !hidden.is_empty() && scene_rows.particles.iter().all(|p| p.fixed) {
         let no_row = "heuristic start (hidden particles leave no short-cost row";
-        return match imputed_start(scene, space, take, &smoothed, &hidden) {
+        return match imputed_start(scene, space, &smoothed, &hidden, &is_hidden) {
             Ok(imputed) => vec![imputed, heuristic(format!("{no_row})"))],
             Err(why) => vec![heuristic(format!("{no_row}; {why})"))],
         };
@@ -211,17 +218,16 @@ fn clamped(space: &ParameterSpace, genome: &[f64]) -> Vec<f64> {
 /// The short cost's exact minimum when holding the hidden particles' neighbours leaves no row
 /// (a hidden particle linked to every free one): the hidden particles held on positions
 /// imputed from the known particles around them ([`super::impute`]) on the take's `smoothed`
-/// positions, so their neighbours keep their rows. Err with why it cannot otherwise.
+/// positions, so their neighbours keep their rows (`is_hidden`: `hidden` as a mask; every
+/// other particle is known, tracked or fixed). Err with why it cannot otherwise.
 fn imputed_start(
     scene: &Scene,
     space: &ParameterSpace,
-    take: &Take,
     smoothed: &Trajectory,
     hidden: &[usize],
+    is_hidden: &[bool],
 ) -> Result<(Vec<f64>, String), String> {
-    let known: Vec<bool> = (0..take.particles())
-        .map(|i| scene.particles[i].fixed || take.tracks(i))
-        .collect();
+    let known: Vec<bool> = is_hidden.iter().map(|&h| !h).collect();
     let Some(imputed) = super::impute::with_hidden_imputed(scene, smoothed, hidden, &known) else {
         return Err("no particle is seen to impute them from".into());
     };
