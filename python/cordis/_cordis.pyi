@@ -909,7 +909,8 @@ def discover(
     ``"spring"``, ``"anchor"`` (to a fixed particle), ``"damper"`` (isotropic); default all three; an
     unknown name raises ``ValueError``. ``identify=True`` then fits the discovered network by
     output-error on the same motion (``res.identified``, ``res.identification``; refused with
-    ``CordisError`` when the discovery names something as not determined). ``link_test=True``
+    ``CordisError`` when the discovery names something as not determined; Ctrl-C during the
+    fit raises ``KeyboardInterrupt`` whose ``result`` is the discovery without it). ``link_test=True``
     first tests every candidate pair again by output error (each pair a spring of its own,
     kept when its stiffness stands clear of 0 against its standard error; slower, more
     powerful under noise): the graph is then the test's, its fit in ``res.link_test``.

@@ -2,9 +2,12 @@
 //! proposes a spring network — links, masses, gravity, a catalogue of types — from positions
 //! alone, with a score per link.
 
-use cordis_es::discover::identify::{identify_discovered, Identified};
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use cordis_es::discover::identify::{identify_discovered_until, Identified};
 use cordis_es::discover::link_test::{link_test as core_link_test, LinkTestReport};
 use cordis_es::discover::{discover as core_discover, DiscoverOptions, Discovery, Kinds};
+use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 
 use crate::errors::cost_to_py;
@@ -153,7 +156,8 @@ fn to_py(
 /// (`spring`, `anchor`: to a fixed particle, `damper`: isotropic; default all three; an unknown
 /// name is a `ValueError`). `identify=True` then fits the discovered network by output-error
 /// on the same motion (`cordis discover --identify`): `res.identified` (Scene) and
-/// `res.identification` (dict). `link_test=True` first tests every candidate pair again by
+/// `res.identification` (dict); Ctrl-C during that fit raises `KeyboardInterrupt` whose
+/// `result` is the discovery without it. `link_test=True` first tests every candidate pair again by
 /// output error (`cordis discover --link-test`: each pair a spring of its own, kept when its
 /// stiffness stands clear of 0 against its standard error; slower, more powerful under
 /// noise): the graph is then the test's, its fit in `res.link_test` (dict). Each link's `kind` is in `res.links`. `res.undetermined` names what the data cannot decide (also raised as
@@ -196,25 +200,38 @@ pub fn discover(
         gravity,
         kinds,
     };
-    let (d, id, tested) = py
-        .detach(|| {
-            let d = core_discover(&traj, dt, &opt)?;
-            let (d, tested) = match link_test {
-                true => {
-                    let t = core_link_test(&traj, &d, &opt)?;
-                    (t.discovery, Some(t.report))
-                }
-                false => (d, None),
-            };
-            let id = if identify {
-                Some(identify_discovered(&traj, &d, &opt)?)
-            } else {
-                None
-            };
-            Ok((d, id, tested))
-        })
+    let interrupt = AtomicBool::new(false);
+    let halt = || interrupt.load(Ordering::Relaxed);
+    let work = || -> Result<_, cordis_es::CostError> {
+        let d = core_discover(&traj, dt, &opt)?;
+        let (d, tested) = match link_test {
+            true => {
+                let t = core_link_test(&traj, &d, &opt)?;
+                (t.discovery, Some(t.report))
+            }
+            false => (d, None),
+        };
+        let id = match identify {
+            true => identify_discovered_until(&traj, &d, &opt, &halt)?,
+            false => None,
+        };
+        Ok((d, id, tested))
+    };
+    let (outcome, signal) = crate::identify::with_signals(py, &interrupt, work);
+    let (d, id, tested) = outcome
+        .map_err(|_| PyRuntimeError::new_err("discover: the run panicked (a bug in cordis)"))?
         .map_err(cost_to_py)?;
-    to_py(py, d, id, tested)
+    let stopped = identify && id.is_none();
+    let result = to_py(py, d, id, tested)?;
+    match signal {
+        // Stopped by Ctrl-C within the fit: the discovery is kept on the exception.
+        Some(e) if stopped => {
+            e.value(py).setattr("result", Py::new(py, result)?)?;
+            Err(e)
+        }
+        Some(e) => Err(e),
+        None => Ok(result),
+    }
 }
 
 /// A seed-generated random spring network of `masses` particles and `types` spring types

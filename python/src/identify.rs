@@ -727,7 +727,7 @@ pub(crate) fn warn_all(py: Python<'_>, lines: &[String]) -> PyResult<()> {
     Ok(())
 }
 
-type RunOutcome = Result<Result<Outcome, CostError>, Box<dyn std::any::Any + Send>>;
+type RunOutcome = std::thread::Result<Result<Outcome, CostError>>;
 
 /// Runs the session on a worker thread without the GIL while this thread, the one Python
 /// delivers signals to, checks for Ctrl-C every [`SIGNAL_POLL`] and raises the interrupt flag.
@@ -737,13 +737,27 @@ fn run_waiting(
     mut observer: CallbackObserver,
 ) -> (RunOutcome, Option<PyErr>, CallbackObserver) {
     let interrupt = AtomicBool::new(false);
-    let (outcome, signal) = py.detach(|| {
+    let (outcome, signal) = with_signals(py, &interrupt, || {
+        let mut observers: Vec<&mut dyn Observer> = vec![&mut observer];
+        session.run(&mut observers, Some(&interrupt))
+    });
+    (outcome, signal, observer)
+}
+
+/// Runs `work` on a worker thread without the GIL while this thread, the one Python delivers
+/// signals to, checks for Ctrl-C every [`SIGNAL_POLL`]: on one, `interrupt` is raised (the
+/// work's halt flag) and the signal's exception returned beside the work's result. `Err` when
+/// the worker panicked.
+pub(crate) fn with_signals<T: Send>(
+    py: Python<'_>,
+    interrupt: &AtomicBool,
+    work: impl FnOnce() -> T + Send,
+) -> (std::thread::Result<T>, Option<PyErr>) {
+    py.detach(|| {
         let (done, finished) = mpsc::channel::<()>();
-        let (interrupt, observer) = (&interrupt, &mut observer);
         std::thread::scope(|s| {
             let worker = s.spawn(move || {
-                let mut observers: Vec<&mut dyn Observer> = vec![observer];
-                let r = session.run(&mut observers, Some(interrupt));
+                let r = work();
                 let _ = done.send(());
                 r
             });
@@ -763,8 +777,7 @@ fn run_waiting(
             }
             (worker.join(), signal)
         })
-    });
-    (outcome, signal, observer)
+    })
 }
 
 /// The executor object for `executor`: None for the local pool, `"ray"` for a default

@@ -1,8 +1,16 @@
 """cordis.discover: a generated network's links, masses and types from its motion alone."""
 
+import os
+import signal
+import threading
+import time
+from pathlib import Path
+
 import pytest
 
 import cordis
+
+SOFT = Path(__file__).resolve().parents[2] / "examples" / "data" / "soft-block"
 
 
 def _pairs(scene):
@@ -159,3 +167,23 @@ def test_discover_link_test_returns_what_the_cli_writes(tmp_path):
     assert cordis.Scene.from_json(out).to_dict() == res.scene.to_dict()
     with pytest.warns(UserWarning, match="noisy"):
         assert cordis.discover(traj, truth.dt, total_mass=total).link_test is None
+
+
+def test_ctrl_c_during_discover_identify_raises_with_the_discovery():
+    # The soft block's discovered network (16 types) takes minutes to identify: only the
+    # interrupt ends it early. The discovery is kept on the exception, without identification.
+    markers = cordis.read_trajectory(str(SOFT / "markers.csv"))
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    timer = threading.Timer(1.0, lambda: os.kill(os.getpid(), signal.SIGINT))
+    start = time.monotonic()
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt) as e:
+            cordis.discover(markers, 0.01, total_mass=0.36, identify=True)
+    finally:
+        timer.cancel()
+        signal.signal(signal.SIGINT, previous)
+    assert time.monotonic() - start < 90
+    res = e.value.result
+    assert res.identified is None and res.identification is None
+    assert res.scene.num_particles == 27 and len(res.links) > 0

@@ -164,3 +164,52 @@ fn discover_identify_refuses_bad_outputs_before_any_work() {
     assert!(!d.join("found.json").exists());
     assert!(!d.join("missing").exists());
 }
+
+/// Ctrl-C during the identification (minutes on the soft block's discovered network, whose
+/// 16 types the fit restarts on): exit 130, the discovered scene kept in `--out` (it is
+/// written before the fit starts), nothing in `--identify`, and the message says both.
+/// Before, the discovery was held back until the fit ended and the signal killed the process:
+/// both files lost.
+#[test]
+fn ctrl_c_during_discover_identify_keeps_the_discovered_scene() {
+    use std::process::{Command, Stdio};
+    use std::time::{Duration, Instant};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let markers =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/data/soft-block/markers.csv");
+    let child = Command::new(env!("CARGO_BIN_EXE_cordis"))
+        .current_dir(d)
+        .args(["discover", "-t"])
+        .arg(&markers)
+        .args(["--dt", "0.01", "--total-mass", "0.36"])
+        .args(["--out", "found.json", "--identify", "model.json"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while !d.join("found.json").exists() {
+        assert!(
+            start.elapsed() < Duration::from_secs(120),
+            "discovery never wrote its scene"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    std::thread::sleep(Duration::from_millis(500));
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(130), "{err}");
+    assert!(
+        err.contains("the discovered scene is in found.json")
+            && err.contains("nothing written to model.json"),
+        "{err}"
+    );
+    Scene::from_json_path(d.join("found.json")).unwrap();
+    assert!(!d.join("model.json").exists());
+}

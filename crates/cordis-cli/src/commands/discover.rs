@@ -1,8 +1,9 @@
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use anyhow::{anyhow, bail, Result};
-use cordis_es::discover::identify::{identify_discovered, Identified};
+use cordis_es::discover::identify::{identify_discovered_until, Identified};
 use cordis_es::discover::link_test::link_test;
 use cordis_es::discover::{discover, DiscoverOptions, Discovery, Kinds};
 
@@ -119,42 +120,76 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         false => (d, None),
     };
     let seconds = start.elapsed().as_secs_f64();
-    // Identified before anything is written: a refused or failed fit leaves no file behind.
-    let identified = match &a.identify {
-        Some(_) => {
-            let t = Instant::now();
-            let id = identify_discovered(&traj, &d, &opt)?;
-            Some((id, t.elapsed().as_secs_f64()))
-        }
-        None => None,
-    };
     let scores = scores_json(&d, seconds, tested);
     if let Some(path) = &a.scores {
         let text = serde_json::to_string_pretty(&scores)?;
         cordis_core::io::write_atomic(path, text.as_bytes())?;
     }
-    if let (Some(path), Some((id, _))) = (&a.identify, &identified) {
-        cordis_core::io::write_atomic(path, id.scene.to_json_string().as_bytes())?;
-    }
     let mut summary = scores;
     summary["particles"] = d.scene.num_particles().into();
     summary["types"] = d.scene.types.len().into();
     summary["num_links"] = d.scene.links.len().into();
-    if let (Some(path), Some((id, secs))) = (&a.identify, &identified) {
-        let mut v = serde_json::to_value(id)?;
-        v["out"] = path.display().to_string().into();
-        v["seconds"] = (*secs).into();
-        summary["identify"] = v;
+    let Some(id_path) = &a.identify else {
+        output.scene_result(&d.scene, a.out.as_deref(), summary)?;
+        if output.human() {
+            report_discovery(&d, seconds, a.link_test);
+        }
+        return Ok(());
+    };
+    // The discovery is kept before the fit starts: an identification that is refused, fails
+    // or is stopped by Ctrl-C (it can run for minutes) loses nothing of it.
+    if let Some(out) = &a.out {
+        super::write_scene(&d.scene, Some(out))?;
     }
-    output.scene_result(&d.scene, a.out.as_deref(), summary.clone())?;
     if output.human() {
         report_discovery(&d, seconds, a.link_test);
-        if let (Some(path), Some((id, secs))) = (&a.identify, &identified) {
-            report_identified(id, path, *secs);
+        eprintln!(
+            "identifying the discovered network by output-error (Ctrl-C stops it; the \
+             discovered scene is kept)…"
+        );
+    }
+    let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::Relaxed));
+    let t = Instant::now();
+    let halt = || INTERRUPTED.load(Ordering::Relaxed);
+    let kept = match &a.out {
+        Some(out) => format!("the discovered scene is in {}", out.display()),
+        None => "the discovery was not written (no --out)".to_string(),
+    };
+    let id = match identify_discovered_until(&traj, &d, &opt, &halt) {
+        Ok(Some(id)) => id,
+        Ok(None) => {
+            let msg = format!(
+                "{kept}; the identification was stopped before its estimate, nothing written to {}",
+                id_path.display()
+            );
+            return Err(super::Interrupted(msg).into());
         }
+        Err(e) => {
+            return Err(anyhow::Error::from(e).context(format!("--identify ({kept})")));
+        }
+    };
+    let secs = t.elapsed().as_secs_f64();
+    cordis_core::io::write_atomic(id_path, id.scene.to_json_string().as_bytes())?;
+    let mut v = serde_json::to_value(&id)?;
+    v["out"] = id_path.display().to_string().into();
+    v["seconds"] = secs.into();
+    summary["identify"] = v;
+    if output.json {
+        summary["out"] = a.out.as_ref().map(|p| p.display().to_string()).into();
+        if a.out.is_none() {
+            summary["scene"] = d.scene.to_json_value();
+        }
+        output.json_line(&summary)?;
+    } else if a.out.is_none() {
+        super::write_scene(&d.scene, None)?;
+    }
+    if output.human() {
+        report_identified(&id, id_path, secs);
     }
     Ok(())
 }
+
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
 /// The discovery's options from the command line (a mass scale required, gravity three
 /// finite numbers, the kinds' names known).

@@ -224,7 +224,12 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         return Err(e);
     }
     if outcome.result.stopped_by == StopReason::Interrupted {
-        return Err(super::Interrupted.into());
+        let kept = match a.out.as_ref().filter(|_| finite) {
+            Some(out) => format!("the best result so far was written to {}", out.display()),
+            None if finite => "the best result so far is the one reported above".to_string(),
+            None => "no candidate had a finite cost yet: nothing to keep".to_string(),
+        };
+        return Err(super::Interrupted(kept).into());
     }
     Ok(())
 }

@@ -66,14 +66,14 @@ impl Output {
     }
 }
 
-/// A run stopped by Ctrl-C after writing its best result so far: exit code 130 (128 + SIGINT),
-/// as shells expect, so that `cordis identify … && next-step` does not go on.
+/// A run stopped by Ctrl-C: exit code 130 (128 + SIGINT), as shells expect, so that
+/// `cordis identify … && next-step` does not go on. The message says what was kept.
 #[derive(Debug)]
-pub struct Interrupted;
+pub struct Interrupted(pub String);
 
 impl std::fmt::Display for Interrupted {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("interrupted (Ctrl-C); the best result so far was written")
+        write!(f, "interrupted (Ctrl-C); {}", self.0)
     }
 }
 

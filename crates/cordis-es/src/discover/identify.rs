@@ -38,7 +38,7 @@ use serde::Serialize;
 
 use super::{DiscoverOptions, Discovery};
 use crate::error::CostError;
-use crate::output_error::{self, box_interval, interval95, Config, Estimate, Take};
+use crate::output_error::{self, box_interval, interval95, Config, Estimate, Prepared, Step, Take};
 use crate::space::{ParameterSpace, Role, Unknown};
 use cordis_core::Trajectory;
 
@@ -116,6 +116,19 @@ pub fn identify_discovered(
     d: &Discovery,
     opt: &DiscoverOptions,
 ) -> Result<Identified, CostError> {
+    identify_discovered_until(traj, d, opt, &|| false)
+        .map(|id| id.expect("a fit that is never halted finishes"))
+}
+
+/// [`identify_discovered`], stopped between two of the fit's steps when `halt()` turns true
+/// (Ctrl-C): `None` then. A stopped fit has not reached the whole take, so it has no estimate
+/// to report (the output-error fit's windows before the last see part of the motion only).
+pub fn identify_discovered_until(
+    traj: &Trajectory,
+    d: &Discovery,
+    opt: &DiscoverOptions,
+    halt: &dyn Fn() -> bool,
+) -> Result<Option<Identified>, CostError> {
     let total_mass = opt.total_mass;
     let masses_discovered = opt.masses.is_none();
     if !d.undetermined.is_empty() {
@@ -143,7 +156,17 @@ pub fn identify_discovered(
         ..Config::default()
     };
     let take = Take::complete(&traj.clone().with_dt(d.scene.dt));
-    let e = output_error::estimate(&scene, &space, &[take], &config)?;
+    let prepared = Prepared::new(&scene, &space, vec![take], &config)?;
+    let mut progress = prepared.start(&scene, &space, &config)?;
+    loop {
+        match prepared.stage(&space, &mut progress, halt)? {
+            Step::Done => break,
+            Step::Stopped => return Ok(None),
+            _ if halt() => return Ok(None),
+            _ => {}
+        }
+    }
+    let e = prepared.finish(&scene, &space, &progress)?;
     let discovered = d.scene.param_values();
     let (params, cov, slot_scale) = match (reference, total_mass) {
         (Some(r), Some(m)) => rescaled(&scene, &space, &e, r, m),
@@ -188,7 +211,7 @@ pub fn identify_discovered(
             true,
         ));
     }
-    Ok(Identified {
+    Ok(Some(Identified {
         scene: out,
         params: rows,
         end: e.end,
@@ -203,7 +226,7 @@ pub fn identify_discovered(
         iterations: e.iterations,
         evaluations: e.evaluations,
         start: e.start.clone(),
-    })
+    }))
 }
 
 /// Makes gravity's three components unknown in `g ± GRAVITY_BOX |g|` around the discovered
