@@ -682,7 +682,7 @@ class IdentifyResult:
         False, where missing) — data summary, parameters with this run's intervals, per-marker
         observed vs model, residuals, convergence, the 3-D replay; light and dark themes.
         Written atomically. (``report`` is the solver's report, hence the name.) ``markers``
-        and ``weights`` as given to :func:`identify`: marker m is the scene's particle
+        and ``weights`` as given to :func:`identify` (default: this run's own): marker m is the scene's particle
         ``markers[m]`` (``trajectory`` then holds the markers, ``(T, M, 3)``); the weights add
         the weighted position RMS to the fit.
 

@@ -117,6 +117,9 @@ pub struct IdentifyResult {
     summary: serde_json::Value,
     /// Best cost per generation, for the report's convergence chart.
     convergence: Vec<cordis_cli::report::ConvergencePoint>,
+    /// The run's marker map and weights, [`IdentifyResult::write_report`]'s defaults.
+    markers: Option<Vec<usize>>,
+    weights: Option<Vec<f64>>,
 }
 
 #[pymethods]
@@ -131,8 +134,8 @@ impl IdentifyResult {
     /// Writes the identification report (`cordis report`): one self-contained HTML page on
     /// the identified scene and the observed motion `trajectory` (`(T, N, 3)`, NaN or
     /// `visible` False where missing), with this run's intervals and convergence. `markers`
-    /// and `weights` as given to `identify`: marker m is the scene's particle `markers[m]`;
-    /// the weights add the weighted position RMS to the fit.
+    /// and `weights` as given to `identify` (default: this run's own): marker m is the
+    /// scene's particle `markers[m]`; the weights add the weighted position RMS to the fit.
     #[pyo3(signature = (path, trajectory, visible = None, title = None, markers = None, weights = None))]
     #[allow(clippy::too_many_arguments)]
     fn write_report(
@@ -148,6 +151,10 @@ impl IdentifyResult {
         let observed = crate::trajectory::observations_from_py(trajectory, visible, "trajectory")?;
         let scene = self.scene.get().core();
         let title = title.unwrap_or_else(|| format!("identified by {}", self.strategy));
+        // The run's map unless told otherwise: a marker file read in scene order put the
+        // markers on the wrong particles (an RMS error of 0.12 m for a 1 mm fit).
+        let markers = markers.or_else(|| self.markers.clone());
+        let weights = weights.or_else(|| self.weights.clone());
         py.detach(|| {
             let (observed, weights) = match markers.is_some() || weights.is_some() {
                 true => cordis_cli::report::in_scene_order(
@@ -649,6 +656,7 @@ fn run_session(
     executor: Option<(Bound<'_, PyAny>, String, &str)>,
     callback: Option<Bound<'_, PyAny>>,
 ) -> PyResult<IdentifyResult> {
+    let (markers, weights) = (req.markers.clone(), req.weights.clone());
     let mut session = py.detach(|| Session::new(req)).map_err(cost_to_py)?;
     warn_all(py, session.warnings())?;
     let early = session.warnings().len();
@@ -687,7 +695,8 @@ fn run_session(
     let outcome = outcome.map_err(cost_to_py)?;
     warn_all(py, &outcome.warnings[early..])?;
     let checkpoint_error = outcome.result.checkpoint_error.clone();
-    let result = build_result(py, outcome)?;
+    let mut result = build_result(py, outcome)?;
+    (result.markers, result.weights) = (markers, weights);
     // A checkpoint that could not be written (a full disk) fails the call, as the CLI exits 1,
     // but loses nothing: the whole result rides on the exception.
     let signal = signal.or_else(|| checkpoint_error.map(|e| run_error("checkpoint", &e)));
@@ -896,6 +905,8 @@ fn build_result(py: Python<'_>, outcome: Outcome) -> PyResult<IdentifyResult> {
         sigma: spread.sigma,
         summary,
         convergence,
+        markers: None,
+        weights: None,
     })
 }
 

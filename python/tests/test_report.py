@@ -61,3 +61,19 @@ def test_markers_and_weights_map_the_report_as_identify_does(tmp_path, fitted):
     with pytest.raises(ValueError, match=r"^weights\[0\]: must be a positive finite"):
         res.write_report(tmp_path / "bad.html", three, markers=[7, 2, 11], weights=[0, 1, 1])
     assert not (tmp_path / "bad.html").exists()
+
+
+def test_the_report_takes_the_runs_own_markers_by_default(tmp_path):
+    # A run fitted on markers given in another order than the scene's: the page maps them as
+    # the run did without being told again (it used to read them in scene order, putting
+    # each marker on the wrong particle: an RMS error of 0.12 m for a 1 mm fit).
+    truth = cordis.example("rigid")
+    rng = np.random.default_rng(4)
+    order = [7, 2, 11, 0, 5, 14, 9, 3]
+    observed = truth.simulate(60)[:, order] + rng.normal(0.0, 1e-4, (60, len(order), 3))
+    res = cordis.identify(cordis.example("rigid", unknowns=True), observed,
+                          strategy="output-error", markers=order)
+    res.write_report(tmp_path / "own.html", observed)
+    res.write_report(tmp_path / "told.html", observed, markers=order)
+    assert (tmp_path / "own.html").read_text() == (tmp_path / "told.html").read_text()
+    assert "7 never observed" in (tmp_path / "own.html").read_text()

@@ -111,14 +111,9 @@ where
             // One line, like every other error (clap adds the usage and tips on more lines),
             // with the option's value escaped.
             let text = e.render().to_string();
-            let first = text
-                .lines()
-                .find(|l| !l.trim().is_empty())
-                .unwrap_or("error");
-            let first = first.strip_prefix("error: ").unwrap_or(first);
             eprintln!(
                 "error: {} (see `cordis --help`)",
-                cordis_core::error::printable(first)
+                cordis_core::error::printable(&first_clap_line(&text))
             );
             return 2;
         }
@@ -157,6 +152,23 @@ where
             code
         }
     }
+}
+
+/// clap's error as one line: its first line, and when that ends in a colon (the missing
+/// required arguments) the indented list under it, joined — else `identify guess.json` said
+/// "the following required arguments were not provided:" and named none.
+fn first_clap_line(text: &str) -> String {
+    let mut lines = text.lines().skip_while(|l| l.trim().is_empty());
+    let first = lines.next().unwrap_or("error");
+    let first = first.strip_prefix("error: ").unwrap_or(first).trim_end();
+    if !first.ends_with(':') {
+        return first.to_string();
+    }
+    let listed: Vec<&str> = lines
+        .take_while(|l| l.starts_with(' ') && !l.trim().is_empty())
+        .map(str::trim)
+        .collect();
+    format!("{first} {}", listed.join(", "))
 }
 
 /// The error and its causes on one line, printable (input bytes escaped, long values cut:

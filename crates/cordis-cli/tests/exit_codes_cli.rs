@@ -181,3 +181,23 @@ fn an_unbounded_input_exits_1_with_the_limit_and_bad_content_exits_2() {
     let ok = cordis(d, &["check", "r.json"]);
     assert_eq!(ok.status.code(), Some(0), "{}", stderr(&ok));
 }
+
+/// A missing required argument is named on the one error line (clap lists them on the lines
+/// under its first, which the one-line error used to drop: "…were not provided:" and nothing).
+#[test]
+fn a_missing_required_argument_is_named() {
+    let dir = rigid_dir();
+    let d = dir.path();
+    fails(
+        d,
+        &["identify", "u.json"],
+        2,
+        &["not provided: --trajectory"],
+    );
+    fails(
+        d,
+        &["simulate"],
+        2,
+        &["not provided: --frames <FRAMES>, <SCENE>"],
+    );
+}

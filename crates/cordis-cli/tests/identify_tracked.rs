@@ -658,3 +658,59 @@ fn bench_noise_reports_each_cell_with_coverage_per_parameter_kind() {
         assert!(stderr(&out).contains("--masses"), "{bad}: {}", stderr(&out));
     }
 }
+
+/// A box that leaves the truth out (the rigid object's `h_bottom` stiffness, 1050, searched in
+/// [262.5, 525]): the estimate ends on the box's edge, the report names it in `at_bound` with a
+/// warning, and its interval is cut at the box (it reached past it, naming values the fit
+/// could never return). Before, nothing said so, and the output was labelled as any other.
+#[test]
+fn an_estimate_on_its_boxs_edge_is_named_and_its_interval_cut_there() {
+    let dir = common::rigid_dir();
+    let d = dir.path();
+    let out = cordis(
+        d,
+        &["simulate", "r.json", "--frames", "100", "--out", "r100.csv"],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let mut scene: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("u.json")).unwrap()).unwrap();
+    scene["types"]["h_bottom"]["stiffness"] = serde_json::json!({"min": 262.5, "max": 525.0});
+    std::fs::write(d.join("narrow.json"), scene.to_string()).unwrap();
+    let out = cordis(
+        d,
+        &[
+            "identify",
+            "narrow.json",
+            "-t",
+            "r100.csv",
+            "--strategy",
+            "output-error",
+            "--noise",
+            "1e-3",
+            "--json",
+        ],
+    );
+    let v = summary(&out);
+    let solver = &v["solver"];
+    assert_eq!(
+        solver["at_bound"],
+        serde_json::json!(["types.h_bottom.stiffness"]),
+        "{solver}"
+    );
+    let row = solver["uncertainty"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r["name"] == "types.h_bottom.stiffness")
+        .expect("its row");
+    let (low, high) = (
+        row["interval"][0].as_f64().unwrap(),
+        row["interval"][1].as_f64().unwrap(),
+    );
+    assert!(262.5 <= low && low < high && high == 525.0, "{row}");
+    assert!(
+        stderr(&out).contains("on an edge of the box: types.h_bottom.stiffness"),
+        "{}",
+        stderr(&out)
+    );
+}

@@ -759,7 +759,17 @@ fn check(req: &IdentifyRequest, ran: &str, problem: &Problem) -> Result<(), Cost
                              in the motion: make a mass or a force known (a value in the scene, \
                              not a box), or pass {} (kg){}",
                             req.opt("total_mass"),
-                            if honours_total {
+                            if req.strategy == StrategyName::Auto {
+                                // auto picks output-error on noisy data, which refuses the
+                                // total: the advice must not lead there.
+                                format!(
+                                    " with {} least-squares or hybrid (the strategies that \
+                                     honour it; on noisy data they differentiate the noise, and \
+                                     the output-error estimate auto would pick needs a known \
+                                     mass or force)",
+                                    req.opt("strategy")
+                                )
+                            } else if honours_total {
                                 String::new()
                             } else {
                                 format!(

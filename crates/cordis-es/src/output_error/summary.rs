@@ -38,7 +38,8 @@ pub struct Estimate {
     /// the true one); NaN elsewhere.
     pub stderr_at_least: Vec<f64>,
     /// 95 % interval per unknown ([`interval95`]: `value ± 1.96 stderr`, on `ln value` for
-    /// the log-searched ones; an undetermined unknown's box `(min, max)`, [`box_interval`]).
+    /// the log-searched ones, cut at the box; an undetermined unknown's box `(min, max)`:
+    /// [`box_interval`]).
     pub intervals: Vec<(f64, f64)>,
     /// Covariance of the unknowns (physical units), row-major dim × dim.
     pub covariance: DMatrix<f64>,
@@ -150,16 +151,20 @@ pub(crate) fn spread(
     (stderr, intervals)
 }
 
-/// The interval of an unknown with standard error `se` searched in `bounds`: `wald`, or the
-/// box itself when `se` is infinite (undetermined). The data do not narrow such an unknown,
-/// so what is known of it is the box it was given: the Wald interval's `(0, inf)` or
-/// `(-inf, inf)` reached outside it (a stiffness in [1, 100] reported as [0, inf]) and wrote
-/// infinity into JSON as `null`.
+/// The interval of an unknown with standard error `se` searched in `bounds`: `wald` cut at
+/// the box, or the box itself when `se` is infinite (undetermined); NaN (not computed) stays
+/// NaN. The estimate is searched in the box, so no value outside it is a candidate: a Wald
+/// interval reaching past it (a damping's `[-9e-4, …]`, a stiffness pinned at the box's max
+/// 10 reported as `[9.91, 10.09]`) named values the fit could never return. An undetermined
+/// unknown's `(0, inf)` or `(-inf, inf)` also wrote infinity into JSON as `null`.
 pub(crate) fn box_interval(wald: (f64, f64), se: f64, bounds: (f64, f64)) -> (f64, f64) {
-    match se == f64::INFINITY {
-        true => bounds,
-        false => wald,
+    if se == f64::INFINITY {
+        return bounds;
     }
+    if wald.0.is_nan() || wald.1.is_nan() {
+        return wald;
+    }
+    (wald.0.max(bounds.0), wald.1.min(bounds.1))
 }
 
 /// The 95 % Wald interval of a value `v` with standard error `se`: on `ln v` for a parameter
@@ -209,7 +214,7 @@ fn variable_names(fitter: &Fitter<'_>, _scene: &Scene) -> Vec<String> {
 
 #[cfg(test)]
 mod tests {
-    use super::interval95;
+    use super::{box_interval, interval95};
     use approx::assert_relative_eq;
 
     /// Guards the log intervals: positive, the value their geometric centre, the Wald interval
@@ -240,5 +245,20 @@ mod tests {
         assert!(lo.is_nan() && hi.is_nan());
         let (lo, hi) = interval95(1.0, f64::INFINITY, true);
         assert_eq!((lo, hi), (0.0, f64::INFINITY));
+    }
+
+    #[test]
+    fn an_interval_is_cut_at_the_box_the_box_when_undetermined_nan_when_not_computed() {
+        let damping = interval95(2e-4, 5e-4, false);
+        assert!(damping.0 < 0.0);
+        assert_eq!(box_interval(damping, 5e-4, (0.0, 1.0)), (0.0, damping.1));
+        assert_eq!(box_interval((9.9, 10.1), 0.05, (1.0, 10.0)), (9.9, 10.0));
+        assert_eq!(box_interval((2.0, 3.0), 0.2, (1.0, 10.0)), (2.0, 3.0));
+        assert_eq!(
+            box_interval((0.0, f64::INFINITY), f64::INFINITY, (1.0, 10.0)),
+            (1.0, 10.0)
+        );
+        let (lo, hi) = box_interval((f64::NAN, f64::NAN), f64::NAN, (1.0, 10.0));
+        assert!(lo.is_nan() && hi.is_nan());
     }
 }

@@ -53,6 +53,11 @@ pub struct OutputErrorReport {
     /// Why `auto` chose this estimator, when it did.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub chosen_because: Option<String>,
+    /// Unknowns that ended on an edge of their box (a damping's floor 0 apart: that is an
+    /// answer, not the box): the data pull them further, so their value is the box's and their
+    /// interval is cut at it.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub at_bound: Vec<String>,
     /// Whether every standard error could be computed.
     pub uncertainty_computed: bool,
     /// The unknowns whose standard error was not computed (the matrix-free solve did not

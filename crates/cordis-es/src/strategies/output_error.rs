@@ -175,14 +175,14 @@ impl OutputErrorReport {
             .iter()
             .map(|u| u.name.as_str())
             .collect();
-        let mut undetermined: Vec<String> = e
-            .undetermined
-            .iter()
-            .flatten()
-            .filter(|n| names.contains(&n.as_str()))
-            .cloned()
-            .collect();
-        undetermined.dedup();
+        // Each name once, in the order the directions name them (an unknown on several
+        // directions was listed once per direction).
+        let mut undetermined: Vec<String> = Vec::new();
+        for n in e.undetermined.iter().flatten() {
+            if names.contains(&n.as_str()) && !undetermined.contains(n) {
+                undetermined.push(n.clone());
+            }
+        }
         OutputErrorReport {
             estimator: "output-error".into(),
             start: e.start.clone(),
@@ -220,6 +220,7 @@ impl OutputErrorReport {
                 }
             }),
             chosen_because: None,
+            at_bound: at_bound(problem, e),
             uncertainty_computed: !e.stderr.iter().any(|s| s.is_nan()),
             // Every unknown whose standard error was not computed, so a reader finds them all
             // in one place; a solve that never moved bounds it by 0 only.
@@ -262,14 +263,62 @@ impl OutputErrorReport {
                 missing.join(", ")
             ));
         }
-        for d in &self.undetermined_directions {
+        if self.finished() && !self.at_bound.is_empty() {
+            w.push(format!(
+                "output-error: on an edge of the box: {} (the data pull each further: its \
+                 value is the box's edge and its interval is cut there); widen the box, or \
+                 check the scene and the data",
+                self.at_bound.join(", ")
+            ));
+        }
+        // A direction that moves unknowns has a line of its own; the ones that move initial
+        // states only (a particle that no observation follows) are counted in one line, not
+        // one line per coordinate.
+        let (with_unknowns, states_only): (Vec<&Vec<String>>, Vec<&Vec<String>>) = self
+            .undetermined_directions
+            .iter()
+            .partition(|d| d.iter().any(|n| self.undetermined.contains(n)));
+        for d in with_unknowns {
             w.push(format!(
                 "not determined by the data together: {}",
                 d.join(", ")
             ));
         }
+        let states: Vec<&String> = states_only.into_iter().flatten().collect();
+        if !states.is_empty() {
+            const SHOWN: usize = 4;
+            let shown: Vec<&str> = states.iter().take(SHOWN).map(|s| s.as_str()).collect();
+            let more = match states.len().saturating_sub(SHOWN) {
+                0 => String::new(),
+                n => format!(" and {n} more"),
+            };
+            w.push(format!(
+                "not determined by the data: {} initial-state coordinate{} ({}{more}); the \
+                 parameters' estimates do not depend on them",
+                states.len(),
+                if states.len() == 1 { "" } else { "s" },
+                shown.join(", ")
+            ));
+        }
         w
     }
+}
+
+/// The unknowns at an edge of their box at the estimate (within 1e-9 of the box in the fit's
+/// own coordinates); a lower edge of 0 is physics (a damping found absent), not the box.
+fn at_bound(problem: &Problem, e: &Estimate) -> Vec<String> {
+    problem
+        .space
+        .unknowns
+        .iter()
+        .zip(&e.genome)
+        .filter(|(u, &z)| {
+            let (lo, hi) = u.internal_bounds();
+            let tol = 1e-9 * (hi - lo).abs();
+            z >= hi - tol || (u.min != 0.0 && z <= lo + tol)
+        })
+        .map(|(u, _)| u.name.clone())
+        .collect()
 }
 
 /// Standard errors and 95 % intervals of the unknowns, by name, in unknown order; an unknown
