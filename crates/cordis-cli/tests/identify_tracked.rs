@@ -714,3 +714,48 @@ fn an_estimate_on_its_boxs_edge_is_named_and_its_interval_cut_there() {
         stderr(&out)
     );
 }
+
+/// The soft block's markers shifted by 0.5 m along x (or in mm for a scene in m, or without the
+/// `--markers` their file needs): its fixed particles are observed far from where the scene
+/// holds them, and a warning says so before the fit, naming the take and the farthest. The
+/// data as shipped give no such warning.
+#[test]
+fn fixed_particles_observed_far_from_the_scene_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let text = std::fs::read_to_string(soft_block().join("markers.csv")).unwrap();
+    let mut shifted = String::new();
+    for (k, line) in text.lines().enumerate() {
+        let mut f: Vec<String> = line.split(',').map(str::to_string).collect();
+        if k > 0 {
+            f[2] = format!("{}", f[2].parse::<f64>().unwrap() + 0.5);
+        }
+        shifted.push_str(&f.join(","));
+        shifted.push('\n');
+    }
+    std::fs::write(d.join("shift.csv"), shifted).unwrap();
+    let guess = soft_block().join("guess.json");
+    let run = |take: &Path| {
+        let out = cordis(
+            d,
+            &[
+                "identify",
+                guess.to_str().unwrap(),
+                "-t",
+                take.to_str().unwrap(),
+                "--generations",
+                "1",
+            ],
+        );
+        stderr(&out)
+    };
+    let err = run(&d.join("shift.csv"));
+    assert!(
+        err.contains(
+            "shift.csv: 9 fixed particles are observed far from where the scene holds them"
+        ),
+        "{err}"
+    );
+    let err = run(&soft_block().join("markers.csv"));
+    assert!(!err.contains("far from where the scene"), "{err}");
+}

@@ -80,7 +80,12 @@ fn csv_malformed_cases_name_file_and_line() {
     assert_err(
         p(&format!("{h}0,0,1,NaN,3\n")),
         "run.csv:2",
-        "must be finite",
+        "y is NaN (a gap): this command needs complete motion",
+    );
+    assert_err(
+        p(&format!("{h}0,0,1,,3\n")),
+        "run.csv:2",
+        "y is empty (a gap): this command needs complete motion",
     );
     assert_err(
         p(&format!("{h}0,0,1,2,inf\n")),

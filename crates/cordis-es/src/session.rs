@@ -271,6 +271,7 @@ impl Session {
         };
         check_noise(&req, noise)?;
         let (data, takes) = prepare_takes(&req, noise)?;
+        warnings.extend(fixed_far_from_the_scene(&req, &takes));
         let mut problem = build_problem(&req, &data)?;
         let recorded = takes.len() > 1
             || req.weights.is_some()
@@ -564,6 +565,61 @@ fn check_noise(req: &IdentifyRequest, noise: f64) -> Result<(), CostError> {
         ));
     }
     Ok(())
+}
+
+/// A fixed particle observed on average farther from where the scene holds it than this
+/// fraction of the scene's size is a sign of a wrong map or unit, not of tracking noise.
+const FIXED_FAR: f64 = 0.05;
+
+/// Takes whose observed fixed particles sit far from the scene's positions for them (module
+/// constant [`FIXED_FAR`]): one warning per take naming the farthest. A file in mm for a scene
+/// in m, a forgotten `--markers`, a shifted origin: each ran to a fit that diverged or stayed
+/// far above the noise, with advice about boxes and dt and no word about the data.
+fn fixed_far_from_the_scene(req: &IdentifyRequest, takes: &[Take]) -> Vec<String> {
+    let scene = &req.scene;
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for p in &scene.particles {
+        for c in 0..3 {
+            lo[c] = lo[c].min(p.pos[c]);
+            hi[c] = hi[c].max(p.pos[c]);
+        }
+    }
+    let size = (0..3).map(|c| (hi[c] - lo[c]).powi(2)).sum::<f64>().sqrt();
+    if size.is_nan() || size <= 0.0 {
+        return Vec::new();
+    }
+    let mut out = Vec::new();
+    for (k, take) in takes.iter().enumerate() {
+        let mut far: Vec<(usize, f64)> = Vec::new();
+        for (i, p) in scene.particles.iter().enumerate().filter(|(_, p)| p.fixed) {
+            let (mut sum, mut count) = (0.0, 0usize);
+            for t in 0..take.frames() {
+                let seen = [0, 1, 2].map(|c| take.at(t, i, c));
+                if seen.iter().all(|&(_, w)| w > 0.0) {
+                    let d2: f64 = (0..3).map(|c| (seen[c].0 - p.pos[c]).powi(2)).sum();
+                    sum += d2.sqrt();
+                    count += 1;
+                }
+            }
+            if count > 0 && sum / count as f64 > FIXED_FAR * size {
+                far.push((i, sum / count as f64));
+            }
+        }
+        if let Some(&(i, d)) = far.iter().max_by(|a, b| a.1.total_cmp(&b.1)) {
+            out.push(format!(
+                "{}: {} fixed particle{} observed far from where the scene holds {} (particle \
+                 {i}: {d:.3e} m on average, {:.0} % of the scene's size): check {}, the \
+                 data's units and the scene",
+                req.take_place(k),
+                far.len(),
+                if far.len() == 1 { " is" } else { "s are" },
+                if far.len() == 1 { "it" } else { "them" },
+                100.0 * d / size,
+                req.opt("markers"),
+            ));
+        }
+    }
+    out
 }
 
 /// `threads`, at most the machine's parallelism: more only adds switching (and a hundred

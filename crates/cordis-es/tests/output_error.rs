@@ -338,6 +338,48 @@ fn a_free_particle_no_observation_reaches_is_refused_by_name() {
     );
 }
 
+/// A take that tracks the fixed particles only (a user whose marker map put the free markers
+/// elsewhere), and a free particle hidden behind a fixed one: both refused by name. Before,
+/// a tracked fixed particle counted as an observation of every particle linked to it, and
+/// the fit ran to "diverges … narrow the boxes".
+#[test]
+fn a_take_of_fixed_particles_only_or_a_particle_behind_a_fixed_one_is_refused() {
+    let mut truth = cordis_core::examples::random_network(0, 6, 2);
+    let n0 = truth.num_particles();
+    let fixed: Vec<usize> = (0..n0).filter(|&i| truth.particles[i].fixed).collect();
+    assert!(!fixed.is_empty());
+    // A free particle linked to a fixed one only: whatever its state, nothing else moves.
+    let lone = truth.add_particle(cordis_core::Particle::new(1.0, [9.0, 9.0, 9.0]));
+    let ty = truth.types[truth.links[0].type_index].name.clone();
+    truth.add_link(&ty, &[fixed[0], lone]);
+    let n = truth.num_particles();
+    let traj = truth.simulate(30).unwrap();
+    let guess = cordis_es::identify::with_unknown_boxes(&truth, 25.0, 0);
+    let space = ParameterSpace::from_scene(&guess);
+    let refusal = |hidden: &dyn Fn(usize) -> bool| {
+        let mut data = traj.as_flat().to_vec();
+        for t in 0..30 {
+            for i in (0..n).filter(|&i| hidden(i)) {
+                data[(t * n + i) * 3..(t * n + i) * 3 + 3].fill(f64::NAN);
+            }
+        }
+        let take = Take::from_markers(30, &data, n, None, None, None).unwrap();
+        estimate(&guess, &space, &[take], &Config::default())
+            .unwrap_err()
+            .to_string()
+    };
+    let e = refusal(&|i| !fixed.contains(&i));
+    assert!(
+        e.starts_with("take 0: observes none of the scene's free particles"),
+        "{e}"
+    );
+    let e = refusal(&|i| i == lone);
+    assert!(
+        e.starts_with(&format!("take 0, particle {lone}: has no visible frame")),
+        "{e}"
+    );
+}
+
 #[test]
 fn kinds_without_sensitivities_are_refused_by_name() {
     let mut s = cordis_core::examples::rigid();

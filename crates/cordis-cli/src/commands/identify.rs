@@ -16,6 +16,9 @@ use cordis_es::strategies::thesis::Crossover;
 use super::Output;
 
 #[derive(clap::Args, Debug)]
+// A negative value (`--time-limit -1`, `--seed -1`) is read as the option's value, so that its
+// validation names it with the range, rather than clap's "unexpected argument '-1'".
+#[command(allow_negative_numbers = true)]
 pub struct Args {
     /// Scene whose unknown parameters are written as {"min": …, "max": …}.
     scene: PathBuf,

@@ -105,10 +105,17 @@ fn parse_rows(name: &str, text: &str, gaps: bool) -> Result<(usize, usize, Vec<f
     // Indices are checked against the sorted sequence (0,0), (0,1)… rather than used to size a
     // table, so that a huge index costs nothing before it is reported as a gap.
     let n = rows.iter().map(|r| r.particle).max().unwrap_or(0) + 1;
-    let frames = rows.last().map_or(0, |r| r.frame) + 1;
     if gaps {
+        // Frames counted from the smallest, as the other tables' frame column: a take cropped
+        // from a longer one (its frames 100–199) read as 100 empty frames before its own.
+        let first = rows[0].frame;
+        for r in &mut rows {
+            r.frame -= first;
+        }
+        let frames = rows.last().map_or(0, |r| r.frame) + 1;
         return fill_gaps(name, &rows, frames, n);
     }
+    let frames = rows.last().map_or(0, |r| r.frame) + 1;
     let mut expect = (0u64, 0u64);
     for (k, r) in rows.iter().enumerate() {
         check_unique(name, &rows, k)?;
@@ -201,6 +208,15 @@ pub(crate) fn parse_index(field: &str, what: &str) -> std::result::Result<u64, S
 
 fn parse_coord(field: &str, what: &str) -> std::result::Result<f64, String> {
     match field.parse::<f64>() {
+        // A gap, in a reader that needs complete motion (the observations' reader takes it).
+        Err(_) if field.is_empty() => Err(format!(
+            "{what} is empty (a gap): this command needs complete motion (`cordis identify` \
+             reads gaps)"
+        )),
+        Ok(v) if v.is_nan() => Err(format!(
+            "{what} is {field} (a gap): this command needs complete motion (`cordis identify` \
+             reads gaps)"
+        )),
         Err(_) => Err(format!("{what} `{field}` is not a number")),
         Ok(v) if !v.is_finite() => Err(format!("{what} is {field}: coordinates must be finite")),
         Ok(v) => Ok(v),
@@ -248,6 +264,15 @@ mod tests {
             .map(|(f, i)| t.pos(f, i).x)
             .collect();
         assert_eq!(xs, [1.0, 2.0, 3.0, 4.0]);
+    }
+
+    #[test]
+    fn observations_count_their_frames_from_the_smallest() {
+        let text = "frame,particle,x,y,z\n100,0,1,2,3\n101,0,4,5,6\n102,1,7,8,9\n";
+        let o = parse_csv_observations("a.csv", text).unwrap();
+        assert_eq!((o.frames(), o.particles()), (3, 2));
+        assert_eq!(&o.as_flat()[..3], &[1.0, 2.0, 3.0]);
+        assert_eq!(o.missing(), 9);
     }
 
     #[test]

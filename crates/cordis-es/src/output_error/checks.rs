@@ -10,9 +10,10 @@ use crate::error::CostError;
 use super::observations::Take;
 use super::tangent::{self, Tangent};
 
-/// Every take fits the scene, has 3 frames, and every free particle it does not observe is
-/// tied by links to one it observes (or to a fixed one): otherwise nothing can estimate that
-/// particle's initial state.
+/// Every take fits the scene, has 3 frames, observes some free particle, and every free
+/// particle it does not observe is tied by a chain of links to a free one it observes:
+/// otherwise nothing can estimate that particle's initial state (a fixed particle, observed
+/// or not, stays where it is whatever the state).
 pub(crate) fn check_takes(
     scene: &Scene,
     tangent: &Tangent,
@@ -45,11 +46,21 @@ pub(crate) fn check_takes(
                 format!("has {} frames, at least 3 are needed", take.frames()),
             ));
         }
-        let mut seen: Vec<bool> = (0..n).map(|i| take.tracks(i)).collect();
+        let mut seen = vec![false; n];
+        for &i in &tangent.free {
+            seen[i] = take.tracks(i);
+        }
+        if !tangent.free.is_empty() && !seen.iter().any(|&s| s) {
+            return Err(CostError::mismatch(
+                format!("take {k}"),
+                "observes none of the scene's free particles (only fixed ones, or none): \
+                 nothing in it shows the motion — check --markers, or the file",
+            ));
+        }
         let mut queue: VecDeque<usize> = (0..n).filter(|&i| seen[i]).collect();
         while let Some(i) = queue.pop_front() {
             for &j in &adj[i] {
-                if !seen[j] {
+                if !seen[j] && !scene.particles[j].fixed {
                     seen[j] = true;
                     queue.push_back(j);
                 }
@@ -58,7 +69,7 @@ pub(crate) fn check_takes(
         if let Some(&i) = tangent.free.iter().find(|&&i| !seen[i]) {
             return Err(CostError::mismatch(
                 format!("take {k}, particle {i}"),
-                "has no visible frame and no link to an observed particle: \
+                "has no visible frame and no chain of links to an observed free particle: \
                  its initial state cannot be estimated",
             ));
         }

@@ -169,7 +169,13 @@ impl Schedule {
 
     /// Residual rms above which a fit of `window` frames is a wrong basin, m (module doc).
     fn tolerance(&self, fitter: &Fitter<'_>, window: usize) -> f64 {
-        let n = self.noise_samples.max(1) as f64;
+        // No third difference to read the noise from (a take of 3 frames, or gaps in every
+        // run of 4): nothing to judge a basin against. Treating the unknown level as 0 called
+        // every fit "above the data's noise level (0.000e0 m)" and sent it to the restarts.
+        if self.noise_samples == 0 {
+            return f64::INFINITY;
+        }
+        let n = self.noise_samples as f64;
         let n_w = fitter.observed_in(window).max(1) as f64;
         // The relative variance of a residual rms is 1/(2 n_w); of the median-based scale
         // 1.167²/n_w.

@@ -486,9 +486,25 @@ fn resume(
             )
             .collect();
         if !differs.is_empty() {
+            // One fingerprint entry holds the marker map and the weights together.
+            let named: Vec<&str> = differs
+                .iter()
+                .map(|&k| {
+                    if k == "markers" {
+                        "markers or weights"
+                    } else {
+                        k
+                    }
+                })
+                .collect();
             return Err(bad(format!(
-                "checkpoint was made for another request: its {} differ from this run's",
-                differs.join(", ")
+                "checkpoint was made for another request: its {} {} from this run's",
+                named.join(", "),
+                if named.len() == 1 {
+                    "differs"
+                } else {
+                    "differ"
+                }
             )));
         }
     }
