@@ -431,7 +431,8 @@ def read_trajectory(
     delimiter: Optional[str] = None,
     with_dt: Literal[False] = False,
 ) -> npt.NDArray[np.float64]:
-    """Reads a trajectory or marker file by extension as ``(T, N, 3)`` m, NaN where missing.
+    """Reads a trajectory or marker file by extension as ``(T, N, 3)`` m, NaN where missing;
+    frames counted from the file's first (a take cropped to frames 100–199 gives T = 100).
 
     cordis' ``.csv``, ``.npy``, ``.tra``; motion capture ``.c3d``, OpenSim ``.trc``; tracker
     ``.npz`` (TAP-Vid ``tracks (N, T, 2|3)`` + ``visibility (N, T)``, CoTracker); ``.csv`` /
@@ -682,7 +683,8 @@ class IdentifyResult:
         False, where missing) — data summary, parameters with this run's intervals, per-marker
         observed vs model, residuals, convergence, the 3-D replay; light and dark themes.
         Written atomically. (``report`` is the solver's report, hence the name.) ``markers``
-        and ``weights`` as given to :func:`identify` (default: this run's own): marker m is the scene's particle
+        and ``weights`` as given to :func:`identify` (default: this run's own; for a
+        scene-ordered array after a run with markers, ``markers=list(range(N))``): marker m is the scene's particle
         ``markers[m]`` (``trajectory`` then holds the markers, ``(T, M, 3)``); the weights add
         the weighted position RMS to the fit.
 

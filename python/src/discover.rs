@@ -221,15 +221,14 @@ pub fn discover(
     let (d, id, tested) = outcome
         .map_err(|_| PyRuntimeError::new_err("discover: the run panicked (a bug in cordis)"))?
         .map_err(cost_to_py)?;
-    let stopped = identify && id.is_none();
     let result = to_py(py, d, id, tested)?;
     match signal {
-        // Stopped by Ctrl-C within the fit: the discovery is kept on the exception.
-        Some(e) if stopped => {
+        // Ctrl-C: whatever was done rides on the exception (the discovery, and the
+        // identification when it had finished; `identified` None when it was stopped).
+        Some(e) => {
             e.value(py).setattr("result", Py::new(py, result)?)?;
             Err(e)
         }
-        Some(e) => Err(e),
         None => Ok(result),
     }
 }

@@ -19,7 +19,7 @@ use clap::{Parser, Subcommand};
     name = "cordis",
     version,
     about = "Simulate Cordis-Anima mass-interaction networks and identify their parameters",
-    after_help = "Example:\n  cordis example rigid --out rigid.json\n  cordis simulate rigid.json --frames 100 --out rigid.csv\n\nExit codes: 0 success, 1 the run failed (a file, a divergence), 2 bad input or usage,\n130 interrupted by Ctrl-C (identify writes its best result first)."
+    after_help = "Example:\n  cordis example rigid --out rigid.json\n  cordis simulate rigid.json --frames 100 --out rigid.csv\n\nExit codes: 0 success, 1 the run failed (a file, a divergence), 2 bad input or usage,\n130 interrupted by Ctrl-C (identify writes its best result first; discover --identify keeps the discovery)."
 )]
 struct Cli {
     /// Machine-readable output: stdout holds only JSON objects, one per line (each command's
@@ -187,7 +187,7 @@ fn one_line(e: &anyhow::Error) -> String {
 
 /// 0 success, 1 a run that failed (divergence, a file that cannot be opened, read or written —
 /// every input alike, `--resume` included), 2 bad input (a file that reads but is wrong) or
-/// usage, 130 interrupted by Ctrl-C (after writing the best result so far). docs/cli.md holds
+/// usage, 130 interrupted by Ctrl-C (after writing what was done so far). docs/cli.md holds
 /// the table; `tests/exit_codes_cli.rs` checks it for every command.
 fn exit_code(e: &anyhow::Error) -> i32 {
     use cordis_core::CordisError;

@@ -271,7 +271,7 @@ impl Session {
         };
         check_noise(&req, noise)?;
         let (data, takes) = prepare_takes(&req, noise)?;
-        warnings.extend(fixed_far_from_the_scene(&req, &takes));
+        warnings.extend(fixed_far_from_the_scene(&req, &takes, noise));
         let mut problem = build_problem(&req, &data)?;
         let recorded = takes.len() > 1
             || req.weights.is_some()
@@ -568,14 +568,18 @@ fn check_noise(req: &IdentifyRequest, noise: f64) -> Result<(), CostError> {
 }
 
 /// A fixed particle observed on average farther from where the scene holds it than this
-/// fraction of the scene's size is a sign of a wrong map or unit, not of tracking noise.
+/// fraction of the scene's size (and than [`FIXED_FAR_NOISE`] times the noise added by
+/// `noise`) is a sign of a wrong map or unit, not of tracking noise.
 const FIXED_FAR: f64 = 0.05;
+
+/// The mean distance of a point with Gaussian noise σ per coordinate is 1.6 σ: five σ is far.
+const FIXED_FAR_NOISE: f64 = 5.0;
 
 /// Takes whose observed fixed particles sit far from the scene's positions for them (module
 /// constant [`FIXED_FAR`]): one warning per take naming the farthest. A file in mm for a scene
 /// in m, a forgotten `--markers`, a shifted origin: each ran to a fit that diverged or stayed
 /// far above the noise, with advice about boxes and dt and no word about the data.
-fn fixed_far_from_the_scene(req: &IdentifyRequest, takes: &[Take]) -> Vec<String> {
+fn fixed_far_from_the_scene(req: &IdentifyRequest, takes: &[Take], noise: f64) -> Vec<String> {
     let scene = &req.scene;
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     for p in &scene.particles {
@@ -601,7 +605,8 @@ fn fixed_far_from_the_scene(req: &IdentifyRequest, takes: &[Take]) -> Vec<String
                     count += 1;
                 }
             }
-            if count > 0 && sum / count as f64 > FIXED_FAR * size {
+            let far_enough = (FIXED_FAR * size).max(FIXED_FAR_NOISE * noise);
+            if count > 0 && sum / count as f64 > far_enough {
                 far.push((i, sum / count as f64));
             }
         }

@@ -137,24 +137,27 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         return Ok(());
     };
     // The discovery is kept before the fit starts: an identification that is refused, fails
-    // or is stopped by Ctrl-C (it can run for minutes) loses nothing of it.
-    if let Some(out) = &a.out {
-        super::write_scene(&d.scene, Some(out))?;
-    }
+    // or is stopped by Ctrl-C (it can run for minutes) loses nothing of it. Without --out
+    // the scene goes to stdout first, as it would without --identify; with --json it rides
+    // on the summary line, which a stopped fit does not print.
+    let kept = match &a.out {
+        Some(out) => {
+            super::write_scene(&d.scene, Some(out))?;
+            format!("the discovered scene is in {}", out.display())
+        }
+        None if !output.json => {
+            super::write_scene(&d.scene, None)?;
+            "the discovered scene was printed".to_string()
+        }
+        None => "the discovery was not written (no --out)".to_string(),
+    };
     if output.human() {
         report_discovery(&d, seconds, a.link_test);
-        eprintln!(
-            "identifying the discovered network by output-error (Ctrl-C stops it; the \
-             discovered scene is kept)…"
-        );
+        eprintln!("identifying the discovered network by output-error (Ctrl-C stops it; {kept})…");
     }
     let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::Relaxed));
     let t = Instant::now();
     let halt = || INTERRUPTED.load(Ordering::Relaxed);
-    let kept = match &a.out {
-        Some(out) => format!("the discovered scene is in {}", out.display()),
-        None => "the discovery was not written (no --out)".to_string(),
-    };
     let id = match identify_discovered_until(&traj, &d, &opt, &halt) {
         Ok(Some(id)) => id,
         Ok(None) => {
@@ -180,8 +183,6 @@ pub fn run(a: Args, output: Output) -> Result<()> {
             summary["scene"] = d.scene.to_json_value();
         }
         output.json_line(&summary)?;
-    } else if a.out.is_none() {
-        super::write_scene(&d.scene, None)?;
     }
     if output.human() {
         report_identified(&id, id_path, secs);

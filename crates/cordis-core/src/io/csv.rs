@@ -108,12 +108,10 @@ fn parse_rows(name: &str, text: &str, gaps: bool) -> Result<(usize, usize, Vec<f
     if gaps {
         // Frames counted from the smallest, as the other tables' frame column: a take cropped
         // from a longer one (its frames 100–199) read as 100 empty frames before its own.
+        // Messages keep the file's own frame numbers.
         let first = rows[0].frame;
-        for r in &mut rows {
-            r.frame -= first;
-        }
-        let frames = rows.last().map_or(0, |r| r.frame) + 1;
-        return fill_gaps(name, &rows, frames, n);
+        let frames = rows.last().map_or(0, |r| r.frame) - first + 1;
+        return fill_gaps(name, &rows, first, frames, n);
     }
     let frames = rows.last().map_or(0, |r| r.frame) + 1;
     let mut expect = (0u64, 0u64);
@@ -136,8 +134,15 @@ fn parse_rows(name: &str, text: &str, gaps: bool) -> Result<(usize, usize, Vec<f
     Ok((frames as usize, n as usize, data))
 }
 
-/// The table of sorted `rows`, NaN where a row is absent; duplicates refused.
-fn fill_gaps(name: &str, rows: &[Row], frames: u64, n: u64) -> Result<(usize, usize, Vec<f64>)> {
+/// The table of sorted `rows` from frame `first` on, NaN where a row is absent; duplicates
+/// refused.
+fn fill_gaps(
+    name: &str,
+    rows: &[Row],
+    first: u64,
+    frames: u64,
+    n: u64,
+) -> Result<(usize, usize, Vec<f64>)> {
     let cells = frames
         .checked_mul(n)
         .filter(|&c| c <= SPARSE_LIMIT.saturating_mul(rows.len() as u64).max(1 << 20));
@@ -160,7 +165,7 @@ fn fill_gaps(name: &str, rows: &[Row], frames: u64, n: u64) -> Result<(usize, us
     let mut data = vec![f64::NAN; cells as usize * 3];
     for (k, r) in rows.iter().enumerate() {
         check_unique(name, rows, k)?;
-        let at = ((r.frame * n + r.particle) * 3) as usize;
+        let at = (((r.frame - first) * n + r.particle) * 3) as usize;
         data[at..at + 3].copy_from_slice(&r.pos);
     }
     Ok((frames as usize, n as usize, data))
@@ -273,6 +278,12 @@ mod tests {
         assert_eq!((o.frames(), o.particles()), (3, 2));
         assert_eq!(&o.as_flat()[..3], &[1.0, 2.0, 3.0]);
         assert_eq!(o.missing(), 9);
+        // Messages keep the file's frame numbers.
+        let dup = "frame,particle,x,y,z\n100,0,1,2,3\n103,0,1,2,3\n103,0,1,2,3\n";
+        let e = parse_csv_observations("a.csv", dup)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("duplicate row for frame 103"), "{e}");
     }
 
     #[test]

@@ -54,7 +54,7 @@ pub(crate) fn check_takes(
             return Err(CostError::mismatch(
                 format!("take {k}"),
                 "observes none of the scene's free particles (only fixed ones, or none): \
-                 nothing in it shows the motion — check --markers, or the file",
+                 nothing in it shows the motion — check the marker map, or the file",
             ));
         }
         let mut queue: VecDeque<usize> = (0..n).filter(|&i| seen[i]).collect();

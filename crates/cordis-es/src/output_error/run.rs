@@ -309,8 +309,13 @@ impl Prepared {
 
     /// The schedule of a fit whose first window is `first` frames (at most the longest take).
     fn schedule_from(&self, fitter: &Fitter<'_>, first: usize) -> Schedule {
-        let noisiest = (0..self.noise_level.len())
-            .max_by(|&a, &b| self.noise_level[a].total_cmp(&self.noise_level[b]));
+        // The noisiest take whose level could be read (a take too short to read one has
+        // 0 samples and level 0: it would switch the basin check off by its order alone).
+        let key = |k: usize| (self.noise_samples[k] > 0, self.noise_level[k]);
+        let noisiest = (0..self.noise_level.len()).max_by(|&a, &b| {
+            let ((ra, la), (rb, lb)) = (key(a), key(b));
+            ra.cmp(&rb).then(la.total_cmp(&lb))
+        });
         let (noise, samples) =
             noisiest.map_or((0.0, 0), |k| (self.noise_level[k], self.noise_samples[k]));
         let schedule = Schedule::new(fitter, first, noise, samples, self.loss != Loss::Squared);

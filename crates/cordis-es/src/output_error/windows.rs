@@ -113,9 +113,10 @@ struct Last {
 }
 
 impl Last {
-    /// Residuals at the noise level and white.
+    /// Residuals at the noise level and white; never a diverged window's (its rms is
+    /// infinite, which an unknown noise level's infinite tolerance would let through).
     fn clean(&self) -> bool {
-        self.rms <= self.tolerance && self.lag <= self.lag_bound
+        self.rms.is_finite() && self.rms <= self.tolerance && self.lag <= self.lag_bound
     }
 }
 
@@ -380,6 +381,23 @@ mod tests {
 
     const FRAMES: usize = 1000;
     const SIGMA: f64 = 1e-2;
+
+    /// A diverged window (rms +inf) is never clean, even where the noise level could not be
+    /// read and every finite rms passes (the tolerance is then infinite): it was taken as a
+    /// clean optimum and the back-off never ran.
+    #[test]
+    fn a_diverged_window_is_never_clean_even_with_an_unknown_noise_level() {
+        let last = |rms: f64| Last {
+            end: StageEnd::Diverged,
+            rms,
+            tolerance: f64::INFINITY,
+            lag: 0.0,
+            lag_bound: 0.0,
+        };
+        assert!(!last(f64::INFINITY).clean());
+        assert!(!last(f64::NAN).clean());
+        assert!(last(1.0).clean());
+    }
 
     /// An anchored particle thrown sideways (it circles the anchor instead of swinging through
     /// it), 1000 noisy frames, its stiffness (10) unknown.

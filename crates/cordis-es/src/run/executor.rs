@@ -498,13 +498,8 @@ fn resume(
                 })
                 .collect();
             return Err(bad(format!(
-                "checkpoint was made for another request: its {} {} from this run's",
-                named.join(", "),
-                if named.len() == 1 {
-                    "differs"
-                } else {
-                    "differ"
-                }
+                "checkpoint was made for another request: it differs from this run in its {}",
+                named.join(", ")
             )));
         }
     }

@@ -183,6 +183,7 @@ impl OutputErrorReport {
                 undetermined.push(n.clone());
             }
         }
+        let at_bound = at_bound(problem, e, &undetermined);
         OutputErrorReport {
             estimator: "output-error".into(),
             start: e.start.clone(),
@@ -220,7 +221,7 @@ impl OutputErrorReport {
                 }
             }),
             chosen_because: None,
-            at_bound: at_bound(problem, e),
+            at_bound,
             uncertainty_computed: !e.stderr.iter().any(|s| s.is_nan()),
             // Every unknown whose standard error was not computed, so a reader finds them all
             // in one place; a solve that never moved bounds it by 0 only.
@@ -284,7 +285,13 @@ impl OutputErrorReport {
                 d.join(", ")
             ));
         }
-        let states: Vec<&String> = states_only.into_iter().flatten().collect();
+        // Each coordinate once: a degenerate null space's directions share coordinates.
+        let mut states: Vec<&String> = Vec::new();
+        for n in states_only.into_iter().flatten() {
+            if !states.contains(&n) {
+                states.push(n);
+            }
+        }
         if !states.is_empty() {
             const SHOWN: usize = 4;
             let shown: Vec<&str> = states.iter().take(SHOWN).map(|s| s.as_str()).collect();
@@ -305,13 +312,15 @@ impl OutputErrorReport {
 }
 
 /// The unknowns at an edge of their box at the estimate (within 1e-9 of the box in the fit's
-/// own coordinates); a lower edge of 0 is physics (a damping found absent), not the box.
-fn at_bound(problem: &Problem, e: &Estimate) -> Vec<String> {
+/// own coordinates); a lower edge of 0 is physics (a damping found absent), not the box, and
+/// an undetermined unknown is wherever the fit left it (the data pull it nowhere).
+fn at_bound(problem: &Problem, e: &Estimate, undetermined: &[String]) -> Vec<String> {
     problem
         .space
         .unknowns
         .iter()
         .zip(&e.genome)
+        .filter(|(u, _)| !undetermined.contains(&u.name))
         .filter(|(u, &z)| {
             let (lo, hi) = u.internal_bounds();
             let tol = 1e-9 * (hi - lo).abs();
