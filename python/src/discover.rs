@@ -217,7 +217,7 @@ pub fn discover(
         };
         Ok((d, id, tested))
     };
-    let (outcome, signal) = crate::identify::with_signals(py, &interrupt, work);
+    let (outcome, signal) = crate::signals::with_signals(py, &interrupt, work);
     let (d, id, tested) = outcome
         .map_err(|_| PyRuntimeError::new_err("discover: the run panicked (a bug in cordis)"))?
         .map_err(cost_to_py)?;

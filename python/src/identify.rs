@@ -7,9 +7,8 @@
 //! can do. The callback takes the GIL on the worker, once per generation.
 
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{mpsc, Arc};
-use std::time::Duration;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 
 use cordis_es::cost::LocalCost;
 use cordis_es::executor::{HistoryRow, Observer, StopReason};
@@ -42,9 +41,6 @@ const HISTORY_COLUMNS: [&str; 8] = [
     "mean_mutability",
     "param_error_pct",
 ];
-
-/// How often the waiting thread checks for Ctrl-C.
-const SIGNAL_POLL: Duration = Duration::from_millis(50);
 
 /// What `cordis.identify` found.
 #[pyclass(frozen, module = "cordis", name = "IdentifyResult")]
@@ -746,47 +742,11 @@ fn run_waiting(
     mut observer: CallbackObserver,
 ) -> (RunOutcome, Option<PyErr>, CallbackObserver) {
     let interrupt = AtomicBool::new(false);
-    let (outcome, signal) = with_signals(py, &interrupt, || {
+    let (outcome, signal) = crate::signals::with_signals(py, &interrupt, || {
         let mut observers: Vec<&mut dyn Observer> = vec![&mut observer];
         session.run(&mut observers, Some(&interrupt))
     });
     (outcome, signal, observer)
-}
-
-/// Runs `work` on a worker thread without the GIL while this thread, the one Python delivers
-/// signals to, checks for Ctrl-C every [`SIGNAL_POLL`]: on one, `interrupt` is raised (the
-/// work's halt flag) and the signal's exception returned beside the work's result. `Err` when
-/// the worker panicked.
-pub(crate) fn with_signals<T: Send>(
-    py: Python<'_>,
-    interrupt: &AtomicBool,
-    work: impl FnOnce() -> T + Send,
-) -> (std::thread::Result<T>, Option<PyErr>) {
-    py.detach(|| {
-        let (done, finished) = mpsc::channel::<()>();
-        std::thread::scope(|s| {
-            let worker = s.spawn(move || {
-                let r = work();
-                let _ = done.send(());
-                r
-            });
-            let mut signal = None;
-            loop {
-                match finished.recv_timeout(SIGNAL_POLL) {
-                    Err(mpsc::RecvTimeoutError::Timeout) if signal.is_none() => {
-                        if let Err(e) = Python::attach(|py| py.check_signals()) {
-                            signal = Some(e);
-                            interrupt.store(true, Ordering::Relaxed);
-                        }
-                    }
-                    Err(mpsc::RecvTimeoutError::Timeout) => {}
-                    // Finished, or the worker panicked and dropped its sender.
-                    _ => break,
-                }
-            }
-            (worker.join(), signal)
-        })
-    })
 }
 
 /// The executor object for `executor`: None for the local pool, `"ray"` for a default

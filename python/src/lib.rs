@@ -25,6 +25,7 @@ pub mod identify;
 pub mod json;
 pub mod scene;
 pub mod scene_edit;
+pub mod signals;
 pub mod trajectory;
 pub mod unknown;
 

@@ -188,3 +188,20 @@ def test_ctrl_c_during_discover_identify_raises_with_the_discovery():
     res = e.value.result
     assert res.identified is None and res.identification is None
     assert res.scene.num_particles == 27 and len(res.links) > 0
+
+
+def test_ctrl_c_during_discovery_alone_still_hands_back_what_was_found():
+    # Discovery does not stop in the middle (seconds): Ctrl-C during it is raised once it is
+    # done, with the discovery on the exception rather than thrown away.
+    markers = cordis.read_trajectory(str(SOFT / "markers.csv"))
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    timer = threading.Timer(0.2, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt) as e:
+            cordis.discover(markers, 0.01, total_mass=0.36)
+    finally:
+        timer.cancel()
+        signal.signal(signal.SIGINT, previous)
+    res = e.value.result
+    assert res.identified is None and res.scene.num_particles == 27

@@ -1,5 +1,5 @@
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::time::Instant;
 
 use anyhow::{anyhow, bail, Result};
@@ -155,9 +155,9 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         report_discovery(&d, seconds, a.link_test);
         eprintln!("identifying the discovered network by output-error (Ctrl-C stops it; {kept})…");
     }
-    let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::Relaxed));
+    super::catch_ctrl_c();
     let t = Instant::now();
-    let halt = || INTERRUPTED.load(Ordering::Relaxed);
+    let halt = || super::INTERRUPTED.load(Ordering::Relaxed);
     let id = match identify_discovered_until(&traj, &d, &opt, &halt) {
         Ok(Some(id)) => id,
         Ok(None) => {
@@ -189,8 +189,6 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     }
     Ok(())
 }
-
-static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
 /// The discovery's options from the command line (a mass scale required, gravity three
 /// finite numbers, the kinds' names known).

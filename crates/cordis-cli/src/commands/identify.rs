@@ -1,7 +1,6 @@
 use std::fs::File;
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::Result;
 use cordis_core::{Observations, Scene};
@@ -172,8 +171,6 @@ pub struct Args {
     read: super::ReadArgs,
 }
 
-static INTERRUPTED: AtomicBool = AtomicBool::new(false);
-
 pub fn run(a: Args, output: Output) -> Result<()> {
     guard(&a)?;
     let session = Session::new(request(&a)?)?;
@@ -183,7 +180,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         eprintln!("warning: {w}");
     }
     let ran = session.strategy();
-    let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::Relaxed));
+    super::catch_ctrl_c();
     let mut log = match &a.log {
         Some(p) => Some(LogWriter::create(p)?),
         None => None,
@@ -193,7 +190,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     if let Some(l) = log.as_mut() {
         observers.push(l);
     }
-    let outcome = session.run(&mut observers, Some(&INTERRUPTED))?;
+    let outcome = session.run(&mut observers, Some(&super::INTERRUPTED))?;
     drop(observers);
     progress.finish();
     // A write that fails here (a full disk) must not lose the result: it is printed first,

@@ -66,6 +66,15 @@ impl Output {
     }
 }
 
+/// Raised by Ctrl-C once [`catch_ctrl_c`] is called: the run stops at its next step and
+/// keeps what it has (the commands that run long read it).
+pub static INTERRUPTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// From now on Ctrl-C raises [`INTERRUPTED`] instead of killing the process.
+pub fn catch_ctrl_c() {
+    let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, std::sync::atomic::Ordering::Relaxed));
+}
+
 /// A run stopped by Ctrl-C: exit code 130 (128 + SIGINT), as shells expect, so that
 /// `cordis identify … && next-step` does not go on. The message says what was kept.
 #[derive(Debug)]

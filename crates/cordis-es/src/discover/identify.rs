@@ -38,7 +38,7 @@ use serde::Serialize;
 
 use super::{DiscoverOptions, Discovery};
 use crate::error::CostError;
-use crate::output_error::{self, box_interval, interval95, Config, Estimate, Prepared, Step, Take};
+use crate::output_error::{self, box_interval, interval95, Config, Estimate, Take};
 use crate::space::{ParameterSpace, Role, Unknown};
 use cordis_core::Trajectory;
 
@@ -156,17 +156,9 @@ pub fn identify_discovered_until(
         ..Config::default()
     };
     let take = Take::complete(&traj.clone().with_dt(d.scene.dt));
-    let prepared = Prepared::new(&scene, &space, vec![take], &config)?;
-    let mut progress = prepared.start(&scene, &space, &config)?;
-    loop {
-        match prepared.stage(&space, &mut progress, halt)? {
-            Step::Done => break,
-            Step::Stopped => return Ok(None),
-            _ if halt() => return Ok(None),
-            _ => {}
-        }
-    }
-    let e = prepared.finish(&scene, &space, &progress)?;
+    let Some(e) = output_error::estimate_until(&scene, &space, &[take], &config, halt)? else {
+        return Ok(None);
+    };
     let discovered = d.scene.param_values();
     let (params, cov, slot_scale) = match (reference, total_mass) {
         (Some(r), Some(m)) => rescaled(&scene, &space, &e, r, m),
@@ -193,10 +185,7 @@ pub fn identify_discovered_until(
             // Not determined: the box, in the reported unit (rescaled as the value is).
             let k = slot_scale[u.slot];
             (r.low, r.high) = box_interval((r.low, r.high), r.stderr, (u.min * k, u.max * k));
-            let v = e.params[u.slot];
-            let tol = 1e-9 * (u.max - u.min);
-            // A damping's floor 0 is physics, not the box: ending there is an answer.
-            r.at_bound = v >= u.max - tol || (u.min != 0.0 && v <= u.min + tol);
+            r.at_bound = u.on_box_edge(e.genome[a]);
             r
         })
         .collect();

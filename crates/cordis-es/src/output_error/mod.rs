@@ -84,10 +84,31 @@ pub fn estimate(
     takes: &[Take],
     config: &Config,
 ) -> Result<Estimate, CostError> {
+    estimate_until(scene, space, takes, config, &|| false)
+        .map(|e| e.expect("a fit that is never halted finishes"))
+}
+
+/// [`estimate`], stopped between (or within) the fit's steps once `halt()` turns true
+/// (Ctrl-C): `None` then — the windows before the last see part of the motion only, so a
+/// stopped fit has no estimate. [`run`] gives the steps themselves, resumable.
+pub fn estimate_until(
+    scene: &Scene,
+    space: &ParameterSpace,
+    takes: &[Take],
+    config: &Config,
+    halt: &dyn Fn() -> bool,
+) -> Result<Option<Estimate>, CostError> {
     let prepared = Prepared::new(scene, space, takes.to_vec(), config)?;
     let mut progress = prepared.start(scene, space, config)?;
-    while prepared.stage(space, &mut progress, &|| false)? != Step::Done {}
-    prepared.finish(scene, space, &progress)
+    loop {
+        match prepared.stage(space, &mut progress, halt)? {
+            Step::Done => break,
+            Step::Stopped => return Ok(None),
+            Step::More if halt() => return Ok(None),
+            Step::More => {}
+        }
+    }
+    prepared.finish(scene, space, &progress).map(Some)
 }
 
 /// Drives `stage(q, w)` (the dense [`fit::lm_stage`] or the matrix-free one) over the growing

@@ -67,6 +67,15 @@ impl Unknown {
         (self.to_internal(self.min), self.to_internal(self.max))
     }
 
+    /// Whether the internal coordinate `z` sits on an edge of the box (within 1e-9 of its
+    /// width): the data pull the estimate further. A lower edge of 0 is physics (a damping
+    /// found absent), not the box, so it does not count.
+    pub fn on_box_edge(&self, z: f64) -> bool {
+        let (lo, hi) = self.internal_bounds();
+        let tol = 1e-9 * (hi - lo).abs();
+        z >= hi - tol || (self.min != 0.0 && z <= lo + tol)
+    }
+
     /// Clamps an internal coordinate into the box.
     pub fn clamp_internal(&self, z: f64) -> f64 {
         let (lo, hi) = self.internal_bounds();

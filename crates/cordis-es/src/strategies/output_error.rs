@@ -311,8 +311,7 @@ impl OutputErrorReport {
     }
 }
 
-/// The unknowns at an edge of their box at the estimate (within 1e-9 of the box in the fit's
-/// own coordinates); a lower edge of 0 is physics (a damping found absent), not the box, and
+/// The unknowns on an edge of their box at the estimate ([`crate::space::Unknown::on_box_edge`]);
 /// an undetermined unknown is wherever the fit left it (the data pull it nowhere).
 fn at_bound(problem: &Problem, e: &Estimate, undetermined: &[String]) -> Vec<String> {
     problem
@@ -320,12 +319,7 @@ fn at_bound(problem: &Problem, e: &Estimate, undetermined: &[String]) -> Vec<Str
         .unknowns
         .iter()
         .zip(&e.genome)
-        .filter(|(u, _)| !undetermined.contains(&u.name))
-        .filter(|(u, &z)| {
-            let (lo, hi) = u.internal_bounds();
-            let tol = 1e-9 * (hi - lo).abs();
-            z >= hi - tol || (u.min != 0.0 && z <= lo + tol)
-        })
+        .filter(|(u, &z)| !undetermined.contains(&u.name) && u.on_box_edge(z))
         .map(|(u, _)| u.name.clone())
         .collect()
 }
