@@ -141,9 +141,16 @@ impl IdentifyResult {
         trajectory: &Bound<'_, PyAny>,
         visible: Option<&Bound<'_, PyAny>>,
         title: Option<String>,
-        markers: Option<Vec<usize>>,
-        weights: Option<Vec<f64>>,
+        markers: Option<Bound<'_, PyAny>>,
+        weights: Option<Bound<'_, PyAny>>,
     ) -> PyResult<()> {
+        let markers: Option<Vec<usize>> =
+            named(markers, "markers", "a sequence of particle indices")?;
+        let weights: Option<Vec<f64>> = named(
+            weights,
+            "weights",
+            "a flat sequence of numbers, one or three per marker",
+        )?;
         let observed = crate::trajectory::observations_from_py(trajectory, visible, "trajectory")?;
         let scene = self.scene.get().core();
         let title = title.unwrap_or_else(|| format!("identified by {}", self.strategy));
@@ -579,10 +586,16 @@ pub fn identify(
     plus: bool,
     correlated: bool,
     visible: Option<Bound<'_, PyAny>>,
-    markers: Option<Vec<i64>>,
-    weights: Option<Vec<f64>>,
+    markers: Option<Bound<'_, PyAny>>,
+    weights: Option<Bound<'_, PyAny>>,
     loss: &str,
 ) -> PyResult<IdentifyResult> {
+    let markers: Option<Vec<i64>> = named(markers, "markers", "a sequence of particle indices")?;
+    let weights: Option<Vec<f64>> = named(
+        weights,
+        "weights",
+        "a flat sequence of numbers, one or three per marker",
+    )?;
     let args = PyArgs {
         strategy,
         generations,
@@ -730,6 +743,27 @@ pub(crate) fn warn_all(py: Python<'_>, lines: &[String]) -> PyResult<()> {
         warnings.call_method1("warn", (w.as_str(), py.get_type::<PyUserWarning>(), 2))?;
     }
     Ok(())
+}
+
+/// `value` extracted as `T`, a failure naming the argument and what it takes (pyo3's own
+/// message for these, "Can't extract `str` to `Vec`", named neither).
+fn named<T>(value: Option<Bound<'_, PyAny>>, name: &str, takes: &str) -> PyResult<Option<T>>
+where
+    T: for<'a, 'py> FromPyObject<'a, 'py>,
+    for<'a, 'py> <T as FromPyObject<'a, 'py>>::Error: Into<PyErr>,
+{
+    value
+        .filter(|v| !v.is_none())
+        .map(|v| {
+            v.extract::<T>().map_err(|e| {
+                let e: PyErr = e.into();
+                pyo3::exceptions::PyTypeError::new_err(format!(
+                    "{name}: expected {takes}, got {} ({e})",
+                    v.get_type().name().map_or("?".into(), |n| n.to_string())
+                ))
+            })
+        })
+        .transpose()
 }
 
 type RunOutcome = std::thread::Result<Result<Outcome, CostError>>;

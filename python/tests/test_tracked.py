@@ -177,6 +177,17 @@ def test_bad_markers_and_weights_are_refused_by_name(kw, says):
         cordis.identify(guess, traj, **kw)
 
 
+@pytest.mark.parametrize("kw, says", [
+    ({"markers": "1,2"}, r"^markers: expected a sequence of particle indices, got str"),
+    ({"weights": np.ones((27, 3))}, r"^weights: expected a flat sequence of numbers"),
+    ({"weights": 1.0}, r"^weights: expected a flat sequence of numbers, .* got float"),
+])
+def test_markers_and_weights_of_the_wrong_type_name_the_argument(kw, says):
+    guess, _, traj = load()
+    with pytest.raises(TypeError, match=says):
+        cordis.identify(guess, traj, **kw)
+
+
 def test_a_robust_loss_downweights_a_marker_swap_and_the_cli_agrees(tmp_path):
     guess, truth, traj = load()
     swapped = traj.copy()
