@@ -759,3 +759,45 @@ fn fixed_particles_observed_far_from_the_scene_are_named() {
     let err = run(&soft_block().join("markers.csv"));
     assert!(!err.contains("far from where the scene"), "{err}");
 }
+
+/// A take of 3 frames has no third difference to read its noise from: the fit's residuals are
+/// not judged against a level, and the report says so (`solver.noise_unread`, a warning)
+/// instead of calling them "above the data's noise level (0.000e0 m)". The whole take gives
+/// no such warning.
+#[test]
+fn a_take_too_short_for_its_noise_level_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let text = std::fs::read_to_string(soft_block().join("markers.csv")).unwrap();
+    let short: Vec<&str> = text
+        .lines()
+        .enumerate()
+        .filter(|(k, l)| {
+            *k == 0
+                || l.split(',')
+                    .next()
+                    .is_some_and(|f| f.trim().parse::<u32>().is_ok_and(|f| f < 3))
+        })
+        .map(|(_, l)| l)
+        .collect();
+    std::fs::write(d.join("short.csv"), short.join("\n")).unwrap();
+    let guess = soft_block().join("guess.json");
+    let out = cordis(
+        d,
+        &[
+            "identify",
+            guess.to_str().unwrap(),
+            "-t",
+            "short.csv",
+            "--json",
+        ],
+    );
+    let v = summary(&out);
+    assert_eq!(v["solver"]["noise_unread"], serde_json::json!([0]), "{v}");
+    let err = stderr(&out);
+    assert!(
+        err.contains("the noise level of take 0 cannot be read"),
+        "{err}"
+    );
+    assert!(!err.contains("above the data's noise level"), "{err}");
+}

@@ -53,6 +53,9 @@ pub struct ParamUncertainty {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(untagged)]
 #[non_exhaustive]
+// One report per run, built once at its end and never in a loop: the output-error variant's
+// size costs nothing, and boxing it would change every match on it.
+#[allow(clippy::large_enum_variant)]
 pub enum SolverReport {
     /// `least-squares`, `hybrid`: condition number, undetermined and clamped unknowns, notes.
     Exact(ExactReport),

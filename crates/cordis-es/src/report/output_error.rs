@@ -58,6 +58,10 @@ pub struct OutputErrorReport {
     /// interval is cut at it.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub at_bound: Vec<String>,
+    /// Takes whose noise level could not be read (no 4 consecutive observed frames): the
+    /// fit's residuals were not judged against it, so a wrong basin would go unnoticed.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub noise_unread: Vec<usize>,
     /// Whether every standard error could be computed.
     pub uncertainty_computed: bool,
     /// The unknowns whose standard error was not computed (the matrix-free solve did not

@@ -118,8 +118,16 @@ impl OutputError {
         let cost = problem_cost(problem, &e.genome);
         // The final evaluations (the whole take with sensitivities) beyond the stages'.
         problem.set_evals(problem.evals() + e.evaluations.saturating_sub(staged) as u64);
+        let mut report = OutputErrorReport::new(problem, &e);
+        if self.config.noise_level.is_none() {
+            report.noise_unread = (problem.takes().iter())
+                .enumerate()
+                .filter(|(_, t)| crate::output_error::start::unit_weight_noise_level(t).1 == 0)
+                .map(|(k, _)| k)
+                .collect();
+        }
         self.state = State {
-            report: OutputErrorReport::new(problem, &e),
+            report,
             uncertainty: uncertainty(problem, &e),
             genome: e.genome,
             cost,
@@ -222,6 +230,7 @@ impl OutputErrorReport {
             }),
             chosen_because: None,
             at_bound,
+            noise_unread: Vec::new(),
             uncertainty_computed: !e.stderr.iter().any(|s| s.is_nan()),
             // Every unknown whose standard error was not computed, so a reader finds them all
             // in one place; a solve that never moved bounds it by 0 only.
@@ -262,6 +271,15 @@ impl OutputErrorReport {
                 missing.len(),
                 self.correlation.len(),
                 missing.join(", ")
+            ));
+        }
+        if self.finished() && !self.noise_unread.is_empty() {
+            let takes: Vec<String> = self.noise_unread.iter().map(|k| k.to_string()).collect();
+            w.push(format!(
+                "output-error: the noise level of take {} cannot be read (no 4 consecutive \
+                 observed frames): the residuals were not judged against it, so a wrong basin \
+                 would go unnoticed",
+                takes.join(", ")
             ));
         }
         if self.finished() && !self.at_bound.is_empty() {
