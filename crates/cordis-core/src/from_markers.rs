@@ -176,7 +176,7 @@ fn first_observed(obs: &Observations) -> Result<Vec<(usize, [f64; 3])>> {
 }
 
 /// The diagonal of the positions' bounding box, m.
-fn extent(pos: &[[f64; 3]]) -> f64 {
+pub fn extent(pos: &[[f64; 3]]) -> f64 {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     for p in pos {

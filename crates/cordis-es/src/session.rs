@@ -581,14 +581,8 @@ const FIXED_FAR_NOISE: f64 = 5.0;
 /// far above the noise, with advice about boxes and dt and no word about the data.
 fn fixed_far_from_the_scene(req: &IdentifyRequest, takes: &[Take], noise: f64) -> Vec<String> {
     let scene = &req.scene;
-    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-    for p in &scene.particles {
-        for c in 0..3 {
-            lo[c] = lo[c].min(p.pos[c]);
-            hi[c] = hi[c].max(p.pos[c]);
-        }
-    }
-    let size = (0..3).map(|c| (hi[c] - lo[c]).powi(2)).sum::<f64>().sqrt();
+    let at: Vec<[f64; 3]> = scene.particles.iter().map(|p| p.pos).collect();
+    let size = cordis_core::from_markers::extent(&at);
     if size.is_nan() || size <= 0.0 {
         return Vec::new();
     }

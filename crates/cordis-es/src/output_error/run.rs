@@ -325,6 +325,14 @@ impl Prepared {
         }
     }
 
+    /// The takes whose noise level could not be read (no third difference of observed
+    /// frames); none when the level was given.
+    pub fn noise_unread(&self) -> Vec<usize> {
+        (0..self.noise_samples.len())
+            .filter(|&k| self.noise_samples[k] == 0)
+            .collect()
+    }
+
     /// The fit's start: `config.start` (and `config.start_states`) or the short-cost start
     /// ([`start`]) and each take's initial state from its first frames.
     pub fn start(

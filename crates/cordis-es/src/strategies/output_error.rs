@@ -114,18 +114,20 @@ impl OutputError {
 
     /// The fit reached the whole take: `e` is the estimate, `staged` the rollouts of its
     /// stages (already counted on the problem).
-    fn finished_with(&mut self, problem: &Problem, e: Estimate, staged: usize) {
+    fn finished_with(
+        &mut self,
+        problem: &Problem,
+        e: Estimate,
+        staged: usize,
+        noise_unread: Vec<usize>,
+    ) {
         let cost = problem_cost(problem, &e.genome);
         // The final evaluations (the whole take with sensitivities) beyond the stages'.
         problem.set_evals(problem.evals() + e.evaluations.saturating_sub(staged) as u64);
-        let mut report = OutputErrorReport::new(problem, &e);
-        if self.config.noise_level.is_none() {
-            report.noise_unread = (problem.takes().iter())
-                .enumerate()
-                .filter(|(_, t)| crate::output_error::start::unit_weight_noise_level(t).1 == 0)
-                .map(|(k, _)| k)
-                .collect();
-        }
+        let report = OutputErrorReport {
+            noise_unread,
+            ..OutputErrorReport::new(problem, &e)
+        };
         self.state = State {
             report,
             uncertainty: uncertainty(problem, &e),
@@ -407,7 +409,10 @@ impl Strategy for OutputError {
         match step {
             Ok(Step::Done) => {
                 match problem.timed(|| prepared.finish(&problem.scene, space, &progress)) {
-                    Ok(e) => self.finished_with(problem, e, progress.counts().1),
+                    Ok(e) => {
+                        let unread = prepared.noise_unread();
+                        self.finished_with(problem, e, progress.counts().1, unread)
+                    }
                     Err(err) => self.fail(problem, err.to_string()),
                 }
             }
