@@ -98,19 +98,7 @@ fn to_py(
 ) -> PyResult<DiscoverResult> {
     crate::identify::warn_all(py, &d.warnings())?;
     if let Some(id) = &id {
-        let mut w: Vec<String> = id
-            .undetermined
-            .iter()
-            .map(|u| format!("not determined by the motion: {}", u.join(", ")))
-            .collect();
-        if !id.converged {
-            w.push(format!(
-                "the identification did not converge (end {}): its parameters are the best \
-                 point reached, not an estimate",
-                id.end
-            ));
-        }
-        crate::identify::warn_all(py, &w)?;
+        crate::identify::warn_all(py, &id.warnings())?;
     }
     let json =
         |v: serde_json::Value| -> PyResult<Py<PyAny>> { Ok(crate::json::to_py(py, &v)?.unbind()) };

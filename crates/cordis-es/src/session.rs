@@ -391,6 +391,9 @@ impl Session {
         }
         let mut warnings = self.warnings;
         warnings.extend(report.warnings());
+        if result.cost.is_finite() {
+            warnings.extend(crate::stable::beyond_bound_warning(&scene));
+        }
         if !result.cost.is_finite() {
             let why = match self.problem.stable_horizon() {
                 Some(h) => format!(

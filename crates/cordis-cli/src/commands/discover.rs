@@ -305,19 +305,6 @@ fn report_identified(id: &Identified, path: &std::path::Path, seconds: f64) {
             if p.at_bound { " at its box's edge" } else { "" }
         );
     }
-    let edge: Vec<&str> = id
-        .params
-        .iter()
-        .filter(|p| p.at_bound)
-        .map(|p| p.name.as_str())
-        .collect();
-    if !edge.is_empty() {
-        eprintln!(
-            "warning: ended on the edge of its box (the discovered value was off by 2x or \
-             more, or the graph is wrong): {}",
-            edge.join(", ")
-        );
-    }
     if !id.gravity_fitted {
         eprintln!(
             "note: gravity held at {:?} m/s² (given, none found, or a fit too large for gravity's \
@@ -331,14 +318,7 @@ fn report_identified(id: &Identified, path: &std::path::Path, seconds: f64) {
              damping rescaled to the total mass (the motion does not change)"
         );
     }
-    for u in &id.undetermined {
-        eprintln!("warning: not determined by the motion: {}", u.join(", "));
-    }
-    if !id.converged {
-        eprintln!(
-            "warning: the identification did not converge (end {}): its parameters are the \
-             best point reached, not an estimate",
-            id.end
-        );
+    for w in id.warnings() {
+        eprintln!("warning: {w}");
     }
 }

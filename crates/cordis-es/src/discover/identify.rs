@@ -39,6 +39,7 @@ use serde::Serialize;
 use super::{DiscoverOptions, Discovery};
 use crate::error::CostError;
 use crate::output_error::{self, box_interval, interval95, Config, Estimate, Take};
+use crate::report::undetermined_lines;
 use crate::space::{ParameterSpace, Role, Unknown};
 use cordis_core::Trajectory;
 
@@ -105,6 +106,41 @@ pub struct Identified {
     pub iterations: usize,
     pub evaluations: usize,
     pub start: String,
+}
+
+impl Identified {
+    /// What a user must read before trusting the identified scene, one line each (the CLI's
+    /// `warning:` lines, Python's `warnings.warn`): unknowns on their box's edge, what the
+    /// motion does not determine, a model beyond the stability bound, a fit that did not
+    /// converge.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut w = Vec::new();
+        let edge: Vec<&str> = self
+            .params
+            .iter()
+            .filter(|p| p.at_bound)
+            .map(|p| p.name.as_str())
+            .collect();
+        if !edge.is_empty() {
+            w.push(format!(
+                "ended on the edge of its box (the discovered value was off by 2x or more, or \
+                 the graph is wrong): {}",
+                edge.join(", ")
+            ));
+        }
+        w.extend(undetermined_lines(&self.undetermined, |n| {
+            self.params.iter().any(|p| p.name == n)
+        }));
+        w.extend(crate::stable::beyond_bound_warning(&self.scene));
+        if !self.converged {
+            w.push(format!(
+                "the identification did not converge (end {}): its parameters are the best \
+                 point reached, not an estimate",
+                self.end
+            ));
+        }
+        w
+    }
 }
 
 /// Fits the discovered scene `d`'s link parameters, gravity and masses to `traj` by

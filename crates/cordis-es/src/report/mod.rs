@@ -17,6 +17,7 @@ mod exact;
 mod output_error;
 
 pub use exact::{ExactReport, ProvotRows};
+pub(crate) use output_error::undetermined_lines;
 pub use output_error::{OutputErrorReport, StderrBound};
 
 /// What `levenberg-marquardt` reports.

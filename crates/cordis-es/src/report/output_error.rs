@@ -94,9 +94,126 @@ impl StderrBound {
     }
 }
 
+/// The warning lines for the directions the data do not determine (each a list of the names
+/// of the variables it moves): a direction that moves an unknown (`moves_unknown`) has a line
+/// of its own; the ones that move initial states only (a particle that no observation
+/// follows) are counted in one line, each coordinate once, not one line per coordinate
+/// (a degenerate null space's directions share coordinates: 108 lines on the soft block).
+pub(crate) fn undetermined_lines(
+    directions: &[Vec<String>],
+    moves_unknown: impl Fn(&str) -> bool,
+) -> Vec<String> {
+    // A degenerate point (a fit stopped far from its optimum, a wrong graph) has as many
+    // directions as unknowns: past this many, one line names the unknowns the rest move.
+    const DIRECTION_LINES: usize = 8;
+    let (with_unknowns, states_only): (Vec<&Vec<String>>, Vec<&Vec<String>>) = directions
+        .iter()
+        .partition(|d| d.iter().any(|n| moves_unknown(n)));
+    let mut w: Vec<String> = with_unknowns
+        .iter()
+        .take(DIRECTION_LINES)
+        .map(|d| format!("not determined by the data together: {}", d.join(", ")))
+        .collect();
+    let rest = with_unknowns.get(DIRECTION_LINES..).unwrap_or_default();
+    if !rest.is_empty() {
+        let names = || rest.iter().flat_map(|d| d.iter());
+        let moved = distinct(names().filter(|n| moves_unknown(n)));
+        let states = distinct(names().filter(|n| !moves_unknown(n))).len();
+        w.push(format!(
+            "not determined by the data: {} more direction{} like these, moving {} unknown{} \
+             ({}){}",
+            rest.len(),
+            if rest.len() == 1 { "" } else { "s" },
+            moved.len(),
+            if moved.len() == 1 { "" } else { "s" },
+            first_of(&moved, 6),
+            match states {
+                0 => String::new(),
+                1 => " and 1 initial-state coordinate".to_string(),
+                n => format!(" and {n} initial-state coordinates"),
+            }
+        ));
+    }
+    let states = distinct(states_only.into_iter().flatten());
+    if !states.is_empty() {
+        w.push(format!(
+            "not determined by the data: {} initial-state coordinate{} ({}); the \
+             parameters' estimates do not depend on them",
+            states.len(),
+            if states.len() == 1 { "" } else { "s" },
+            first_of(&states, 4)
+        ));
+    }
+    w
+}
+
+/// Each name once, in the order first met.
+fn distinct<'a>(names: impl Iterator<Item = &'a String>) -> Vec<&'a String> {
+    let mut out: Vec<&String> = Vec::new();
+    for n in names {
+        if !out.contains(&n) {
+            out.push(n);
+        }
+    }
+    out
+}
+
+/// The first `shown` names, then "and K more".
+fn first_of(names: &[&String], shown: usize) -> String {
+    let list: Vec<&str> = names.iter().take(shown).map(|s| s.as_str()).collect();
+    match names.len().saturating_sub(shown) {
+        0 => list.join(", "),
+        n => format!("{} and {n} more", list.join(", ")),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A direction moving an unknown gets a line of its own; directions moving initial
+    /// states only share one line that counts each coordinate once (discover --identify
+    /// printed one line per direction: 117 on the soft block).
+    #[test]
+    fn state_only_undetermined_directions_share_one_line() {
+        let d = |names: &[&str]| names.iter().map(|n| n.to_string()).collect::<Vec<_>>();
+        let directions = [
+            d(&["types.a.stiffness", "take 0: particles[1].x0.x"]),
+            d(&["take 0: particles[2].v0.y"]),
+            d(&["take 0: particles[2].v0.y", "take 0: particles[3].x0.z"]),
+        ];
+        let lines = undetermined_lines(&directions, |n| n.starts_with("types."));
+        assert_eq!(lines.len(), 2, "{lines:?}");
+        assert_eq!(
+            lines[0],
+            "not determined by the data together: types.a.stiffness, take 0: particles[1].x0.x"
+        );
+        assert!(
+            lines[1].starts_with(
+                "not determined by the data: 2 initial-state coordinates (take 0: \
+                 particles[2].v0.y, take 0: particles[3].x0.z)"
+            ),
+            "{}",
+            lines[1]
+        );
+        // A degenerate point: 8 lines, then one naming what the other 4 directions move.
+        let many: Vec<Vec<String>> = (0..12)
+            .map(|k| {
+                d(&[
+                    &format!("types.t{k}.stiffness"),
+                    "take 0: particles[1].x0.x",
+                ])
+            })
+            .collect();
+        let lines = undetermined_lines(&many, |n| n.starts_with("types."));
+        assert_eq!(lines.len(), 9, "{lines:?}");
+        assert_eq!(
+            lines[8],
+            "not determined by the data: 4 more directions like these, moving 4 unknowns \
+             (types.t8.stiffness, types.t9.stiffness, types.t10.stiffness, types.t11.stiffness) \
+             and 1 initial-state coordinate"
+        );
+    }
 
     /// Correlations not computed survive the JSON line and a checkpoint as NaN (`"NaN"`),
     /// the others exactly.

@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::CostError;
 use crate::output_error::{self, Config, Estimate, Prepared, Progress, Step};
 use crate::problem::Problem;
-use crate::report::{InitialState, ParamUncertainty, Report, SolverReport};
+use crate::report::{undetermined_lines, InitialState, ParamUncertainty, Report, SolverReport};
 use crate::strategy::{GenerationStats, Strategy};
 
 /// The estimator as a [`Strategy`].
@@ -292,41 +292,9 @@ impl OutputErrorReport {
                 self.at_bound.join(", ")
             ));
         }
-        // A direction that moves unknowns has a line of its own; the ones that move initial
-        // states only (a particle that no observation follows) are counted in one line, not
-        // one line per coordinate.
-        let (with_unknowns, states_only): (Vec<&Vec<String>>, Vec<&Vec<String>>) = self
-            .undetermined_directions
-            .iter()
-            .partition(|d| d.iter().any(|n| self.undetermined.contains(n)));
-        for d in with_unknowns {
-            w.push(format!(
-                "not determined by the data together: {}",
-                d.join(", ")
-            ));
-        }
-        // Each coordinate once: a degenerate null space's directions share coordinates.
-        let mut states: Vec<&String> = Vec::new();
-        for n in states_only.into_iter().flatten() {
-            if !states.contains(&n) {
-                states.push(n);
-            }
-        }
-        if !states.is_empty() {
-            const SHOWN: usize = 4;
-            let shown: Vec<&str> = states.iter().take(SHOWN).map(|s| s.as_str()).collect();
-            let more = match states.len().saturating_sub(SHOWN) {
-                0 => String::new(),
-                n => format!(" and {n} more"),
-            };
-            w.push(format!(
-                "not determined by the data: {} initial-state coordinate{} ({}{more}); the \
-                 parameters' estimates do not depend on them",
-                states.len(),
-                if states.len() == 1 { "" } else { "s" },
-                shown.join(", ")
-            ));
-        }
+        w.extend(undetermined_lines(&self.undetermined_directions, |n| {
+            self.undetermined.iter().any(|u| u.as_str() == n)
+        }));
         w
     }
 }
