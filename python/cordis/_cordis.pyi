@@ -603,7 +603,13 @@ class IdentifyResult:
 
     @property
     def scene(self) -> Scene:
-        """The scene with the identified values written in."""
+        """The scene with the identified values written in (with take 0's estimated initial
+        state when the strategy estimates one)."""
+    @property
+    def scenes(self) -> List[Scene]:
+        """One identified scene per take, each with that take's estimated initial state:
+        ``scenes[k].simulate(T)`` replays take k (``scenes[0]`` is ``scene``); ``[scene]``
+        when the strategy estimates no initial state."""
     @property
     def params(self) -> Dict[str, float]:
         """Identified value of each unknown, by name."""

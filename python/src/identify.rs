@@ -45,9 +45,15 @@ const HISTORY_COLUMNS: [&str; 8] = [
 /// What `cordis.identify` found.
 #[pyclass(frozen, module = "cordis", name = "IdentifyResult")]
 pub struct IdentifyResult {
-    /// The scene with the identified values written in (every parameter known).
+    /// The scene with the identified values written in (every parameter known), with take
+    /// 0's estimated initial state when the strategy estimates one.
     #[pyo3(get)]
     scene: Py<Scene>,
+    /// One identified scene per take, each with that take's estimated initial state
+    /// (`scenes[k].simulate(T)` replays take k; `scenes[0]` is `scene`); `[scene]` when the
+    /// strategy estimates no initial state.
+    #[pyo3(get)]
+    scenes: Vec<Py<Scene>>,
     /// Identified value of each unknown, by name (`types.NAME.PARAM`, `particles[i].mass`).
     #[pyo3(get)]
     params: Py<PyDict>,
@@ -819,6 +825,7 @@ fn build_result(py: Python<'_>, outcome: Outcome) -> PyResult<IdentifyResult> {
         result: run,
         report,
         scene: identified,
+        scenes,
         problem,
         warnings,
     } = outcome;
@@ -880,6 +887,10 @@ fn build_result(py: Python<'_>, outcome: Outcome) -> PyResult<IdentifyResult> {
         .map_err(|e| PyRuntimeError::new_err(format!("history: {e}")))?;
     Ok(IdentifyResult {
         scene: Py::new(py, Scene::from_core(identified))?,
+        scenes: scenes
+            .into_iter()
+            .map(|s| Py::new(py, Scene::from_core(s)))
+            .collect::<PyResult<_>>()?,
         params: params.unbind(),
         truth,
         cost: run.cost,

@@ -117,6 +117,13 @@ def test_several_takes_share_one_parameter_set():
     assert res.strategy == "output-error"
     assert res.report["variables"] == 9 + 2 * 6 * 18
     assert res.param_error_pct < 5.0
+    # One scene per take, each with its own estimated initial state: the second replays the
+    # noiseless second take, which the first scene (take 0's state) does not.
+    assert len(res.scenes) == 2
+    assert res.scenes[0].to_json() == res.scene.to_json()
+    replay = res.scenes[1].simulate(120)
+    assert np.sqrt(np.mean((replay - second) ** 2)) < 2e-3
+    assert np.sqrt(np.mean((res.scenes[0].simulate(120) - second) ** 2)) > 1e-2
 
 
 def test_the_cli_gives_the_same_estimate_and_intervals(tmp_path):

@@ -123,7 +123,11 @@ fn two_takes_share_one_parameter_set() {
     let truth = sb.join("truth.json");
     let out = cordis(
         d,
-        &[&both[..], &["--truth", truth.to_str().unwrap()]].concat(),
+        &[
+            &both[..],
+            &["--truth", truth.to_str().unwrap(), "--out", "model.json"],
+        ]
+        .concat(),
     );
     let s = summary(&out);
     assert_eq!(s["strategy"], "output-error", "{s}");
@@ -132,6 +136,29 @@ fn two_takes_share_one_parameter_set() {
         "2 takes share one parameter set"
     );
     assert!(s["param_error_pct"].as_f64().unwrap() < 5.0, "{s}");
+    // Each take's scene carries its own estimated initial state: take 1 (b.csv, noiseless)
+    // started every free particle at (-0.2, 0, 0.1) m/s, take 0 (the markers) elsewhere.
+    let vel = |file: &str, i: usize| -> Vec<f64> {
+        let text = std::fs::read_to_string(d.join(file)).expect(file);
+        let scene: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let v = scene["particles"][i]["vel"]
+            .as_array()
+            .expect("a velocity")
+            .clone();
+        v.iter().map(|c| c.as_f64().unwrap()).collect()
+    };
+    let wrote = String::from_utf8_lossy(&out.stderr);
+    assert!(wrote.contains("wrote take 1's identified scene"), "{wrote}");
+    for i in [9, 13, 26] {
+        let (take0, take1) = (vel("model.json", i), vel("model.take1.json", i));
+        for (c, want) in [-0.2, 0.0, 0.1].into_iter().enumerate() {
+            assert!((take1[c] - want).abs() < 1e-2, "particle {i}: {take1:?}");
+        }
+        assert!(
+            (take0[0] + 0.2).abs() > 5e-2,
+            "particle {i}: take 0 {take0:?}"
+        );
+    }
     // One initial state per take: 6 values for each of the 18 free particles, twice.
     assert_eq!(s["solver"]["variables"], 9 + 2 * 6 * 18);
     // Another strategy cannot combine takes, and says so before any work.

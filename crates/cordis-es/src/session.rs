@@ -249,8 +249,12 @@ pub struct Outcome {
     /// The strategy's own report.
     pub report: Report,
     /// The scene with the identified values written in (and an estimated initial state, when
-    /// the strategy estimated one).
+    /// the strategy estimated one: take 0's).
     pub scene: Scene,
+    /// One identified scene per take, each with that take's estimated initial state, so that
+    /// simulating `scenes[k]` replays take k (`scenes[0]` is `scene`); a single scene, with
+    /// the initial state as given, when the strategy estimates none.
+    pub scenes: Vec<Scene>,
     /// The problem it ran on (unknowns, truth).
     pub problem: Problem,
     /// What the user must read before trusting the answer: the report's warnings and the
@@ -385,10 +389,21 @@ impl Session {
         let result =
             pool.install(|| executor::run_typed(problem, strategy, config, observers, interrupt))?;
         let report = self.strategy.report();
-        let mut scene = self.problem.space.scene_with(&self.scene, &result.genome);
-        if let Some(state) = self.strategy.initial_state() {
-            state.apply(&mut scene);
+        let identified = self.problem.space.scene_with(&self.scene, &result.genome);
+        let mut scenes: Vec<Scene> = self
+            .strategy
+            .initial_states()
+            .iter()
+            .map(|state| {
+                let mut scene = identified.clone();
+                state.apply(&mut scene);
+                scene
+            })
+            .collect();
+        if scenes.is_empty() {
+            scenes.push(identified);
         }
+        let scene = scenes[0].clone();
         let mut warnings = self.warnings;
         warnings.extend(report.warnings());
         if result.cost.is_finite() {
@@ -423,6 +438,7 @@ impl Session {
             result,
             report,
             scene,
+            scenes,
             problem: self.problem,
             warnings,
         })

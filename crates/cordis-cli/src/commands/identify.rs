@@ -147,7 +147,9 @@ pub struct Args {
     /// Convergence log, one row per generation (.csv or .jsonl).
     #[arg(long)]
     log: Option<PathBuf>,
-    /// Where to write the identified scene (JSON).
+    /// Where to write the identified scene (JSON), with take 0's estimated initial state
+    /// (output-error). With several takes, take k's scene (its own initial state, so that
+    /// `cordis simulate` of it replays take k) goes beside it as NAME.take<k>.json.
     #[arg(long, short = 'o')]
     out: Option<PathBuf>,
     /// The true scene, to report the mean parameter error.
@@ -204,6 +206,19 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     if let Some(out) = a.out.as_ref().filter(|_| finite) {
         if let Err(e) = super::write_scene(&outcome.scene, Some(out)) {
             failed.get_or_insert(e);
+        }
+        for (k, scene) in outcome.scenes.iter().enumerate().skip(1) {
+            let path = take_scene_path(out, k);
+            match super::write_scene(scene, Some(&path)) {
+                Ok(()) if output.human() => eprintln!(
+                    "wrote take {k}'s identified scene (its estimated initial state) to {}",
+                    path.display()
+                ),
+                Ok(()) => {}
+                Err(e) => {
+                    failed.get_or_insert(e);
+                }
+            }
         }
     }
     if output.human() {
@@ -279,6 +294,14 @@ fn guard(a: &Args) -> Result<()> {
         ("--lock", lock_file),
     ]);
     let (out, log) = (("--out", a.out.as_deref()), ("--log", a.log.as_deref()));
+    // Take k's scene beside --out (only output-error writes them; guarded whatever the
+    // strategy, before the run knows).
+    let take_scenes: Vec<(String, PathBuf)> = match &a.out {
+        Some(o) => (1..a.trajectory.len())
+            .map(|k| (format!("--out's take {k}"), take_scene_path(o, k)))
+            .collect(),
+        None => Vec::new(),
+    };
     // The checkpoint's history rows go to FILE.history beside it: an output too (a --log
     // there was interleaved with them, exit 0).
     let history = a.checkpoint.as_deref().map(checkpoint_history);
@@ -289,9 +312,26 @@ fn guard(a: &Args) -> Result<()> {
             ("--checkpoint's history", history.as_deref()),
             out,
             log,
-        ],
+        ]
+        .into_iter()
+        .chain(
+            take_scenes
+                .iter()
+                .map(|(n, p)| (n.as_str(), Some(p.as_path()))),
+        )
+        .collect::<Vec<_>>(),
     )?;
     super::guard_outputs(&[("--resume", a.resume.as_deref())], &[out, log])
+}
+
+/// Where take k's identified scene goes beside `out`: `model.json` → `model.take1.json`.
+fn take_scene_path(out: &Path, k: usize) -> PathBuf {
+    let stem = out.file_stem().unwrap_or_default().to_string_lossy();
+    let name = match out.extension() {
+        Some(ext) => format!("{stem}.take{k}.{}", ext.to_string_lossy()),
+        None => format!("{stem}.take{k}"),
+    };
+    out.with_file_name(name)
 }
 
 /// `FILE.history`, where the history rows of checkpoint `FILE` are appended.

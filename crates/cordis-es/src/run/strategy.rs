@@ -54,11 +54,13 @@ pub trait Strategy: Send {
         None
     }
 
-    /// The estimated initial state of the free particles (positions, m, and velocities, m/s),
-    /// for strategies that estimate it along with the parameters (an output-error estimator);
-    /// the session writes it into the identified scene. `None` (the default) keeps the scene's.
-    fn initial_state(&self) -> Option<crate::report::InitialState> {
-        None
+    /// The estimated initial state of the free particles (positions, m, and velocities, m/s)
+    /// of every take, in take order, for strategies that estimate it along with the
+    /// parameters (an output-error estimator); the session writes each into a copy of the
+    /// identified scene (take 0's is the identified scene's). Empty (the default) keeps the
+    /// scene's.
+    fn initial_states(&self) -> Vec<crate::report::InitialState> {
+        Vec::new()
     }
 
     /// The cost function changed (a progressive horizon grew): re-evaluate every stored cost.

@@ -457,21 +457,23 @@ impl Strategy for OutputError {
         self.state.error.clone()
     }
 
-    fn initial_state(&self) -> Option<InitialState> {
-        let first = self.state.states.first()?;
-        let mut f = 0;
-        let particles = self
-            .free
-            .iter()
-            .map(|&free| {
-                free.then(|| {
-                    let s = &first[6 * f..6 * f + 6];
-                    f += 1;
-                    ([s[0], s[1], s[2]], [s[3], s[4], s[5]])
+    fn initial_states(&self) -> Vec<InitialState> {
+        let state = |take: &Vec<f64>| {
+            let mut f = 0;
+            let particles = self
+                .free
+                .iter()
+                .map(|&free| {
+                    free.then(|| {
+                        let s = &take[6 * f..6 * f + 6];
+                        f += 1;
+                        ([s[0], s[1], s[2]], [s[3], s[4], s[5]])
+                    })
                 })
-            })
-            .collect();
-        Some(InitialState { particles })
+                .collect();
+            InitialState { particles }
+        };
+        self.state.states.iter().map(state).collect()
     }
 
     fn report(&self) -> Report {
