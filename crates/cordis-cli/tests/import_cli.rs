@@ -192,3 +192,29 @@ fn the_thesis_import_is_unchanged_and_refuses_reader_options() {
         &["--units: only for a trajectory file"],
     );
 }
+
+/// A float32 `.npy` (what trackers and `np.float32` arrays save) is read widened to f64, as
+/// Python's `identify` takes the same array: the CLI refused it as "not float64".
+#[test]
+fn a_float32_npy_is_read_widened_to_f64() {
+    let dir = rigid_dir();
+    let d = dir.path();
+    let traj = cordis_core::io::read_trajectory(&d.join("r.csv")).unwrap();
+    let (t, n) = (traj.frames(), traj.particles());
+    let header = format!("{{'descr': '<f4', 'fortran_order': False, 'shape': ({t}, {n}, 3), }}\n");
+    let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
+    bytes.extend_from_slice(&(header.len() as u16).to_le_bytes());
+    bytes.extend_from_slice(header.as_bytes());
+    for v in traj.as_flat() {
+        bytes.extend_from_slice(&(*v as f32).to_le_bytes());
+    }
+    std::fs::write(d.join("r32.npy"), bytes).unwrap();
+    let out = cordis(d, &["import", "r32.npy", "--out", "r64.npy"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let back = cordis_core::io::read_trajectory(&d.join("r64.npy")).unwrap();
+    let widened: Vec<f64> = traj.as_flat().iter().map(|v| *v as f32 as f64).collect();
+    assert_eq!(back.as_flat(), &widened[..]);
+    // And a command that fits reads it too.
+    let out = cordis(d, &["cost", "r.json", "-t", "r32.npy"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+}

@@ -1,4 +1,4 @@
-//! NumPy `.npy` trajectories: float64 arrays of shape `(T, N, 3)`.
+//! NumPy `.npy` trajectories: float64 (or float32) arrays of shape `(T, N, 3)`.
 //!
 //! Hand-written rather than taken from `npyz`: we need one dtype and one rank, and we want
 //! every malformed file to give a placed one-line error, with the shape checked against the
@@ -6,8 +6,8 @@
 //! `npyz` handles every dtype through a Python-literal parser (`py_literal`, `num-bigint`),
 //! reports `io::Error`s without places, and would still leave the rank/shape checks to us.
 //!
-//! Read: format versions 1.0, 2.0 and 3.0; dtype `<f8` or `>f8`; C order, or Fortran order
-//! (transposed to C order on reading). Written: version 1.0, `<f8`, C order, header padded
+//! Read: format versions 1.0, 2.0 and 3.0; dtype `<f8`/`>f8`, or `<f4`/`>f4` widened to f64;
+//! C order, or Fortran order (transposed to C order on reading). Written: version 1.0, `<f8`, C order, header padded
 //! so the data starts on a 64-byte boundary, as NumPy does.
 
 use crate::error::{CordisError, Result};
@@ -76,16 +76,21 @@ fn split_header<'a>(name: &str, bytes: &'a [u8]) -> Result<(Header, &'a [u8])> {
     Ok((dict, &bytes[start + header_len..]))
 }
 
-/// The shape and the C-order values of `.npy` bytes.
+/// The shape and the C-order values of `.npy` bytes: float64, or float32 widened (exactly)
+/// to f64 — what a tracker or `np.float32` positions save, and what Python's `identify`
+/// accepts as an array (the CLI refused the file).
 fn parse_values(name: &str, bytes: &[u8]) -> Result<(usize, usize, Vec<f64>)> {
     let err = |m: String| CordisError::format(name, m);
     let (dict, data) = split_header(name, bytes)?;
-    let big_endian = match dict.descr.as_str() {
-        "<f8" => false,
-        ">f8" => true,
+    let (width, big_endian) = match dict.descr.as_str() {
+        "<f8" => (8, false),
+        ">f8" => (8, true),
+        "<f4" => (4, false),
+        ">f4" => (4, true),
         d => {
             return Err(err(format!(
-                "dtype `{d}` is not float64: expected '<f8' (or '>f8')"
+                "dtype `{d}` is not read: expected float64 ('<f8', '>f8') or float32 ('<f4', \
+                 '>f4')"
             )))
         }
     };
@@ -106,37 +111,22 @@ fn parse_values(name: &str, bytes: &[u8]) -> Result<(usize, usize, Vec<f64>)> {
         )));
     }
     let count = t.checked_mul(n).and_then(|tn| tn.checked_mul(3));
-    if count.and_then(|c| c.checked_mul(8)) != Some(data.len()) {
+    if count.and_then(|c| c.checked_mul(width)) != Some(data.len()) {
         return Err(err(format!(
-            "shape ({t}, {n}, 3) needs {} bytes of float64 data, the file holds {}",
-            count.map_or("more than 2^64".into(), |c| (c as u128 * 8).to_string()),
+            "shape ({t}, {n}, 3) needs {} bytes of float{} data, the file holds {}",
+            count.map_or("more than 2^64".into(), |c| (c as u128 * width as u128)
+                .to_string()),
+            8 * width,
             data.len()
         )));
     }
     let values: Vec<f64> = data
-        .chunks_exact(8)
-        .map(|b| {
-            let b: [u8; 8] = [b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]];
-            if big_endian {
-                f64::from_be_bytes(b)
-            } else {
-                f64::from_le_bytes(b)
-            }
-        })
+        .chunks_exact(width)
+        .map(|b| decode(b, Element::Float, big_endian))
         .collect();
-    let values = if dict.fortran_order {
-        // Fortran order: element (f, i, k) sits at f + T (i + N k).
-        let mut c = vec![0.0; values.len()];
-        for f in 0..t {
-            for i in 0..n {
-                for k in 0..3 {
-                    c[(f * n + i) * 3 + k] = values[f + t * (i + n * k)];
-                }
-            }
-        }
-        c
-    } else {
-        values
+    let values = match dict.fortran_order {
+        true => fortran_to_c(&dict.shape, &values),
+        false => values,
     };
     Ok((t, n, values))
 }
@@ -461,6 +451,43 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("dtype `<U3` is not read"), "{e}");
+    }
+
+    #[test]
+    fn a_float32_trajectory_is_read_widened_like_pythons() {
+        // The CLI refused a float32 `.npy` that `cordis.identify` took as an array.
+        let v = [0.1f32, -2.0, 3.25, f32::NAN, 5.0, 6.0];
+        let le: Vec<u8> = v.iter().flat_map(|x| x.to_le_bytes()).collect();
+        let be: Vec<u8> = v.iter().flat_map(|x| x.to_be_bytes()).collect();
+        let widened: Vec<f64> = v.iter().map(|&x| x as f64).collect();
+        for (descr, data) in [("<f4", &le), (">f4", &be)] {
+            let o = parse_npy_observations("t.npy", &npy_bytes(descr, false, "(1, 2, 3)", data))
+                .unwrap();
+            let got = o.as_flat();
+            assert_eq!(got[..3], widened[..3], "{descr}");
+            assert!(got[3].is_nan() && got[4..] == widened[4..], "{descr}");
+        }
+        // Fortran order: (f, i, k) at f + T (i + N k).
+        let f: Vec<u8> = [1.0f32, 2.0, 3.0, 4.0, 5.0, 6.0]
+            .iter()
+            .flat_map(|x| x.to_le_bytes())
+            .collect();
+        let t = parse_npy("t.npy", &npy_bytes("<f4", true, "(2, 1, 3)", &f)).unwrap();
+        assert_eq!(t.as_flat(), [1.0, 3.0, 5.0, 2.0, 4.0, 6.0]);
+        let e = parse_npy("t.npy", &npy_bytes("<f4", false, "(1, 2, 3)", &le[..20]))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("shape (1, 2, 3) needs 24 bytes of float32 data, the file holds 20"),
+            "{e}"
+        );
+        let e = parse_npy("t.npy", &npy_bytes("<f2", false, "(1, 1, 3)", &[0; 6]))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("dtype `<f2` is not read: expected float64 ('<f8', '>f8') or float32"),
+            "{e}"
+        );
     }
 
     #[test]
