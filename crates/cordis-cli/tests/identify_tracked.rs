@@ -208,6 +208,25 @@ fn gaps_are_refused_by_name_where_they_cannot_be_read() {
     assert_eq!(out.status.code(), Some(2));
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(
+        e.starts_with(
+            "error: typo.csv:1: column `q` (field 5) is not read (read: frame, particle, x, y)"
+        ),
+        "{e}"
+    );
+    assert_eq!(e.lines().count(), 1, "{e}");
+    // Mapped without its z, the table reads planar: refused for a scene with depth.
+    let mapped = "frame=frame,particle=particle,x=x,y=y";
+    let args = [
+        guess.to_str().unwrap(),
+        "-t",
+        "typo.csv",
+        "--columns",
+        mapped,
+    ];
+    let out = cordis(d, &[&["identify"][..], &args].concat());
+    assert_eq!(out.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(
         e.starts_with("error: typo.csv: every z is 0") && e.contains("particles[3]"),
         "{e}"
     );

@@ -230,6 +230,26 @@ pub(crate) fn parse_table(name: &str, text: &str, options: &ReadOptions) -> Resu
         .map(Column::new)
         .collect();
     let layout = resolve(&hplace, &columns, &map)?;
+    let unread = unread_columns(&columns, &layout);
+    // A column the guessed layout does not read (`frame,particle,x,y,z,w`) was dropped without
+    // a word: the user's data may be in it. A mapping says which columns are meant, so with
+    // `--columns` the rest are left unread on purpose (the mapping line lists them).
+    if let (None, Some(&k)) = (&options.columns, unread.first()) {
+        return Err(CordisError::trajectory(
+            &hplace,
+            format!(
+                "column `{}` (field {}) is not read (read: {}): remove it, or map the columns \
+                 with --columns (the others are then left unread)",
+                printable(&columns[k].text),
+                k + 1,
+                read_columns(&layout)
+                    .iter()
+                    .map(|&c| printable(&columns[c].text))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        ));
+    }
     let (factor, units_note) = units(&hplace, &columns, &layout, options.units)?;
     let time_factor = time_units(&hplace, &columns, layout.time)?;
     let rows: Vec<(usize, Vec<&str>)> = lines.map(|(k, l)| (k, split(l, delimiter))).collect();
@@ -267,7 +287,14 @@ pub(crate) fn parse_table(name: &str, text: &str, options: &ReadOptions) -> Resu
     let (observations, labels) = fill(&cells, &rows, &layout, &frame_of_row, factor)?;
     let mut observations = observations;
     observations.dt = dt;
-    let mapping = describe(&columns, &layout, delimiter, &labels, units_note, dt);
+    let mut mapping = describe(&columns, &layout, delimiter, &labels, units_note, dt);
+    if !unread.is_empty() {
+        let names: Vec<String> = unread
+            .iter()
+            .map(|&k| format!("`{}`", printable(&columns[k].text)))
+            .collect();
+        mapping += &format!("; not read: {}", names.join(", "));
+    }
     Ok(Imported {
         observations,
         format: InputFormat::Csv,
@@ -339,6 +366,31 @@ fn resolve(place: &str, columns: &[Column], map: &ColumnMap) -> Result<Layout> {
             header_list(columns)
         ),
     ))
+}
+
+/// The header indices the layout reads, in header order.
+fn read_columns(layout: &Layout) -> Vec<usize> {
+    let mut read: Vec<usize> = [layout.frame, layout.time].into_iter().flatten().collect();
+    match &layout.kind {
+        LayoutKind::Long { particle, axes } => {
+            read.extend(particle.iter().chain(axes.iter().flatten()));
+        }
+        LayoutKind::Wide { markers } => {
+            read.extend(markers.iter().flat_map(|(_, axes)| axes.iter().flatten()));
+        }
+    }
+    read.sort_unstable();
+    read.dedup();
+    read
+}
+
+/// The named header cells the layout does not read (an empty cell, a trailing delimiter,
+/// names nothing).
+fn unread_columns(columns: &[Column], layout: &Layout) -> Vec<usize> {
+    let read = read_columns(layout);
+    (0..columns.len())
+        .filter(|k| !read.contains(k) && !columns[*k].text.is_empty())
+        .collect()
 }
 
 fn header_list(columns: &[Column]) -> String {
@@ -1038,7 +1090,7 @@ mod tests {
     #[test]
     fn units_in_the_header_are_read_and_mixed_units_refused() {
         let im = read(
-            "t [ms],m,x [mm],y [mm]\n0,0,1000,0\n10,0,2000,0\n",
+            "t [ms],marker,x [mm],y [mm]\n0,0,1000,0\n10,0,2000,0\n",
             None,
             None,
         )
@@ -1046,12 +1098,16 @@ mod tests {
         assert_eq!(im.observations.dt, Some(0.01));
         assert_eq!(&im.observations.as_flat()[3..], &[2.0, 0.0, 0.0]);
         assert!(im.mapping.contains("planar"), "{}", im.mapping);
-        let e = err("frame,m,x [mm],y [cm]\n0,0,1,2\n", None, None);
+        let e = err("frame,marker,x [mm],y [cm]\n0,0,1,2\n", None, None);
         assert!(
             e.starts_with("m.csv:1: mixed units: column `x [mm]` is in mm, column `y [cm]` in cm"),
             "{e}"
         );
-        let e = err("frame,m,x [mm],y [mm]\n0,0,1,2\n", None, Some(Units::Cm));
+        let e = err(
+            "frame,marker,x [mm],y [mm]\n0,0,1,2\n",
+            None,
+            Some(Units::Cm),
+        );
         assert!(
             e.starts_with("m.csv:1: mixed units: --units cm but column `x [mm]` is in mm"),
             "{e}"
@@ -1094,6 +1150,34 @@ mod tests {
         assert!(ColumnMap::parse("x=*_X,y=Y").is_err());
         let e = ColumnMap::parse("speed=v").unwrap_err().to_string();
         assert!(e.starts_with("--columns: unknown key `speed`"), "{e}");
+    }
+
+    #[test]
+    fn a_column_the_layout_does_not_read_is_refused_unless_mapped() {
+        // `w` was dropped without a word: the user's data may be in it.
+        let e = err("frame,particle,x,y,z,w\n0,0,1,2,3,4\n", None, None);
+        assert_eq!(
+            e,
+            "m.csv:1: column `w` (field 6) is not read (read: frame, particle, x, y, z): \
+             remove it, or map the columns with --columns (the others are then left unread)"
+        );
+        let e = err("Time;K_X;K_Y;K_Z;Quality\n0;1;2;3;9\n", None, None);
+        assert!(
+            e.starts_with("m.csv:1: column `Quality` (field 5) is not read (read: Time, K_X"),
+            "{e}"
+        );
+        // Mapped: the rest is left unread on purpose, and the mapping line says so.
+        let im = read(
+            "frame,particle,x,y,z,w\n0,0,1,2,3,4\n",
+            Some("frame=frame,particle=particle,x=x,y=y,z=z"),
+            None,
+        )
+        .unwrap();
+        assert_eq!(im.observations.as_flat(), &[1.0, 2.0, 3.0]);
+        assert!(im.mapping.ends_with("; not read: `w`"), "{}", im.mapping);
+        // A trailing delimiter names no column.
+        let im = read("frame,particle,x,y,z,\n0,0,1,2,3,\n", None, None).unwrap();
+        assert_eq!(im.observations.as_flat(), &[1.0, 2.0, 3.0]);
     }
 
     #[test]
