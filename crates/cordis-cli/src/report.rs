@@ -155,9 +155,39 @@ pub fn in_scene_order(
     Ok((ordered, weights))
 }
 
+/// What a JSON value given where another file was expected is, for the error: cordis' own
+/// JSON files say which they are by their keys.
+pub fn json_kind(v: &serde_json::Value) -> &'static str {
+    let has = |k: &str| v.get(k).is_some();
+    if has("particles") || v["format"].as_str() == Some(cordis_core::scene_json::FORMAT) {
+        "a scene"
+    } else if has("generation") && has("best_cost") {
+        "a row of a convergence log (--log)"
+    } else if has("strategy") && has("stopped_by") {
+        "a run's summary (--json)"
+    } else if v.is_object() {
+        "a JSON object of another kind"
+    } else {
+        "a JSON value that is not an object"
+    }
+}
+
 /// Reads a convergence log written by `cordis identify --log` (CSV with a header naming
 /// `generation` and `best_cost`, or JSON lines with those keys); errors name `name:line`.
 pub fn parse_convergence(name: &str, text: &str) -> Result<Vec<ConvergencePoint>> {
+    // A whole-file JSON object (a scene, a summary) is not a log: say what it is rather than
+    // fail on its first line.
+    if let Ok(v) = serde_json::from_str::<serde_json::Value>(text) {
+        if v.get("generation").is_none() {
+            return Err(CordisError::format(
+                name,
+                format!(
+                    "expected a convergence log (`cordis identify --log`, .csv or .jsonl), got {}",
+                    json_kind(&v)
+                ),
+            ));
+        }
+    }
     let mut out = Vec::new();
     let mut lines = text
         .lines()

@@ -201,3 +201,42 @@ fn a_missing_required_argument_is_named() {
         &["not provided: --frames <FRAMES>, <SCENE>"],
     );
 }
+
+/// A scene given where a run's summary or log is expected was read as a summary without
+/// intervals (exit 0): each names the kind it expected and the kind it got.
+#[test]
+fn report_refuses_a_scene_given_as_its_summary_or_log() {
+    let dir = rigid_dir();
+    let d = dir.path();
+    let page = ["report", "r.json", "-t", "r.csv", "--html", "o.html"];
+    fails(
+        d,
+        &[&page[..], &["--summary", "r.json"]].concat(),
+        2,
+        &[
+            "r.json: expected a run's summary (the JSON line of `cordis identify --json`), got a scene",
+        ],
+    );
+    fails(
+        d,
+        &[&page[..], &["--log", "u.json"]].concat(),
+        2,
+        &["u.json: expected a convergence log (`cordis identify --log`, .csv or .jsonl), got a scene"],
+    );
+    // A log's row given as the summary.
+    std::fs::write(
+        d.join("log.jsonl"),
+        "{\"generation\": 0, \"best_cost\": 1.0}\n",
+    )
+    .unwrap();
+    fails(
+        d,
+        &[&page[..], &["--summary", "log.jsonl"]].concat(),
+        2,
+        &[
+            "log.jsonl: expected a run's summary",
+            "got a row of a convergence log (--log)",
+        ],
+    );
+    assert!(!d.join("o.html").exists());
+}

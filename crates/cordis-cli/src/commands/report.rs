@@ -8,7 +8,7 @@ use cordis_core::io::{read_observations_with, read_text, write_atomic};
 use cordis_core::CordisError;
 
 use super::Output;
-use crate::report::{in_scene_order, parse_convergence, report_html, ReportInput};
+use crate::report::{in_scene_order, json_kind, parse_convergence, report_html, ReportInput};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -110,11 +110,16 @@ fn read_summary(path: &std::path::Path) -> Result<serde_json::Value> {
             .and_then(|l| serde_json::from_str(l).ok())
             .ok_or(e)
     });
+    // A scene or a log row is an object too: the report read such a file as a summary
+    // without parameters' intervals, and said nothing.
     match parsed {
-        Ok(v) if v.is_object() => Ok(v),
-        Ok(_) => Err(CordisError::format(
+        Ok(v) if v.get("strategy").is_some() && v.get("stopped_by").is_some() => Ok(v),
+        Ok(v) => Err(CordisError::format(
             name,
-            "expected the JSON object of `cordis identify --json`",
+            format!(
+                "expected a run's summary (the JSON line of `cordis identify --json`), got {}",
+                json_kind(&v)
+            ),
         )
         .into()),
         Err(e) => Err(CordisError::format(name, format!("invalid JSON: {e}")).into()),
