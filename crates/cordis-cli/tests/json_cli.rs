@@ -3,20 +3,15 @@
 //! error is one stderr line, a `{"error", "exit_code"}` object with `--json`, and exit code
 //! 1 (run failed: I/O, divergence) or 2 (bad input or usage).
 
+mod common;
+
 use std::path::Path;
 use std::process::{Command, Output};
 
+use common::cordis;
 use cordis_core::examples::random_network;
 use cordis_core::Scene;
 use serde_json::Value;
-
-fn cordis(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_cordis"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("cordis runs")
-}
 
 /// Every stdout line of a `--json` run, each parsed as a JSON object (fails otherwise).
 fn json_lines(out: &Output) -> Vec<Value> {
@@ -312,7 +307,12 @@ fn an_interrupted_identification_exits_130_after_writing_its_result() {
         .unwrap();
     // Wait until it has run a few generations (the log has rows), then send SIGINT.
     let start = Instant::now();
-    while std::fs::read_to_string(d.join("log.csv")).map_or(0, |t| t.lines().count()) < 3 {
+    let rows = || {
+        common::streamed(d, "log.csv")
+            .and_then(|p| std::fs::read_to_string(p).ok())
+            .map_or(0, |t| t.lines().count())
+    };
+    while rows() < 3 {
         assert!(
             start.elapsed() < Duration::from_secs(60),
             "identify never started"
@@ -335,4 +335,7 @@ fn an_interrupted_identification_exits_130_after_writing_its_result() {
     assert_eq!(lines[0]["stopped_by"], "interrupted", "{lines:?}");
     assert_eq!(lines.last().unwrap()["exit_code"], 130);
     Scene::from_json_path(d.join("best.json")).unwrap();
+    // The interrupted run's log is put in place.
+    let log = std::fs::read_to_string(d.join("log.csv")).unwrap();
+    assert!(log.lines().count() >= 3, "{log}");
 }

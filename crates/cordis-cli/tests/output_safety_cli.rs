@@ -6,7 +6,7 @@ mod common;
 
 use std::path::Path;
 
-use common::{cordis, fails, rigid_dir, stderr};
+use common::{cordis, fails, rigid_dir, stderr, streamed};
 
 /// No file of `dir` is a temporary (`.NAME.PID.N.tmp` or a writability probe).
 fn no_temporaries(dir: &Path) {
@@ -337,11 +337,14 @@ fn identify_prints_its_result_before_a_failed_log_or_out_write() {
 }
 
 /// Issue 17: the log went through an 8 KB buffer, so a killed run left a torn last row. Each
-/// row is now one write of the whole line: after kill -9 every line is complete.
+/// row is now one write of the whole line: after kill -9 every line is complete. The rows
+/// stream to a temporary beside the log, so the kill leaves the previous log as it was (it was
+/// truncated when the run started).
 #[test]
-fn a_killed_identification_leaves_only_whole_log_rows() {
+fn a_killed_identification_leaves_only_whole_log_rows_and_the_old_log() {
     let dir = rigid_dir();
     let d = dir.path();
+    std::fs::write(d.join("l.csv"), "the last good run's log\n").unwrap();
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_cordis"))
         .current_dir(d)
         .args([
@@ -371,14 +374,21 @@ fn a_killed_identification_leaves_only_whole_log_rows() {
         .unwrap();
     // Until the log holds a few thousand rows (several buffers' worth), then kill -9.
     let t0 = std::time::Instant::now();
-    while std::fs::metadata(d.join("l.csv")).map_or(0, |m| m.len()) < 200_000
+    while streamed(d, "l.csv")
+        .and_then(|p| std::fs::metadata(p).ok())
+        .map_or(0, |m| m.len())
+        < 200_000
         && t0.elapsed().as_secs() < 60
     {
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
     child.kill().unwrap();
     child.wait().unwrap();
-    let text = std::fs::read_to_string(d.join("l.csv")).unwrap();
+    assert_eq!(
+        std::fs::read_to_string(d.join("l.csv")).unwrap(),
+        "the last good run's log\n"
+    );
+    let text = std::fs::read_to_string(streamed(d, "l.csv").expect("the streamed rows")).unwrap();
     assert!(text.len() >= 200_000, "{} bytes", text.len());
     assert!(
         text.ends_with('\n'),
@@ -389,6 +399,36 @@ fn a_killed_identification_leaves_only_whole_log_rows() {
     let mut lines = text.lines();
     let header = fields(lines.next().unwrap());
     assert!(lines.all(|l| fields(l) == header));
+}
+
+/// A run that fails after its log was opened (a checkpoint that cannot resume) truncated an
+/// existing `--log`: the old log is kept, and a run with a result replaces it whole, leaving
+/// no temporary behind.
+#[test]
+fn a_failed_identification_keeps_the_old_log() {
+    let dir = rigid_dir();
+    let d = dir.path();
+    std::fs::write(d.join("l.csv"), "the last good run's log\n").unwrap();
+    std::fs::write(d.join("cp.json"), "{}").unwrap();
+    let run = [
+        "identify", "u.json", "-t", "r.csv", "-g", "3", "--log", "l.csv", "-q",
+    ];
+    let out = cordis(d, &[&run[..], &["--resume", "cp.json"]].concat());
+    assert_ne!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert_eq!(
+        std::fs::read_to_string(d.join("l.csv")).unwrap(),
+        "the last good run's log\n"
+    );
+    let out = cordis(d, &run);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let log = std::fs::read_to_string(d.join("l.csv")).unwrap();
+    assert!(log.starts_with("generation,"), "{log}");
+    let names: Vec<String> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".tmp"))
+        .collect();
+    assert!(names.is_empty(), "{names:?}");
 }
 
 /// Issue 17: `--checkpoint`'s help said "every 50 generations", but periodic checkpoints are

@@ -1,8 +1,8 @@
-use std::fs::File;
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::Result;
+use cordis_core::io::AtomicFile;
 use cordis_core::{Observations, Scene};
 use cordis_es::cost::{CostKind, LocalCost};
 use cordis_es::executor::{HistoryRow, Observer, StopReason};
@@ -506,10 +506,11 @@ fn summary(ran: &str, outcome: &Outcome, stable_horizon: Option<usize>) -> serde
 /// Convergence log, CSV or JSON lines by extension, written whole-line: each row is one
 /// write of the full line, unbuffered, so a kill leaves only whole rows; a write that fails
 /// (a full disk) is cut back to the last whole row, ends the logging and is reported, naming
-/// the file, once the result is out ([`LogWriter::finish`]).
+/// the file, once the result is out ([`LogWriter::finish`]). The rows stream to a temporary
+/// beside the file, renamed over it once the run has a result: a run that fails, crashes or
+/// is killed leaves the previous log as it was (it used to be truncated at the start).
 struct LogWriter {
-    path: PathBuf,
-    file: File,
+    file: AtomicFile,
     jsonl: bool,
     /// Bytes of whole rows written.
     len: u64,
@@ -518,12 +519,11 @@ struct LogWriter {
 
 impl LogWriter {
     fn create(path: &std::path::Path) -> Result<Self> {
-        let file = File::create(path).map_err(|e| cordis_core::CordisError::io(path, e))?;
+        let file = AtomicFile::create(path)?;
         let jsonl = path
             .extension()
             .is_some_and(|e| e == "jsonl" || e == "json");
         let mut log = LogWriter {
-            path: path.to_path_buf(),
             file,
             jsonl,
             len: 0,
@@ -540,20 +540,23 @@ impl LogWriter {
             return;
         }
         line.push('\n');
-        match self.file.write_all(line.as_bytes()) {
+        match self.file.file().write_all(line.as_bytes()) {
             Ok(()) => self.len += line.len() as u64,
             Err(e) => {
                 // Best effort: a file that cannot even be cut keeps its torn row.
-                let _ = self.file.set_len(self.len);
+                let _ = self.file.file().set_len(self.len);
                 self.failed = Some(e);
             }
         }
     }
 
-    /// The first write error, as an I/O error naming the file.
+    /// Puts the log in place (the rows written, up to the first failed write), then reports
+    /// that write error, naming the file.
     fn finish(self) -> Result<(), cordis_core::CordisError> {
+        let path = self.file.path().to_path_buf();
+        self.file.commit()?;
         match self.failed {
-            Some(e) => Err(cordis_core::CordisError::io(&self.path, e)),
+            Some(e) => Err(cordis_core::CordisError::io(&path, e)),
             None => Ok(()),
         }
     }

@@ -43,3 +43,15 @@ pub fn rigid_dir() -> tempfile::TempDir {
     }
     dir
 }
+
+/// The temporary an output `name` in `dir` is streamed to until its run ends
+/// (`.NAME.PID.N.tmp`, renamed over `name` then): where a running identification's log rows
+/// are.
+pub fn streamed(dir: &Path, name: &str) -> Option<std::path::PathBuf> {
+    let prefix = format!(".{name}.");
+    std::fs::read_dir(dir).ok()?.find_map(|e| {
+        let p = e.ok()?.path();
+        let file = p.file_name()?.to_str()?;
+        (file.starts_with(&prefix) && file.ends_with(".tmp")).then_some(p)
+    })
+}

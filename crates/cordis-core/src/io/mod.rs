@@ -162,16 +162,107 @@ pub fn write_trajectory(path: &Path, traj: &Trajectory) -> Result<()> {
 
 /// Writes `bytes` to `path` so that a reader sees either the old file or the whole new one,
 /// never a half-written file: a temporary file in the same directory (so the rename stays on
-/// one file system), flushed to disk, then renamed over `path`.
+/// one file system), flushed to disk, then renamed over `path` ([`AtomicFile`]).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    // A path that exists and is not a regular file (`/dev/null`, `/dev/stdout`, a FIFO) is
-    // written in place: renaming a temporary over it would replace the device itself.
-    if let Ok(meta) = std::fs::metadata(path) {
-        if !meta.is_file() && !meta.is_dir() {
-            return std::fs::write(path, bytes).map_err(|e| CordisError::io(path, e));
+    let mut f = AtomicFile::create(path)?;
+    f.file()
+        .write_all(bytes)
+        .map_err(|e| CordisError::io(path, e))?;
+    f.commit()
+}
+
+/// A file written in the open, that replaces `path` only when [committed](AtomicFile::commit):
+/// until then `path` keeps its old content, whatever happens to the writer. Written to a
+/// temporary `.NAME.PID.N.tmp` beside `path`, removed when dropped uncommitted (a failed run's
+/// streamed log must not replace the last good one); a path that exists and is not a regular
+/// file (`/dev/null`, `/dev/stdout`, a FIFO) is written in place, since renaming a temporary
+/// over it would replace the device itself.
+pub struct AtomicFile {
+    path: PathBuf,
+    /// The temporary, `None` when writing in place.
+    tmp: Option<PathBuf>,
+    file: std::fs::File,
+}
+
+impl AtomicFile {
+    /// Opens the temporary beside `path` (or `path` itself, a device); an error names `path`.
+    pub fn create(path: &Path) -> Result<AtomicFile> {
+        static COUNTER: AtomicU64 = AtomicU64::new(0);
+        if let Ok(meta) = std::fs::metadata(path) {
+            if !meta.is_file() && !meta.is_dir() {
+                let file = std::fs::OpenOptions::new()
+                    .write(true)
+                    .open(path)
+                    .map_err(|e| CordisError::io(path, e))?;
+                return Ok(AtomicFile {
+                    path: path.to_path_buf(),
+                    tmp: None,
+                    file,
+                });
+            }
+        }
+        let (dir, file_name) = dir_and_name(path)?;
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let mut tmp_name = std::ffi::OsString::from(".");
+        tmp_name.push(file_name);
+        tmp_name.push(format!(".{}.{n}.tmp", std::process::id()));
+        let tmp = dir.join(tmp_name);
+        let file = std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)
+            .map_err(|e| CordisError::io(path, e))?;
+        Ok(AtomicFile {
+            path: path.to_path_buf(),
+            tmp: Some(tmp),
+            file,
+        })
+    }
+
+    /// The file being written (the temporary).
+    pub fn file(&mut self) -> &mut std::fs::File {
+        &mut self.file
+    }
+
+    /// The path the file replaces when committed.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Flushes the file to disk and renames it over `path`; an error names `path` (and
+    /// leaves it as it was).
+    pub fn commit(mut self) -> Result<()> {
+        let Some(tmp) = self.tmp.take() else {
+            return Ok(());
+        };
+        let path = self.path.clone();
+        let result = self
+            .file
+            .sync_all()
+            .and_then(|()| std::fs::rename(&tmp, &path));
+        if let Err(e) = result {
+            // Nothing more to report if the temporary cannot be removed.
+            let _ = std::fs::remove_file(&tmp);
+            return Err(CordisError::io(&path, e));
+        }
+        if let Ok((dir, name)) = dir_and_name(&path) {
+            remove_stale_temporaries(&dir, name);
+        }
+        Ok(())
+    }
+}
+
+impl Drop for AtomicFile {
+    fn drop(&mut self) {
+        if let Some(tmp) = &self.tmp {
+            // Uncommitted: `path` keeps its old content. Best effort, as in `commit`.
+            let _ = std::fs::remove_file(tmp);
         }
     }
+}
+
+/// The directory (`.` for a bare name) and the file name of an output path.
+fn dir_and_name(path: &Path) -> Result<(PathBuf, &std::ffi::OsStr)> {
     let file_name = path
         .file_name()
         .ok_or_else(|| CordisError::format(path.display().to_string(), "not a file name"))?;
@@ -179,28 +270,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let mut tmp_name = std::ffi::OsString::from(".");
-    tmp_name.push(file_name);
-    tmp_name.push(format!(".{}.{n}.tmp", std::process::id()));
-    let tmp = dir.join(tmp_name);
-    let result = (|| {
-        let mut f = std::fs::OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        drop(f);
-        std::fs::rename(&tmp, path)
-    })();
-    result.map_err(|e| {
-        // The temporary may not exist (open failed); nothing to report if removal fails.
-        let _ = std::fs::remove_file(&tmp);
-        CordisError::io(path, e)
-    })?;
-    remove_stale_temporaries(&dir, file_name);
-    Ok(())
+    Ok((dir, file_name))
 }
 
 /// Removes the temporaries that a killed writer of `file_name` left in `dir` (kill -9 or
