@@ -682,7 +682,7 @@ class IdentifyResult:
         visible: Optional[_ArrayLike] = None,
         title: Optional[str] = None,
         markers: Optional[Sequence[int]] = None,
-        weights: Optional[Sequence[float]] = None,
+        weights: Optional[_ArrayLike] = None,
     ) -> None:
         """Writes the identification report (``cordis report``): one self-contained HTML page
         on :attr:`scene` and the observed ``trajectory`` ``(T, N, 3)`` (NaN, or ``visible``
@@ -733,9 +733,9 @@ def identify(
     restarts: Optional[str] = None,
     plus: bool = False,
     correlated: bool = False,
-    visible: Optional[Union[_ArrayLike, Sequence[_ArrayLike]]] = None,
+    visible: Optional[Union[_ArrayLike, Sequence[Optional[_ArrayLike]]]] = None,
     markers: Optional[Sequence[int]] = None,
-    weights: Optional[Sequence[float]] = None,
+    weights: Optional[_ArrayLike] = None,
     loss: str = "squared",
 ) -> IdentifyResult:
     """Identifies the unknowns of ``scene`` from the observed positions ``traj`` (GIL released).
@@ -743,10 +743,11 @@ def identify(
     Tracked motion: ``traj`` may hold NaN (a missing coordinate), have fewer particles than
     the scene (the rest are hidden, simulated), or be a list of arrays (several takes of the
     same object: one parameter set, each take its own initial state); ``visible`` (boolean
-    ``(T, N)``, or one per take) hides a particle where it is False; ``markers[j]`` is the
-    scene particle the data's particle j tracks (the rest hidden; fixed particles need not be
-    tracked); ``weights``: each marker's weight, 1/σ relative (one per marker or three: x, y,
-    z; read by ``output-error`` only); ``loss``: ``"squared"``, or ``"huber"``/``"cauchy"``,
+    ``(T, N)``, or a list of one per take, None for a take whose particles are all visible)
+    hides a particle where it is False; ``markers[j]`` is the scene particle the data's
+    particle j tracks (the rest hidden; fixed particles need not be tracked); ``weights``:
+    each marker's weight, 1/σ relative: shape ``(M,)`` one per marker, or ``(M, 3)`` (or a
+    flat ``3M``) one per marker and coordinate x, y, z (read by ``output-error`` only); ``loss``: ``"squared"``, or ``"huber"``/``"cauchy"``,
     robust against tracking outliers and swapped markers (output-error). Only ``output-error``
     reads gaps and takes, and ``auto`` picks it for them and for noisy data; its result has
     ``stderr``, ``intervals``, ``covariance`` and ``sigma``, and its ``scene`` carries the

@@ -36,7 +36,7 @@ pub fn scene_from_markers(
     still: Option<f64>,
     family_tolerance: f64,
 ) -> PyResult<Scene> {
-    let obs = observations_from_py(markers, None, "markers")?;
+    let obs = observations_from_py(markers, None, "markers", "visible")?;
     let links = match (neighbours, radius) {
         (Some(_), Some(_)) => {
             return Err(PyValueError::new_err("give neighbours or radius, not both"))

@@ -20,7 +20,7 @@ use cordis_es::strategies::islands::IslandConfig;
 use cordis_es::strategies::thesis::Crossover;
 use cordis_es::CostError;
 use numpy::ndarray::Array2;
-use numpy::{IntoPyArray, PyArray2};
+use numpy::{IntoPyArray, PyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyUserWarning};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -152,12 +152,9 @@ impl IdentifyResult {
     ) -> PyResult<()> {
         let markers: Option<Vec<usize>> =
             named(markers, "markers", "a sequence of particle indices")?;
-        let weights: Option<Vec<f64>> = named(
-            weights,
-            "weights",
-            "a flat sequence of numbers, one or three per marker",
-        )?;
-        let observed = crate::trajectory::observations_from_py(trajectory, visible, "trajectory")?;
+        let weights = weights_from_py(weights)?;
+        let observed =
+            crate::trajectory::observations_from_py(trajectory, visible, "trajectory", "visible")?;
         let scene = self.scene.get().core();
         let title = title.unwrap_or_else(|| format!("identified by {}", self.strategy));
         // The run's map unless told otherwise: a marker file read in scene order put the
@@ -425,11 +422,24 @@ fn takes_from_py(
     let several = traj.is_instance_of::<pyo3::types::PyList>()
         || traj.is_instance_of::<pyo3::types::PyTuple>();
     if !several {
-        return Ok(vec![observations_from_py(traj, visible, "traj")?]);
+        return Ok(vec![observations_from_py(
+            traj, visible, "traj", "visible",
+        )?]);
     }
     let items: Vec<Bound<'_, PyAny>> = traj.try_iter()?.collect::<PyResult<_>>()?;
-    let masks: Option<Vec<Bound<'_, PyAny>>> = match visible {
-        Some(v) => Some(v.try_iter()?.collect::<PyResult<_>>()?),
+    let masks: Option<Vec<Bound<'_, PyAny>>> = match visible.filter(|v| !v.is_none()) {
+        Some(v) => Some(
+            v.try_iter()
+                .and_then(|m| m.collect::<PyResult<_>>())
+                .map_err(|_| {
+                    PyTypeError::new_err(format!(
+                        "visible: expected a list of {} masks (boolean (T, N) arrays, or None \
+                         for a take whose particles are all visible), got {}",
+                        items.len(),
+                        v.get_type().name().map_or("?".into(), |n| n.to_string())
+                    ))
+                })?,
+        ),
         None => None,
     };
     if let Some(m) = &masks {
@@ -445,7 +455,7 @@ fn takes_from_py(
         .enumerate()
         .map(|(k, t)| {
             let v = masks.as_ref().map(|m| &m[k]);
-            observations_from_py(t, v, &format!("traj[{k}]"))
+            observations_from_py(t, v, &format!("traj[{k}]"), &format!("visible[{k}]"))
         })
         .collect()
 }
@@ -509,10 +519,11 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
 /// - Tracked motion: `traj` may hold NaN (a missing coordinate), have fewer particles than
 ///   the scene (the rest are hidden and simulated), or be a list of arrays (several takes of
 ///   the same object: one parameter set, each take its own initial state); `visible`
-///   (boolean `(T, N)`, or one per take) hides a particle where it is False; `markers[j]` is
-///   the scene particle that the data's particle j tracks (the rest hidden; fixed particles
-///   need not be tracked); `weights`: each marker's weight, 1/σ relative (one per marker, or
-///   three: x, y, z; read by `output-error` only); `loss`: `"squared"`, or `"huber"` /
+///   (boolean `(T, N)`, or a list of one per take, None for a take whose particles are all
+///   visible) hides a particle where it is False; `markers[j]` is the scene particle that the
+///   data's particle j tracks (the rest hidden; fixed particles need not be tracked);
+///   `weights`: each marker's weight, 1/σ relative (`(M,)` one per marker, or `(M, 3)` one
+///   per marker and coordinate x, y, z; read by `output-error` only); `loss`: `"squared"`, or `"huber"` /
 ///   `"cauchy"`, robust against tracking outliers and swapped markers (output-error). Only
 ///   `output-error` reads gaps and takes; `auto` picks it for them and for noisy data, and its
 ///   result has `stderr`, `intervals`, `covariance` and `sigma` (None for other strategies);
@@ -597,11 +608,7 @@ pub fn identify(
     loss: &str,
 ) -> PyResult<IdentifyResult> {
     let markers: Option<Vec<i64>> = named(markers, "markers", "a sequence of particle indices")?;
-    let weights: Option<Vec<f64>> = named(
-        weights,
-        "weights",
-        "a flat sequence of numbers, one or three per marker",
-    )?;
+    let weights = weights_from_py(weights)?;
     let args = PyArgs {
         strategy,
         generations,
@@ -770,6 +777,28 @@ where
             })
         })
         .transpose()
+}
+
+/// `weights` as the session takes them, flat: `(M,)` one per marker, `(M, 3)` one per marker
+/// and coordinate (x, y, z), read row by row; any other shape names the two it takes (a
+/// per-coordinate `(M, 3)` array used to be refused by the flat-sequence conversion).
+fn weights_from_py(weights: Option<Bound<'_, PyAny>>) -> PyResult<Option<Vec<f64>>> {
+    let Some(w) = weights.filter(|w| !w.is_none()) else {
+        return Ok(None);
+    };
+    let a = crate::trajectory::as_f64_array(&w, "weights")?;
+    match a.shape() {
+        [_] | [_, 3] => crate::trajectory::c_order_values(&a).map(Some),
+        [] => Err(PyTypeError::new_err(format!(
+            "weights: expected a sequence of numbers, shape (M,) or (M, 3), got {}",
+            w.get_type().name().map_or("?".into(), |n| n.to_string())
+        ))),
+        shape => Err(pyo3::exceptions::PyValueError::new_err(format!(
+            "weights: expected shape (M,) (one weight per marker) or (M, 3) (one per marker and \
+             coordinate x, y, z), got shape {}",
+            crate::trajectory::shape_text(shape)
+        ))),
+    }
 }
 
 type RunOutcome = std::thread::Result<Result<Outcome, CostError>>;

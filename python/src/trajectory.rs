@@ -63,11 +63,13 @@ pub fn traj_from_py(x: &Bound<'_, PyAny>, what: &str) -> PyResult<Trajectory> {
 }
 
 /// An array `(T, N, 3)` of observed positions in which NaN marks a missing coordinate; with
-/// `visible` (a boolean array `(T, N)`), a particle is also missing where it is False.
+/// `visible` (a boolean array `(T, N)`, named `mask_name` in errors: `visible`, `visible[1]`), a
+/// particle is also missing where it is False.
 pub fn observations_from_py(
     x: &Bound<'_, PyAny>,
     visible: Option<&Bound<'_, PyAny>>,
     what: &str,
+    mask_name: &str,
 ) -> PyResult<Observations> {
     let a = as_f64_array(x, what)?;
     let shape = a.shape().to_vec();
@@ -78,17 +80,20 @@ pub fn observations_from_py(
         )));
     }
     let mut data = c_order_values(&a)?;
-    if let Some(v) = visible {
+    // None is "every particle visible": one take of several without a mask (`[None, mask]`).
+    if let Some(v) = visible.filter(|v| !v.is_none()) {
         let mask: numpy::PyReadonlyArrayDyn<'_, bool> = v.extract().map_err(|_| {
             PyTypeError::new_err(format!(
-                "visible: expected a boolean array of shape ({}, {})",
-                shape[0], shape[1]
+                "{mask_name}: expected a boolean array of shape ({}, {}) or None (all visible), got {}",
+                shape[0],
+                shape[1],
+                v.get_type().name().map_or("?".into(), |n| n.to_string())
             ))
         })?;
         let m = mask.as_array();
         if m.shape() != [shape[0], shape[1]] {
             return Err(PyValueError::new_err(format!(
-                "visible: shape {} does not match {what}'s ({}, {})",
+                "{mask_name}: shape {} does not match {what}'s ({}, {})",
                 shape_text(m.shape()),
                 shape[0],
                 shape[1]

@@ -90,6 +90,23 @@ def test_visible_hides_like_nan():
         cordis.identify(guess, traj, visible=visible[:10])
 
 
+def test_a_take_without_a_mask_is_given_none_among_the_masks():
+    # `visible=[None, mask]` raised a bare TypeError: None is "every particle visible", as
+    # visible=None is for one take.
+    guess, _, traj = load()
+    second = traj[:120].copy()
+    mask = np.ones(second.shape[:2], dtype=bool)
+    mask[40:70, 13] = False
+    a = cordis.identify(guess, [traj, second], visible=[None, mask])
+    b = cordis.identify(guess, [traj, second], visible=[np.ones(traj.shape[:2], bool), mask])
+    assert a.params == b.params and a.intervals == b.intervals
+    with pytest.raises(TypeError, match=r"^visible\[1\]: expected a boolean array of shape "
+                       r"\(120, 27\) or None \(all visible\), got str"):
+        cordis.identify(guess, [traj, second], visible=[None, "all"])
+    with pytest.raises(TypeError, match=r"^visible: expected a list of 2 masks"):
+        cordis.identify(guess, [traj, second], visible=3)
+
+
 def test_a_hidden_particle_is_simulated_not_compared():
     guess, truth, traj = load()
     hidden = traj.copy()
@@ -169,6 +186,19 @@ def test_markers_map_data_in_its_own_order_and_weights_match_the_cli(tmp_path):
     assert cli == {n: (w.stderr[n], w.intervals[n]) for n in w.params}
 
 
+def test_weights_per_coordinate_are_an_m_by_3_array():
+    # A (M, 3) array (per marker, x y z) was refused: only the flat 3M sequence was read.
+    guess, _, traj = load()
+    w = np.ones((27, 3))
+    w[13] = [0.5, 1.0, 2.0]
+    a = cordis.identify(guess, traj, weights=w)
+    b = cordis.identify(guess, traj, weights=list(w.ravel()))
+    assert a.cost == b.cost and a.params == b.params and a.sigma == b.sigma
+    with pytest.raises(ValueError, match=r"^weights: expected shape \(M,\) \(one weight per "
+                       r"marker\) or \(M, 3\) .*, got shape \(27, 2\)"):
+        cordis.identify(guess, traj, weights=np.ones((27, 2)))
+
+
 @pytest.mark.parametrize("kw, says", [
     ({"markers": [0, 0]}, r"markers\[1\]: particle 0 is already tracked by marker 0"),
     ({"markers": [0, 99]}, r"markers\[1\]: particle 99 does not exist"),
@@ -186,8 +216,8 @@ def test_bad_markers_and_weights_are_refused_by_name(kw, says):
 
 @pytest.mark.parametrize("kw, says", [
     ({"markers": "1,2"}, r"^markers: expected a sequence of particle indices, got str"),
-    ({"weights": np.ones((27, 3))}, r"^weights: expected a flat sequence of numbers"),
-    ({"weights": 1.0}, r"^weights: expected a flat sequence of numbers, .* got float"),
+    ({"weights": "heavy"}, r"^weights: expected an array of numbers"),
+    ({"weights": 1.0}, r"^weights: expected a sequence of numbers, shape \(M,\) or \(M, 3\), got float"),
 ])
 def test_markers_and_weights_of_the_wrong_type_name_the_argument(kw, says):
     guess, _, traj = load()
