@@ -143,6 +143,17 @@ def test_bad_input_names_the_place(tmp_path):
         cordis.read_trajectory(empty)
 
 
+def test_a_column_that_is_not_read_is_refused_as_by_the_cli(tmp_path):
+    # A `w` column was dropped without a word (the CLI reads tables through the same reader).
+    path = tmp_path / "w.csv"
+    path.write_text("frame,particle,x,y,z,w\n0,0,1,2,3,4\n")
+    with pytest.raises(cordis.TrajectoryError, match=r"w\.csv:1: column `w` \(field 6\) is not "
+                       r"read \(read: frame, particle, x, y, z\): remove it, or map the columns"):
+        cordis.read_trajectory(path)
+    mapped = cordis.read_trajectory(path, columns="frame=frame,particle=particle,x=x,y=y,z=z")
+    np.testing.assert_array_equal(mapped, [[[1.0, 2.0, 3.0]]])
+
+
 def test_cordis_own_formats_read_as_before(tmp_path):
     traj = cordis.example("rigid").simulate(5)
     cordis.write_trajectory(tmp_path / "r.csv", traj)
