@@ -110,14 +110,8 @@ pub fn in_scene_order(
     let per_axis = match weights {
         None => None,
         Some(w) => {
-            if let Some(k) = w.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
-                return Err(CordisError::argument(
-                    format!("{weights_opt}[{k}]"),
-                    format!(
-                        "must be a positive finite number (1/σ relative), got {:?}",
-                        w[k]
-                    ),
-                ));
+            if let Some((k, why)) = cordis_core::arg::bad_weight(w) {
+                return Err(CordisError::argument(format!("{weights_opt}[{k}]"), why));
             }
             match w.len() {
                 l if l == count => Some(w.iter().flat_map(|&v| [v; 3]).collect::<Vec<f64>>()),

@@ -45,6 +45,30 @@ pub fn number(place: &str, value: f64, low: Low, high: f64, unit: &str) -> Resul
     ))
 }
 
+/// The range of a marker's weight (1/σ relative): far inside f64 once squared and multiplied
+/// by squared residuals, so that a weight's common scale never changes the estimate (at 1e150
+/// the squares overflowed and the fit went elsewhere; a 1e±30 scale gives the estimate of 1
+/// to 1e-13).
+pub const WEIGHT_RANGE: (f64, f64) = (1e-30, 1e30);
+
+/// The first of `weights` that is not a positive finite number within [`WEIGHT_RANGE`]: its
+/// index and why, for `place[k]: why`. The CLI, Python and the report refuse the same.
+pub fn bad_weight(weights: &[f64]) -> Option<(usize, String)> {
+    let (low, high) = WEIGHT_RANGE;
+    let k = weights.iter().position(|w| !(*w >= low && *w <= high))?;
+    let w = weights[k];
+    Some((
+        k,
+        match w.is_finite() && w > 0.0 {
+            true => format!(
+                "{w:e} is outside [{low:e}, {high:e}]: weights are relative (1/σ), scale them all \
+                 by one factor into it (a common scale does not change the estimate)"
+            ),
+            false => format!("must be a positive finite number (1/σ relative), got {w:?}"),
+        },
+    ))
+}
+
 /// A number as a reader wants it: plain between 1e-4 and 1e6, else in scientific notation
 /// (`1e100`, not the 101 digits `Display` writes).
 pub fn short(x: f64) -> String {

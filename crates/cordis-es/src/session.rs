@@ -468,16 +468,12 @@ fn validate_markers(req: &IdentifyRequest) -> Result<(), CostError> {
             owner[p] = Some(m);
         }
     }
-    if let Some(weights) = &req.weights {
-        if let Some(k) = weights.iter().position(|w| !(w.is_finite() && *w > 0.0)) {
-            return Err(CostError::invalid(
-                at("weights", k),
-                format!(
-                    "must be a positive finite number (1/σ relative), got {:?}",
-                    weights[k]
-                ),
-            ));
-        }
+    if let Some((k, why)) = req
+        .weights
+        .as_deref()
+        .and_then(cordis_core::arg::bad_weight)
+    {
+        return Err(CostError::invalid(at("weights", k), why));
     }
     Ok(())
 }

@@ -267,6 +267,16 @@ fn every_takes_start_competes_so_a_take_that_tracks_all_gives_the_start() {
     assert!(error < 5.0, "mean parameter error {error} %");
 }
 
+/// The take of `obs` in scene order with a weight per marker.
+fn weighted(
+    guess: &Scene,
+    obs: &Trajectory,
+    weights: &[f64],
+) -> Result<Take, cordis_es::CostError> {
+    let n = guess.particles.len();
+    Take::from_markers(obs.frames(), obs.as_flat(), n, None, Some(weights), None)
+}
+
 /// Weights are 1/σ relative: scaling every one by the same factor changes nothing but the
 /// unit of σ̂ and of the noise level (the soft block with every weight 2 once failed, "diverged
 /// within 32 frames": the windows compared weighted residuals to the unweighted noise level).
@@ -275,20 +285,12 @@ fn uniformly_scaled_weights_give_the_same_estimate() {
     let (guess, _, obs) = soft_block();
     let space = ParameterSpace::from_scene(&guess);
     let fit = |w: f64| {
-        let weights = vec![w; obs.particles()];
-        let take = Take::from_markers(
-            obs.frames(),
-            obs.as_flat(),
-            guess.particles.len(),
-            None,
-            Some(&weights),
-            None,
-        )
-        .unwrap();
+        let take = weighted(&guess, &obs, &vec![w; obs.particles()]).unwrap();
         estimate(&guess, &space, &[take], &Config::default()).unwrap()
     };
     let one = fit(1.0);
-    for w in [2.0, 10.0, 0.5] {
+    // To the ends of the range weights are read in (`arg::WEIGHT_RANGE`).
+    for w in [2.0, 10.0, 0.5, 1e6, 1e-6, 1e30, 1e-30] {
         let e = fit(w);
         for (a, b) in e.genome.iter().zip(&one.genome) {
             assert!(
@@ -311,6 +313,23 @@ fn uniformly_scaled_weights_give_the_same_estimate() {
         // unweighted ones from one median over all: the same noise to a percent or so.
         let level = e.noise_level[0] / (w * one.noise_level[0]);
         assert!((level - 1.0).abs() < 0.05, "noise level ×{level}");
+    }
+}
+
+/// Weights of 1e150 were squared to overflow and the fit went elsewhere (its parameters 270 %
+/// off those of weight 1): a scale beyond the range is refused by index, with what to do.
+#[test]
+fn weights_beyond_their_range_are_refused_not_overflowed() {
+    let (guess, _, obs) = soft_block();
+    for w in [1e150, 1e-150] {
+        let mut weights = vec![1.0; obs.particles()];
+        weights[3] = w;
+        let e = weighted(&guess, &obs, &weights).unwrap_err().to_string();
+        assert!(
+            e.starts_with(&format!("weights[3]: {w:e} is outside [1e-30, 1e30]")),
+            "{e}"
+        );
+        assert!(e.contains("scale them all by one factor"), "{e}");
     }
 }
 

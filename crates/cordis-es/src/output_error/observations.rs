@@ -330,13 +330,8 @@ fn weights_per_coordinate(count: usize, marker_weights: Option<&[f64]>) -> Resul
         }
         _ => false,
     };
-    if let Some(w) = marker_weights {
-        if let Some(m) = w.iter().position(|w| !(w.is_finite() && *w > 0.0)) {
-            return Err(CostError::mismatch(
-                format!("weights[{m}]"),
-                format!("must be a positive finite number, got {}", w[m]),
-            ));
-        }
+    if let Some((m, why)) = marker_weights.and_then(cordis_core::arg::bad_weight) {
+        return Err(CostError::mismatch(format!("weights[{m}]"), why));
     }
     Ok(per_coordinate)
 }
