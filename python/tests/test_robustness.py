@@ -130,11 +130,13 @@ def test_the_checkpoint_docstring_says_when_it_writes():
 
 # Issue 17's cases, each by name (the properties above draw them only by chance).
 @pytest.mark.parametrize("kw, says", [
-    (dict(noise=1e308), r"noise: 1e308 m makes the observed positions overflow"),
+    (dict(noise=1e308), r"noise: 1e308 m is more than 10 times the size of the scene and its motion"),
+    (dict(generations=0), r"generations: must be at least 1 \(0 stops before the first generation\)"),
+    (dict(time_limit=0.0), r"time_limit: must be seconds in \(0, "),
     (dict(noise=math.inf), r"noise: must be a standard deviation"),
     (dict(noise=math.nan), r"noise: must be a standard deviation"),
     (dict(time_limit=math.inf), r"time_limit: must be seconds"),
-    (dict(target_cost=math.nan), r"target_cost: must be a number, got NaN"),
+    (dict(target_cost=math.nan), r"target_cost: must be a finite number, got NaN"),
     (dict(population=10**11), r"population: 100000000000 individuals need about .* GiB"),
     (dict(population=0), r"population: must be 2 or more, got 0"),
     (dict(islands=10**7), r"islands: 10000000 islands of 6 individuals need about .* GiB"),

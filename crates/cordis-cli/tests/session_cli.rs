@@ -141,6 +141,35 @@ fn out_of_range_options_are_one_line_naming_them_not_a_panic() {
         (&["--time-limit", "1e308"], "--time-limit"),
         (&["--noise", "inf"], "--noise"),
         (&["--noise", "1e308"], "--noise"),
+        // Noise ten times the scene's size is a wrong unit: at 1e300 the solver met
+        // overflowing numbers ("the least-squares system is not finite").
+        (
+            &["--noise", "1e300"],
+            "--noise: 1e300 m is more than 10 times the size of the scene and its motion (",
+        ),
+        // Squared, 1e150 overflowed and changed the estimate: refused by index.
+        (
+            &["--weights", "1,1,1e150"],
+            "--weights[2]: 1e150 is outside [1e-30, 1e30]: weights are relative (1/σ)",
+        ),
+        // A budget of nothing ran no generation and reported the fit `running`.
+        (
+            &["--generations", "0"],
+            "--generations: must be at least 1 (0 stops before the first generation)",
+        ),
+        (&["--max-evals", "0"], "--max-evals: must be at least 1"),
+        (
+            &["--time-limit", "0"],
+            "--time-limit: must be seconds in (0, ",
+        ),
+        (
+            &["--time-limit=-1"],
+            "--time-limit: must be seconds in (0, ",
+        ),
+        (
+            &["--target-cost", "inf"],
+            "--target-cost: must be a finite number, got inf",
+        ),
         (
             &["--population", "100000000000", "--strategy", "thesis"],
             "--population",
@@ -150,7 +179,10 @@ fn out_of_range_options_are_one_line_naming_them_not_a_panic() {
         // ignored, a population of 0 ran.
         (&["--noise", "NaN"], "--noise: must be a standard deviation"),
         (&["--dt", "NaN"], "--dt: must be a finite number above 0"),
-        (&["--target-cost", "NaN"], "--target-cost: must be a number"),
+        (
+            &["--target-cost", "NaN"],
+            "--target-cost: must be a finite number",
+        ),
         (
             &["--population", "0"],
             "--population: must be 2 or more, got 0",

@@ -177,6 +177,12 @@ fn first_observed(obs: &Observations) -> Result<Vec<(usize, [f64; 3])>> {
 
 /// The diagonal of the positions' bounding box, m.
 pub fn extent(pos: &[[f64; 3]]) -> f64 {
+    extent_of(pos.iter().copied())
+}
+
+/// [`extent`] of points as they come (a take's flat positions, without a copy); NaN
+/// coordinates (missing observations) are left out.
+pub fn extent_of(pos: impl IntoIterator<Item = [f64; 3]>) -> f64 {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     for p in pos {

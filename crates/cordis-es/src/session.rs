@@ -546,16 +546,30 @@ fn validate(req: &IdentifyRequest) -> Result<(), CostError> {
     if let Some(p) = req.population.filter(|&p| p < 2) {
         return bad("population", format!("must be 2 or more, got {p}"));
     }
+    // A budget of nothing (0 generations, evaluations or seconds; a target every cost meets)
+    // stopped the run before its first generation and reported the fit `running`.
+    if req.generations == Generations::Limit(0) {
+        return bad(
+            "generations",
+            "must be at least 1 (0 stops before the first generation)".into(),
+        );
+    }
+    if req.max_evals == Some(0) {
+        return bad(
+            "max_evals",
+            "must be at least 1 (0 stops before the first generation)".into(),
+        );
+    }
     if let Some(t) = req.time_limit {
-        if !(t.is_finite() && (0.0..=MAX_TIME_LIMIT).contains(&t)) {
+        if !(t.is_finite() && t > 0.0 && t <= MAX_TIME_LIMIT) {
             return bad(
                 "time_limit",
-                format!("must be seconds in [0, {MAX_TIME_LIMIT:.0}] (a year), got {t:?}"),
+                format!("must be seconds in (0, {MAX_TIME_LIMIT:.0}] (a year), got {t:?}"),
             );
         }
     }
-    if req.target_cost.is_some_and(f64::is_nan) {
-        return bad("target_cost", "must be a number, got NaN".into());
+    if let Some(c) = req.target_cost.filter(|c| !c.is_finite()) {
+        return bad("target_cost", format!("must be a finite number, got {c:?}"));
     }
     if req.threads == Some(0) {
         return bad("threads", "must be 1 or more (default: all cores)".into());
@@ -572,11 +586,35 @@ fn validate(req: &IdentifyRequest) -> Result<(), CostError> {
     check_noise(req, req.noise)
 }
 
+/// Noise added larger than this many times the size of the scene and its motion is a wrong
+/// unit, not an experiment: the motion is lost in it, and at 1e300 m the solvers met
+/// overflowing numbers ("the least-squares system is not finite").
+const NOISE_MAX_SIZES: f64 = 10.0;
+
 fn check_noise(req: &IdentifyRequest, noise: f64) -> Result<(), CostError> {
     if !(noise.is_finite() && noise >= 0.0) {
         return Err(CostError::invalid(
             req.opt("noise"),
             format!("must be a standard deviation ≥ 0 m, got {noise:?}"),
+        ));
+    }
+    if noise == 0.0 {
+        return Ok(());
+    }
+    // The scene's particles and every observed position (NaN, missing, is left out).
+    let observed = req
+        .takes
+        .iter()
+        .flat_map(|t| t.as_flat().chunks_exact(3).map(|p| [p[0], p[1], p[2]]));
+    let at = req.scene.particles.iter().map(|p| p.pos).chain(observed);
+    let size = cordis_core::from_markers::extent_of(at);
+    if size.is_finite() && size > 0.0 && noise > NOISE_MAX_SIZES * size {
+        return Err(CostError::invalid(
+            req.opt("noise"),
+            format!(
+                "{noise:e} m is more than {NOISE_MAX_SIZES} times the size of the scene and its \
+                 motion ({size:.3e} m): a standard deviation in m"
+            ),
         ));
     }
     Ok(())

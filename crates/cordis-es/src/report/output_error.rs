@@ -12,8 +12,8 @@ pub struct OutputErrorReport {
     pub start: String,
     /// The growing windows, frames.
     pub windows: Vec<usize>,
-    /// How the last window ended: converged, budget or stalled; `running` or `interrupted`
-    /// when the run stopped before the fit reached the whole take.
+    /// How the last window ended: converged, budget or stalled; `stopped` when the run (a stop
+    /// rule or Ctrl-C: its `stopped_by`) stopped before the fit reached the whole take.
     pub end: String,
     pub iterations: usize,
     /// Rollouts (with or without sensitivities).

@@ -82,12 +82,10 @@ impl OutputError {
             estimator: "output-error".into(),
             start: progress.start_note(),
             windows: progress.windows().to_vec(),
-            end: if progress.stopped() {
-                "interrupted"
-            } else {
-                "running"
-            }
-            .into(),
+            // Read once the run is over (the run loop does not tell a strategy it stopped):
+            // `running` was reported by runs that had ended, a time limit's was `interrupted`.
+            // The run's `stopped_by` says which rule or Ctrl-C stopped it.
+            end: "stopped".into(),
             iterations,
             rollouts,
             position_cost,
@@ -249,10 +247,14 @@ impl OutputErrorReport {
         }
     }
 
-    /// Whether the fit reached its end (not running, interrupted, nor failed before any end):
-    /// σ̂ and the standard errors are then the estimate's.
+    /// Whether the fit reached its end (not stopped by the run, nor failed before any end;
+    /// `running` and `interrupted` are the older names of `stopped`, in checkpoints): σ̂ and
+    /// the standard errors are then the estimate's.
     pub fn finished(&self) -> bool {
-        !matches!(self.end.as_str(), "" | "running" | "interrupted")
+        !matches!(
+            self.end.as_str(),
+            "" | "stopped" | "running" | "interrupted"
+        )
     }
 
     /// What a user must read before trusting the estimate.
