@@ -425,3 +425,33 @@ fn discover_with_a_dt_whose_square_underflows_is_refused_not_a_hang() {
     let err = stderr(&out);
     assert!(err.contains("dt² underflows"), "{err}");
 }
+
+/// Values far out of scale reached discovery's insides: a dt of 1e300 s was "too small", a
+/// total mass of 1e300 kg came back as "gravity[0]: must be a finite number, got NaN", and a
+/// noise level of 1e300 m as "no particle moves". Each is refused naming its option.
+#[test]
+fn discover_refuses_out_of_scale_numbers_naming_them() {
+    let dir = rigid_dir();
+    let d = dir.path();
+    for (args, says) in [
+        (
+            &["--dt=1e300", "--total-mass=1"][..],
+            "dt: 1e300 s is too large: dt² overflows",
+        ),
+        (
+            &["--dt=0.01", "--total-mass=1e300"],
+            "total_mass: 1e300 kg is outside [1e-30, 1e30] kg",
+        ),
+        (
+            &["--dt=0.01", "--total-mass=1", "--noise-level=1e300"],
+            "noise_level: 1e300 m is more than 10 times the size of the motion (",
+        ),
+    ] {
+        fails(
+            d,
+            &[&["discover", "-t", "r.csv", "-q"][..], args].concat(),
+            2,
+            &[says],
+        );
+    }
+}

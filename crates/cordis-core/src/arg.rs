@@ -69,6 +69,11 @@ pub fn bad_weight(weights: &[f64]) -> Option<(usize, String)> {
     ))
 }
 
+/// A noise level (added or assumed) larger than this many times the size of the scene and
+/// its motion is a wrong unit, not an experiment: the motion is lost in it (identify's
+/// `noise` at 1e300 m met overflowing numbers, discover's answered "no particle moves").
+pub const NOISE_MAX_SIZES: f64 = 10.0;
+
 /// A number as a reader wants it: plain between 1e-4 and 1e6, else in scientific notation
 /// (`1e100`, not the 101 digits `Display` writes).
 pub fn short(x: f64) -> String {

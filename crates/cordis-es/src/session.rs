@@ -586,11 +586,6 @@ fn validate(req: &IdentifyRequest) -> Result<(), CostError> {
     check_noise(req, req.noise)
 }
 
-/// Noise added larger than this many times the size of the scene and its motion is a wrong
-/// unit, not an experiment: the motion is lost in it, and at 1e300 m the solvers met
-/// overflowing numbers ("the least-squares system is not finite").
-const NOISE_MAX_SIZES: f64 = 10.0;
-
 fn check_noise(req: &IdentifyRequest, noise: f64) -> Result<(), CostError> {
     if !(noise.is_finite() && noise >= 0.0) {
         return Err(CostError::invalid(
@@ -608,12 +603,13 @@ fn check_noise(req: &IdentifyRequest, noise: f64) -> Result<(), CostError> {
         .flat_map(|t| t.as_flat().chunks_exact(3).map(|p| [p[0], p[1], p[2]]));
     let at = req.scene.particles.iter().map(|p| p.pos).chain(observed);
     let size = cordis_core::from_markers::extent_of(at);
-    if size.is_finite() && size > 0.0 && noise > NOISE_MAX_SIZES * size {
+    let most = cordis_core::arg::NOISE_MAX_SIZES;
+    if size.is_finite() && size > 0.0 && noise > most * size {
         return Err(CostError::invalid(
             req.opt("noise"),
             format!(
-                "{noise:e} m is more than {NOISE_MAX_SIZES} times the size of the scene and its \
-                 motion ({size:.3e} m): a standard deviation in m"
+                "{noise:e} m is more than {most} times the size of the scene and its motion \
+                 ({size:.3e} m): a standard deviation in m"
             ),
         ));
     }

@@ -480,6 +480,11 @@ fn scored_links(
     (links, near)
 }
 
+/// The masses discovery scales by, kg: beyond, forces and their squares in the least squares
+/// left the finite numbers (a total mass of 1e300 kg came back as "gravity[0]: must be a
+/// finite number, got NaN").
+const MASS_RANGE: (f64, f64) = (1e-30, 1e30);
+
 /// Refuses a step, a take or an option discovery cannot use, naming it.
 fn check_options(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<(), CostError> {
     let (frames, n) = (traj.frames(), traj.particles());
@@ -492,10 +497,12 @@ fn check_options(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<()
     // Accelerations divide by dt²: a dt whose square underflows (5e-324 s) made every one
     // infinite and the selection loop never ended.
     if !(dt * dt).is_normal() {
-        return Err(bad(
-            "dt",
-            format!("{dt} s is too small: dt² underflows to {}", dt * dt),
-        ));
+        // 1e300 s was called "too small" (its square overflows, it does not underflow).
+        let why = match (dt * dt).is_infinite() {
+            true => "too large: dt² overflows",
+            false => "too small: dt² underflows",
+        };
+        return Err(bad("dt", format!("{dt:e} s is {why} to {:e}", dt * dt)));
     }
     if frames < 8 {
         return Err(bad(
@@ -510,6 +517,20 @@ fn check_options(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<()
     if let Some(s) = opt.noise_level {
         if !(s >= 0.0 && s.is_finite()) {
             return Err(bad("noise_level", "must be a non-negative number of m"));
+        }
+        // A level far above the motion is a wrong unit: 1e300 m was answered "no particle
+        // moves", blaming the data (as identify's noise, bounded by the same rule).
+        let positions = traj.as_flat().chunks_exact(3).map(|p| [p[0], p[1], p[2]]);
+        let size = cordis_core::from_markers::extent_of(positions);
+        let most = cordis_core::arg::NOISE_MAX_SIZES;
+        if size > 0.0 && s > most * size {
+            return Err(bad(
+                "noise_level",
+                format!(
+                    "{s:e} m is more than {most} times the size of the motion ({size:.3e} m): \
+                     a standard deviation in m"
+                ),
+            ));
         }
     }
     // NaN or inf here used to pass silently (NaN keeps every link or none).
@@ -547,21 +568,31 @@ fn check_options(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<()
     Ok(())
 }
 
-/// The masses' scale: the total of the moving particles or every mass, positive.
+/// The masses' scale: the total of the moving particles or every mass, positive and within
+/// [`MASS_RANGE`].
 fn check_mass_options(opt: &DiscoverOptions, n: usize) -> Result<(), CostError> {
+    let (low, high) = MASS_RANGE;
+    let outside = |m: f64| !(m >= low && m <= high);
     match (&opt.total_mass, &opt.masses) {
         (Some(m), _) if !(*m > 0.0 && m.is_finite()) => Err(bad(
             "total_mass",
             format!("must be a positive number of kg, got {m}"),
         )),
+        (Some(m), _) if outside(*m) => Err(bad(
+            "total_mass",
+            format!("{m:e} kg is outside [{low:e}, {high:e}] kg"),
+        )),
         (_, Some(ms)) if ms.len() != n => Err(bad(
             "masses",
             format!("has {} values, the trajectory {n} particles", ms.len()),
         )),
-        (_, Some(ms)) => match ms.iter().position(|m| !(*m > 0.0 && m.is_finite())) {
+        (_, Some(ms)) => match ms.iter().position(|m| outside(*m)) {
             Some(k) => Err(bad(
                 &format!("masses[{k}]"),
-                "must be a positive number of kg",
+                format!(
+                    "must be a positive number of kg in [{low:e}, {high:e}], got {:e}",
+                    ms[k]
+                ),
             )),
             None => Ok(()),
         },
