@@ -673,8 +673,11 @@ class IdentifyResult:
     @property
     def sigma(self) -> Optional[float]:
         """Noise of the observed positions estimated from the residuals, m; None when not
-        estimated. With ``weights``, the noise of a weight-1 coordinate (a coordinate of weight
-        w is read as noise ``sigma / w``)."""
+        estimated: another strategy, or a fit the run stopped before it reached the whole take
+        (``report["end"] == "stopped"``; ``report["sigma"]``, the CLI's ``solver.sigma``, is
+        then the residuals' level at the best point so far, not an estimate). With
+        ``weights``, the noise of a weight-1 coordinate (a coordinate of weight w is read as
+        noise ``sigma / w``)."""
     def write_report(
         self,
         path: _PathLike,

@@ -112,7 +112,8 @@ pub struct IdentifyResult {
     #[pyo3(get)]
     covariance: Option<Py<PyArray2<f64>>>,
     /// Noise of the observed positions estimated from the residuals, m (with `weights`, a
-    /// weight-1 coordinate's); None when not estimated.
+    /// weight-1 coordinate's); None when not estimated (nor for a fit the run stopped:
+    /// `report["sigma"]`, the CLI's `solver.sigma`, is then the residuals' level).
     #[pyo3(get)]
     sigma: Option<f64>,
     /// The run as `cordis identify --json` prints it, for [`IdentifyResult::write_report`].

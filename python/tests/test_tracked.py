@@ -107,6 +107,18 @@ def test_a_take_without_a_mask_is_given_none_among_the_masks():
         cordis.identify(guess, [traj, second], visible=3)
 
 
+def test_a_fit_the_run_stopped_has_no_sigma_its_report_the_residual_level():
+    # res.sigma was None where the CLI's JSON gave solver.sigma: the two are the same number,
+    # res.report["sigma"] (the CLI's solver), the residuals' level at the best point so far;
+    # res.sigma is the estimate of the noise, None until the fit reached the whole take.
+    guess, _, traj = load()
+    with pytest.warns(UserWarning, match="before reaching the whole take"):
+        res = cordis.identify(guess, traj, generations=1)
+    assert res.stopped_by == "generations" and res.report["end"] == "stopped"
+    assert res.sigma is None and res.stderr is None and res.intervals is None
+    assert math.isfinite(res.report["sigma"]) and res.report["sigma"] > 0
+
+
 def test_a_hidden_particle_is_simulated_not_compared():
     guess, truth, traj = load()
     hidden = traj.copy()
