@@ -187,6 +187,7 @@ pub fn discover(
         type_tolerance,
         gravity,
         kinds,
+        style: cordis_es::session::Style::Python,
     };
     let interrupt = AtomicBool::new(false);
     let halt = || interrupt.load(Ordering::Relaxed);

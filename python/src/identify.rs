@@ -437,7 +437,7 @@ fn takes_from_py(
                         "visible: expected a list of {} masks (boolean (T, N) arrays, or None \
                          for a take whose particles are all visible), got {}",
                         items.len(),
-                        v.get_type().name().map_or("?".into(), |n| n.to_string())
+                        crate::scene_edit::type_name(v)
                     ))
                 })?,
         ),
@@ -773,7 +773,7 @@ where
                 let e: PyErr = e.into();
                 pyo3::exceptions::PyTypeError::new_err(format!(
                     "{name}: expected {takes}, got {} ({e})",
-                    v.get_type().name().map_or("?".into(), |n| n.to_string())
+                    crate::scene_edit::type_name(&v)
                 ))
             })
         })
@@ -792,7 +792,7 @@ fn weights_from_py(weights: Option<Bound<'_, PyAny>>) -> PyResult<Option<Vec<f64
         [_] | [_, 3] => crate::trajectory::c_order_values(&a).map(Some),
         [] => Err(PyTypeError::new_err(format!(
             "weights: expected a sequence of numbers, shape (M,) or (M, 3), got {}",
-            w.get_type().name().map_or("?".into(), |n| n.to_string())
+            crate::scene_edit::type_name(&w)
         ))),
         shape => Err(pyo3::exceptions::PyValueError::new_err(format!(
             "weights: expected shape (M,) (one weight per marker) or (M, 3) (one per marker and \
@@ -854,7 +854,7 @@ fn build_result(py: Python<'_>, outcome: Outcome) -> PyResult<IdentifyResult> {
     let Outcome {
         result: run,
         report,
-        scene: identified,
+        scene: _,
         scenes,
         problem,
         warnings,
@@ -915,12 +915,15 @@ fn build_result(py: Python<'_>, outcome: Outcome) -> PyResult<IdentifyResult> {
         .collect();
     let history = Array2::from_shape_vec((run.history.len(), HISTORY_COLUMNS.len()), rows)
         .map_err(|e| PyRuntimeError::new_err(format!("history: {e}")))?;
+    // `scenes[0]` is `scene`, the same object (take 0's state is the identified scene's).
+    let scenes: Vec<Py<Scene>> = scenes
+        .into_iter()
+        .map(|s| Py::new(py, Scene::from_core(s)))
+        .collect::<PyResult<_>>()?;
+    let scene = scenes[0].clone_ref(py);
     Ok(IdentifyResult {
-        scene: Py::new(py, Scene::from_core(identified))?,
-        scenes: scenes
-            .into_iter()
-            .map(|s| Py::new(py, Scene::from_core(s)))
-            .collect::<PyResult<_>>()?,
+        scene,
+        scenes,
         params: params.unbind(),
         truth,
         cost: run.cost,

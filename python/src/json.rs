@@ -51,12 +51,7 @@ fn key_place(place: &str, key: &str) -> String {
     }
 }
 
-fn type_name(obj: &Bound<'_, PyAny>) -> String {
-    obj.get_type()
-        .name()
-        .map(|n| n.to_string())
-        .unwrap_or_else(|_| "?".into())
-}
+use crate::scene_edit::type_name;
 
 fn walk(obj: &Bound<'_, PyAny>, place: &str, depth: usize) -> Result<Value, ConvertError> {
     if depth > MAX_DEPTH {

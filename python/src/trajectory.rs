@@ -87,7 +87,7 @@ pub fn observations_from_py(
                 "{mask_name}: expected a boolean array of shape ({}, {}) or None (all visible), got {}",
                 shape[0],
                 shape[1],
-                v.get_type().name().map_or("?".into(), |n| n.to_string())
+                crate::scene_edit::type_name(v)
             ))
         })?;
         let m = mask.as_array();

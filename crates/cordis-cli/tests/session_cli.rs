@@ -152,19 +152,9 @@ fn out_of_range_options_are_one_line_naming_them_not_a_panic() {
             &["--weights", "1,1,1e150"],
             "--weights[2]: 1e150 is outside [1e-30, 1e30]: weights are relative (1/σ)",
         ),
-        // A budget of nothing ran no generation and reported the fit `running`.
-        (
-            &["--generations", "0"],
-            "--generations: must be at least 1 (0 stops before the first generation)",
-        ),
-        (&["--max-evals", "0"], "--max-evals: must be at least 1"),
-        (
-            &["--time-limit", "0"],
-            "--time-limit: must be seconds in (0, ",
-        ),
         (
             &["--time-limit=-1"],
-            "--time-limit: must be seconds in (0, ",
+            "--time-limit: must be seconds in [0, ",
         ),
         (
             &["--target-cost", "inf"],

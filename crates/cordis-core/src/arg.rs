@@ -74,6 +74,18 @@ pub fn bad_weight(weights: &[f64]) -> Option<(usize, String)> {
 /// `noise` at 1e300 m met overflowing numbers, discover's answered "no particle moves").
 pub const NOISE_MAX_SIZES: f64 = 10.0;
 
+/// Why `noise` (m) is refused against the size (m) of `what` it is added to or read from:
+/// more than [`NOISE_MAX_SIZES`] times it. `None` when it is within (or nothing has a size).
+pub fn noise_out_of_scale(noise: f64, size: f64, what: &str) -> Option<String> {
+    let most = NOISE_MAX_SIZES;
+    (size.is_finite() && size > 0.0 && noise > most * size).then(|| {
+        format!(
+            "{noise:e} m is more than {most} times the size of {what} ({size:.3e} m): a \
+             standard deviation in m"
+        )
+    })
+}
+
 /// A number as a reader wants it: plain between 1e-4 and 1e6, else in scientific notation
 /// (`1e100`, not the 101 digits `Display` writes).
 pub fn short(x: f64) -> String {

@@ -252,7 +252,7 @@ pub struct Outcome {
     /// the strategy estimated one: take 0's).
     pub scene: Scene,
     /// One identified scene per take, each with that take's estimated initial state, so that
-    /// simulating `scenes[k]` replays take k (`scenes[0]` is `scene`); a single scene, with
+    /// simulating `scenes[k]` replays take k (`scenes[0]` equals `scene`); a single scene, with
     /// the initial state as given, when the strategy estimates none.
     pub scenes: Vec<Scene>,
     /// The problem it ran on (unknowns, truth).
@@ -408,8 +408,7 @@ impl Session {
         warnings.extend(report.warnings());
         if result.cost.is_finite() {
             warnings.extend(crate::stable::beyond_bound_warning(&scene));
-        }
-        if !result.cost.is_finite() {
+        } else {
             let why = match self.problem.stable_horizon() {
                 Some(h) => format!(
                     "stable horizon {}: every candidate evaluated was rejected as unstable \
@@ -546,25 +545,15 @@ fn validate(req: &IdentifyRequest) -> Result<(), CostError> {
     if let Some(p) = req.population.filter(|&p| p < 2) {
         return bad("population", format!("must be 2 or more, got {p}"));
     }
-    // A budget of nothing (0 generations, evaluations or seconds; a target every cost meets)
-    // stopped the run before its first generation and reported the fit `running`.
-    if req.generations == Generations::Limit(0) {
-        return bad(
-            "generations",
-            "must be at least 1 (0 stops before the first generation)".into(),
-        );
-    }
-    if req.max_evals == Some(0) {
-        return bad(
-            "max_evals",
-            "must be at least 1 (0 stops before the first generation)".into(),
-        );
-    }
+    // A budget of 0 generations (or evaluations, or seconds) is generation 0 alone: the
+    // exact solvers' whole solve (`generations=0` is what docs/python.md tells their users),
+    // the evolution strategies' first population; an output-error fit it stops reports
+    // `end: stopped`, not `running`.
     if let Some(t) = req.time_limit {
-        if !(t.is_finite() && t > 0.0 && t <= MAX_TIME_LIMIT) {
+        if !(t.is_finite() && (0.0..=MAX_TIME_LIMIT).contains(&t)) {
             return bad(
                 "time_limit",
-                format!("must be seconds in (0, {MAX_TIME_LIMIT:.0}] (a year), got {t:?}"),
+                format!("must be seconds in [0, {MAX_TIME_LIMIT:.0}] (a year), got {t:?}"),
             );
         }
     }
@@ -603,17 +592,10 @@ fn check_noise(req: &IdentifyRequest, noise: f64) -> Result<(), CostError> {
         .flat_map(|t| t.as_flat().chunks_exact(3).map(|p| [p[0], p[1], p[2]]));
     let at = req.scene.particles.iter().map(|p| p.pos).chain(observed);
     let size = cordis_core::from_markers::extent_of(at);
-    let most = cordis_core::arg::NOISE_MAX_SIZES;
-    if size.is_finite() && size > 0.0 && noise > most * size {
-        return Err(CostError::invalid(
-            req.opt("noise"),
-            format!(
-                "{noise:e} m is more than {most} times the size of the scene and its motion \
-                 ({size:.3e} m): a standard deviation in m"
-            ),
-        ));
+    match cordis_core::arg::noise_out_of_scale(noise, size, "the scene and its motion") {
+        Some(why) => Err(CostError::invalid(req.opt("noise"), why)),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 /// A fixed particle observed on average farther from where the scene holds it than this
@@ -1076,10 +1058,8 @@ fn check_horizon_time(req: &IdentifyRequest, problem: &Problem) -> Result<(), Co
         return Err(CostError::invalid(
             req.opt("stable_horizon"),
             format!(
-                "{frames} frames: one candidate's free run takes about {} s here ({:.3e} s per \
-                 frame, measured), beyond {what}; lower it",
-                cordis_core::arg::short(needed),
-                per_frame
+                "{frames} frames: one candidate's free run takes about {needed:.2e} s here \
+                 ({per_frame:.3e} s per frame, measured), beyond {what}; lower it"
             ),
         ));
     }

@@ -172,3 +172,30 @@ fn long_cost_over_wide_boxes_ends_without_nan_on_rigid_and_horse() {
         }
     }
 }
+
+/// Every run checks its identified model's stability bound at the end: the rigid object with
+/// its masses ÷ 3 (ratio 1.22, beyond the bound, yet its 40 frames stay bounded), identified
+/// exactly by least squares, comes with the warning; the rigid object itself (0.41) without.
+#[test]
+fn an_identified_model_beyond_the_stability_bound_is_warned_about() {
+    use cordis_es::session::{Generations, IdentifyRequest, Session};
+    for (divide, warned) in [(1.0, false), (3.0, true)] {
+        let mut truth = cordis_core::examples::rigid();
+        for p in &mut truth.particles {
+            p.mass = Param::Known(p.mass.value() / divide);
+        }
+        let traj = truth.simulate(40).expect("40 bounded frames");
+        let mut req = IdentifyRequest::new(with_unknown_boxes(&truth, 10.0, 3), traj);
+        req.strategy = StrategyName::LeastSquares;
+        req.generations = Generations::Limit(0);
+        let out = Session::new(req)
+            .expect("a valid request")
+            .run(&mut [], None)
+            .expect("an estimate");
+        let said = out
+            .warnings
+            .iter()
+            .any(|w| w.starts_with("the identified model is beyond the stability bound"));
+        assert_eq!(said, warned, "masses ÷ {divide}: {:?}", out.warnings);
+    }
+}

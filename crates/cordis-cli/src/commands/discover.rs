@@ -173,9 +173,11 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     };
     let secs = t.elapsed().as_secs_f64();
     cordis_core::io::write_atomic(id_path, id.scene.to_json_string().as_bytes())?;
+    let warnings = id.warnings();
     let mut v = serde_json::to_value(&id)?;
     v["out"] = id_path.display().to_string().into();
     v["seconds"] = secs.into();
+    v["warnings"] = warnings.clone().into();
     summary["identify"] = v;
     if output.json {
         summary["out"] = a.out.as_ref().map(|p| p.display().to_string()).into();
@@ -186,6 +188,11 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     }
     if output.human() {
         report_identified(&id, id_path, secs);
+    }
+    // Warnings print even with --quiet or --json, as identify's: the answer is not to be
+    // trusted as it is.
+    for w in warnings {
+        eprintln!("warning: {w}");
     }
     Ok(())
 }
@@ -215,6 +222,7 @@ fn options(a: &Args) -> Result<DiscoverOptions> {
         type_tolerance: a.type_tolerance,
         gravity,
         kinds,
+        style: cordis_es::session::Style::Cli,
     })
 }
 
@@ -317,8 +325,5 @@ fn report_identified(id: &Identified, path: &std::path::Path, seconds: f64) {
             "note: masses fitted with particles[{r}].mass held, then every mass, stiffness and \
              damping rescaled to the total mass (the motion does not change)"
         );
-    }
-    for w in id.warnings() {
-        eprintln!("warning: {w}");
     }
 }

@@ -207,8 +207,8 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         if let Err(e) = super::write_scene(&outcome.scene, Some(out)) {
             failed.get_or_insert(e);
         }
-        for (k, scene) in outcome.scenes.iter().enumerate().skip(1) {
-            let path = take_scene_path(out, k);
+        let paths = take_scene_paths(out, outcome.scenes.len());
+        for ((k, scene), path) in outcome.scenes.iter().enumerate().skip(1).zip(paths) {
             match super::write_scene(scene, Some(&path)) {
                 Ok(()) if output.human() => eprintln!(
                     "wrote take {k}'s identified scene (its estimated initial state) to {}",
@@ -297,8 +297,10 @@ fn guard(a: &Args) -> Result<()> {
     // Take k's scene beside --out (only output-error writes them; guarded whatever the
     // strategy, before the run knows).
     let take_scenes: Vec<(String, PathBuf)> = match &a.out {
-        Some(o) => (1..a.trajectory.len())
-            .map(|k| (format!("--out's take {k}"), take_scene_path(o, k)))
+        Some(o) => take_scene_paths(o, a.trajectory.len())
+            .into_iter()
+            .enumerate()
+            .map(|(k, p)| (format!("--out's take {}", k + 1), p))
             .collect(),
         None => Vec::new(),
     };
@@ -324,14 +326,23 @@ fn guard(a: &Args) -> Result<()> {
     super::guard_outputs(&[("--resume", a.resume.as_deref())], &[out, log])
 }
 
-/// Where take k's identified scene goes beside `out`: `model.json` → `model.take1.json`.
-fn take_scene_path(out: &Path, k: usize) -> PathBuf {
+/// Where the identified scenes of takes 1.. of `takes` go beside `out`: `model.json` →
+/// `model.take1.json`, …. None when `out` is a device or a pipe (`/dev/null`, `/dev/stdout`):
+/// `/dev/null.take1` is no place to write.
+fn take_scene_paths(out: &Path, takes: usize) -> Vec<PathBuf> {
+    if out.exists() && !out.is_file() {
+        return Vec::new();
+    }
     let stem = out.file_stem().unwrap_or_default().to_string_lossy();
-    let name = match out.extension() {
-        Some(ext) => format!("{stem}.take{k}.{}", ext.to_string_lossy()),
-        None => format!("{stem}.take{k}"),
-    };
-    out.with_file_name(name)
+    (1..takes)
+        .map(|k| {
+            let name = match out.extension() {
+                Some(ext) => format!("{stem}.take{k}.{}", ext.to_string_lossy()),
+                None => format!("{stem}.take{k}"),
+            };
+            out.with_file_name(name)
+        })
+        .collect()
 }
 
 /// `FILE.history`, where the history rows of checkpoint `FILE` are appended.

@@ -128,6 +128,8 @@ pub struct DiscoverOptions {
     pub gravity: Option<[f64; 3]>,
     /// The link kinds looked for (`None`: all of [`Kinds::NAMES`]).
     pub kinds: Option<Kinds>,
+    /// How errors spell an option: `--total-mass` (the CLI) or `total_mass` (Python).
+    pub style: crate::session::Style,
 }
 
 impl Default for DiscoverOptions {
@@ -141,6 +143,7 @@ impl Default for DiscoverOptions {
             type_tolerance: 1e-3,
             gravity: None,
             kinds: None,
+            style: crate::session::Style::default(),
         }
     }
 }
@@ -488,9 +491,10 @@ const MASS_RANGE: (f64, f64) = (1e-30, 1e30);
 /// Refuses a step, a take or an option discovery cannot use, naming it.
 fn check_options(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<(), CostError> {
     let (frames, n) = (traj.frames(), traj.particles());
+    let name = |option: &str| opt.style.opt(option);
     if !(dt > 0.0 && dt.is_finite()) {
         return Err(bad(
-            "dt",
+            &name("dt"),
             format!("must be a positive number of seconds, got {dt}"),
         ));
     }
@@ -502,48 +506,47 @@ fn check_options(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<()
             true => "too large: dt² overflows",
             false => "too small: dt² underflows",
         };
-        return Err(bad("dt", format!("{dt:e} s is {why} to {:e}", dt * dt)));
+        return Err(bad(
+            &name("dt"),
+            format!("{dt:e} s is {why} to {:e}", dt * dt),
+        ));
     }
     if frames < 8 {
         return Err(bad(
-            "trajectory",
+            &name("trajectory"),
             format!("has {frames} frames, discovery needs at least 8"),
         ));
     }
     if n < 2 {
-        return Err(bad("trajectory", "needs at least 2 particles"));
+        return Err(bad(&name("trajectory"), "needs at least 2 particles"));
     }
     check_mass_options(opt, n)?;
     if let Some(s) = opt.noise_level {
         if !(s >= 0.0 && s.is_finite()) {
-            return Err(bad("noise_level", "must be a non-negative number of m"));
+            return Err(bad(
+                &name("noise_level"),
+                "must be a non-negative number of m",
+            ));
         }
         // A level far above the motion is a wrong unit: 1e300 m was answered "no particle
         // moves", blaming the data (as identify's noise, bounded by the same rule).
         let positions = traj.as_flat().chunks_exact(3).map(|p| [p[0], p[1], p[2]]);
         let size = cordis_core::from_markers::extent_of(positions);
-        let most = cordis_core::arg::NOISE_MAX_SIZES;
-        if size > 0.0 && s > most * size {
-            return Err(bad(
-                "noise_level",
-                format!(
-                    "{s:e} m is more than {most} times the size of the motion ({size:.3e} m): \
-                     a standard deviation in m"
-                ),
-            ));
+        if let Some(why) = cordis_core::arg::noise_out_of_scale(s, size, "the motion") {
+            return Err(bad(&name("noise_level"), why));
         }
     }
     // NaN or inf here used to pass silently (NaN keeps every link or none).
     use cordis_core::arg::{number, Low};
     number(
-        "threshold_scale",
+        &name("threshold_scale"),
         opt.threshold_scale,
         Low::Above(0.0),
         f64::MAX,
         "a multiple of the selection threshold",
     )?;
     number(
-        "type_tolerance",
+        &name("type_tolerance"),
         opt.type_tolerance,
         Low::AtLeast(0.0),
         f64::MAX,
@@ -552,7 +555,7 @@ fn check_options(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<()
     if let Some(g) = opt.gravity {
         if let Some(c) = g.iter().position(|v| !v.is_finite()) {
             return Err(bad(
-                &format!("gravity[{c}]"),
+                &format!("{}[{c}]", name("gravity")),
                 "must be a finite number of m/s²",
             ));
         }
@@ -560,7 +563,7 @@ fn check_options(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<()
     if let Some(r) = opt.max_range {
         if !(r > 0.0 && r.is_finite()) {
             return Err(bad(
-                "max_range",
+                &name("max_range"),
                 format!("must be a positive number of m, got {r}"),
             ));
         }
@@ -573,22 +576,23 @@ fn check_options(traj: &Trajectory, dt: f64, opt: &DiscoverOptions) -> Result<()
 fn check_mass_options(opt: &DiscoverOptions, n: usize) -> Result<(), CostError> {
     let (low, high) = MASS_RANGE;
     let outside = |m: f64| !(m >= low && m <= high);
+    let name = |option: &str| opt.style.opt(option);
     match (&opt.total_mass, &opt.masses) {
         (Some(m), _) if !(*m > 0.0 && m.is_finite()) => Err(bad(
-            "total_mass",
+            &name("total_mass"),
             format!("must be a positive number of kg, got {m}"),
         )),
         (Some(m), _) if outside(*m) => Err(bad(
-            "total_mass",
+            &name("total_mass"),
             format!("{m:e} kg is outside [{low:e}, {high:e}] kg"),
         )),
         (_, Some(ms)) if ms.len() != n => Err(bad(
-            "masses",
+            &name("masses"),
             format!("has {} values, the trajectory {n} particles", ms.len()),
         )),
         (_, Some(ms)) => match ms.iter().position(|m| outside(*m)) {
             Some(k) => Err(bad(
-                &format!("masses[{k}]"),
+                &format!("{}[{k}]", name("masses")),
                 format!(
                     "must be a positive number of kg in [{low:e}, {high:e}], got {:e}",
                     ms[k]
@@ -597,7 +601,7 @@ fn check_mass_options(opt: &DiscoverOptions, n: usize) -> Result<(), CostError> 
             None => Ok(()),
         },
         (None, None) => Err(bad(
-            "masses",
+            &name("masses"),
             "masses and stiffnesses are only determined up to a common scale: give the total \
              mass of the moving particles or every mass",
         )),

@@ -82,9 +82,10 @@ impl OutputError {
             estimator: "output-error".into(),
             start: progress.start_note(),
             windows: progress.windows().to_vec(),
-            // Read once the run is over (the run loop does not tell a strategy it stopped):
-            // `running` was reported by runs that had ended, a time limit's was `interrupted`.
-            // The run's `stopped_by` says which rule or Ctrl-C stopped it.
+            // The run loop does not tell a strategy it stopped, so every report of an unfinished
+            // fit says `stopped` (mid-run checkpoints too): read at the end, that is the truth,
+            // where `running` was reported of runs that had ended and a time limit's end was
+            // `interrupted`. The run's `stopped_by` says which rule or Ctrl-C stopped it.
             end: "stopped".into(),
             iterations,
             rollouts,
