@@ -448,6 +448,55 @@ fn rescaled(
 mod tests {
     use super::*;
 
+    /// What `discover --identify` and Python's discover warn of, each once, in order: the
+    /// unknowns on their box's edge, the undetermined directions (8 lines, then one for the
+    /// rest: the soft block's degenerate budget end printed 117), a model beyond the
+    /// stability bound, an unconverged end.
+    #[test]
+    fn a_discovered_fits_warnings_name_the_edge_the_directions_the_bound_and_the_end() {
+        let mut scene = cordis_core::examples::rigid();
+        let mut edge = row("types.a.stiffness", 10.0, 20.0, 0.5, true);
+        edge.at_bound = true;
+        let names: Vec<String> = (0..12).map(|k| format!("types.t{k}.stiffness")).collect();
+        let id = |scene: Scene| Identified {
+            scene,
+            params: std::iter::once(edge.clone())
+                .chain(names.iter().map(|n| row(n, 1.0, 1.0, f64::NAN, true)))
+                .collect(),
+            end: "budget",
+            converged: false,
+            position_cost: 1.0,
+            sigma: 1e-2,
+            noise_level: 1e-3,
+            undetermined: names.iter().map(|n| vec![n.clone()]).collect(),
+            gravity_fitted: false,
+            reference: None,
+            windows: vec![],
+            iterations: 0,
+            evaluations: 0,
+            start: String::new(),
+        };
+        let w = id(scene.clone()).warnings();
+        assert_eq!(w.len(), 1 + 9 + 1, "{w:?}");
+        assert!(
+            w[0].starts_with("ended on the edge of its box") && w[0].ends_with("types.a.stiffness")
+        );
+        assert!(
+            w[9].starts_with("not determined by the data: 4 more directions"),
+            "{}",
+            w[9]
+        );
+        assert!(w[10].starts_with("the identification did not converge (end budget)"));
+        for p in &mut scene.particles {
+            p.mass = Param::Known(p.mass.value() / 3.0);
+        }
+        let w = id(scene).warnings();
+        assert!(
+            w[10].starts_with("the identified model is beyond the stability bound"),
+            "{w:?}"
+        );
+    }
+
     /// An undetermined unknown's JSON once read `"stderr": null, "high": null` (serde writes
     /// infinities as null, which reads back as "missing", and Python got None).
     #[test]
