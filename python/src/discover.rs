@@ -118,7 +118,7 @@ fn to_py(
         identification: id
             .as_ref()
             .map(|id| {
-                let dict = json(serde_json::to_value(id).unwrap_or_default())?;
+                let dict = json(id.to_json())?;
                 infinities_as_floats(dict.bind(py))?;
                 Ok::<_, PyErr>(dict)
             })

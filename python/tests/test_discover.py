@@ -109,6 +109,7 @@ def test_discover_identify_returns_what_the_cli_writes(tmp_path):
     ident = res.identification
     assert ident["end"] == "converged" and ident["converged"] is True
     assert ident["gravity_fitted"] is True
+    assert ident["warnings"] == []  # the CLI's summary carries the same list
     for p in ident["params"]:
         # A damping found absent (0) has its interval cut at that floor: no negative damping.
         assert p["low"] < p["value"] < p["high"] or p["low"] == p["value"] == 0.0 < p["high"]

@@ -93,6 +93,9 @@ fn discover_identify_writes_both_and_the_identified_is_closer() {
     assert_eq!(id["end"], "converged", "{id}");
     assert_eq!(id["converged"], true);
     assert_eq!(id["gravity_fitted"], true);
+    // A converged fit of a stable model, every unknown determined: nothing to warn of (the
+    // summary carries the warnings, as they print even with --json).
+    assert_eq!(id["warnings"], serde_json::json!([]), "{id}");
     let found = Scene::from_json_path(d.join("found.json")).unwrap();
     let identified = Scene::from_json_path(d.join("id.json")).unwrap();
     let (ed, ei) = (error_pct(&truth, &found), error_pct(&truth, &identified));

@@ -174,10 +174,9 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     let secs = t.elapsed().as_secs_f64();
     cordis_core::io::write_atomic(id_path, id.scene.to_json_string().as_bytes())?;
     let warnings = id.warnings();
-    let mut v = serde_json::to_value(&id)?;
+    let mut v = id.to_json();
     v["out"] = id_path.display().to_string().into();
     v["seconds"] = secs.into();
-    v["warnings"] = warnings.clone().into();
     summary["identify"] = v;
     if output.json {
         summary["out"] = a.out.as_ref().map(|p| p.display().to_string()).into();

@@ -109,6 +109,14 @@ pub struct Identified {
 }
 
 impl Identified {
+    /// The summary's `identify` object (CLI JSON line, Python `res.identification`): every
+    /// field, with its [`Identified::warnings`].
+    pub fn to_json(&self) -> serde_json::Value {
+        let mut v = serde_json::to_value(self).unwrap_or_default();
+        v["warnings"] = self.warnings().into();
+        v
+    }
+
     /// What a user must read before trusting the identified scene, one line each (the CLI's
     /// `warning:` lines, Python's `warnings.warn`): unknowns on their box's edge, what the
     /// motion does not determine, a model beyond the stability bound, a fit that did not
