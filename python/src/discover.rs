@@ -97,8 +97,16 @@ fn to_py(
     tested: Option<LinkTestReport>,
 ) -> PyResult<DiscoverResult> {
     crate::identify::warn_all(py, &d.warnings())?;
-    if let Some(id) = &id {
-        crate::identify::warn_all(py, &id.warnings())?;
+    // The summary holds the identification's warnings: raised from it, computed once.
+    let summary = id.as_ref().map(Identified::to_json);
+    if let Some(v) = &summary {
+        let w: Vec<String> = v["warnings"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .filter_map(|w| w.as_str().map(str::to_string))
+            .collect();
+        crate::identify::warn_all(py, &w)?;
     }
     let json =
         |v: serde_json::Value| -> PyResult<Py<PyAny>> { Ok(crate::json::to_py(py, &v)?.unbind()) };
@@ -115,10 +123,9 @@ fn to_py(
         noise_level: d.noise_level,
         noise_estimated: d.estimated_noise,
         notes: d.notes,
-        identification: id
-            .as_ref()
-            .map(|id| {
-                let dict = json(id.to_json())?;
+        identification: summary
+            .map(|v| {
+                let dict = json(v)?;
                 infinities_as_floats(dict.bind(py))?;
                 Ok::<_, PyErr>(dict)
             })

@@ -273,7 +273,10 @@ impl Session {
             n if n > 0.0 => n,
             _ => gene.as_ref().and_then(|g| g.noise).unwrap_or(0.0),
         };
-        check_noise(&req, noise)?;
+        if noise != req.noise {
+            // The gene file's level (`validate` checked the request's own).
+            check_noise(&req, noise)?;
+        }
         let (data, takes) = prepare_takes(&req, noise)?;
         warnings.extend(fixed_far_from_the_scene(&req, &takes, noise));
         let mut problem = build_problem(&req, &data)?;
@@ -617,6 +620,7 @@ fn fixed_far_from_the_scene(req: &IdentifyRequest, takes: &[Take], noise: f64) -
     if size.is_nan() || size <= 0.0 {
         return Vec::new();
     }
+    let far_enough = (FIXED_FAR * size).max(FIXED_FAR_NOISE * noise);
     let mut out = Vec::new();
     for (k, take) in takes.iter().enumerate() {
         let mut far: Vec<(usize, f64)> = Vec::new();
@@ -630,7 +634,6 @@ fn fixed_far_from_the_scene(req: &IdentifyRequest, takes: &[Take], noise: f64) -
                     count += 1;
                 }
             }
-            let far_enough = (FIXED_FAR * size).max(FIXED_FAR_NOISE * noise);
             if count > 0 && sum / count as f64 > far_enough {
                 far.push((i, sum / count as f64));
             }

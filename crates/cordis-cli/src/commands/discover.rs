@@ -173,8 +173,9 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     };
     let secs = t.elapsed().as_secs_f64();
     cordis_core::io::write_atomic(id_path, id.scene.to_json_string().as_bytes())?;
-    let warnings = id.warnings();
     let mut v = id.to_json();
+    // Printed from the summary's list: computing them again would check the bound again.
+    let warnings = v["warnings"].clone();
     v["out"] = id_path.display().to_string().into();
     v["seconds"] = secs.into();
     summary["identify"] = v;
@@ -190,7 +191,12 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     }
     // Warnings print even with --quiet or --json, as identify's: the answer is not to be
     // trusted as it is.
-    for w in warnings {
+    for w in warnings
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(|w| w.as_str())
+    {
         eprintln!("warning: {w}");
     }
     Ok(())

@@ -330,7 +330,7 @@ fn guard(a: &Args) -> Result<()> {
 /// `model.take1.json`, …. None when `out` is a device or a pipe (`/dev/null`, `/dev/stdout`):
 /// `/dev/null.take1` is no place to write.
 fn take_scene_paths(out: &Path, takes: usize) -> Vec<PathBuf> {
-    if out.exists() && !out.is_file() {
+    if cordis_core::io::written_in_place(out) {
         return Vec::new();
     }
     let stem = out.file_stem().unwrap_or_default().to_string_lossy();

@@ -188,18 +188,16 @@ impl AtomicFile {
     /// Opens the temporary beside `path` (or `path` itself, a device); an error names `path`.
     pub fn create(path: &Path) -> Result<AtomicFile> {
         static COUNTER: AtomicU64 = AtomicU64::new(0);
-        if let Ok(meta) = std::fs::metadata(path) {
-            if !meta.is_file() && !meta.is_dir() {
-                let file = std::fs::OpenOptions::new()
-                    .write(true)
-                    .open(path)
-                    .map_err(|e| CordisError::io(path, e))?;
-                return Ok(AtomicFile {
-                    path: path.to_path_buf(),
-                    tmp: None,
-                    file,
-                });
-            }
+        if written_in_place(path) {
+            let file = std::fs::OpenOptions::new()
+                .write(true)
+                .open(path)
+                .map_err(|e| CordisError::io(path, e))?;
+            return Ok(AtomicFile {
+                path: path.to_path_buf(),
+                tmp: None,
+                file,
+            });
         }
         let (dir, file_name) = dir_and_name(path)?;
         let n = COUNTER.fetch_add(1, Ordering::Relaxed);
@@ -259,6 +257,13 @@ impl Drop for AtomicFile {
             let _ = std::fs::remove_file(tmp);
         }
     }
+}
+
+/// Whether `path` exists and is neither a regular file nor a directory (`/dev/null`,
+/// `/dev/stdout`, a FIFO): [`AtomicFile`] writes it in place, and nothing is to be written
+/// beside it.
+pub fn written_in_place(path: &Path) -> bool {
+    std::fs::metadata(path).is_ok_and(|meta| !meta.is_file() && !meta.is_dir())
 }
 
 /// The directory (`.` for a bare name) and the file name of an output path.
