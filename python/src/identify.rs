@@ -854,7 +854,6 @@ fn build_result(py: Python<'_>, outcome: Outcome) -> PyResult<IdentifyResult> {
     let Outcome {
         result: run,
         report,
-        scene: _,
         scenes,
         problem,
         warnings,

@@ -248,18 +248,23 @@ pub struct Outcome {
     pub result: RunResult,
     /// The strategy's own report.
     pub report: Report,
-    /// The scene with the identified values written in (and an estimated initial state, when
-    /// the strategy estimated one: take 0's).
-    pub scene: Scene,
-    /// One identified scene per take, each with that take's estimated initial state, so that
-    /// simulating `scenes[k]` replays take k (`scenes[0]` equals `scene`); a single scene, with
-    /// the initial state as given, when the strategy estimates none.
+    /// One identified scene per take (never empty), each with the identified values written
+    /// in and that take's estimated initial state, so that simulating `scenes[k]` replays take
+    /// k; a single scene, with the initial state as given, when the strategy estimates none.
     pub scenes: Vec<Scene>,
     /// The problem it ran on (unknowns, truth).
     pub problem: Problem,
     /// What the user must read before trusting the answer: the report's warnings and the
     /// session's own (threads capped, every candidate rejected as unstable).
     pub warnings: Vec<String>,
+}
+
+impl Outcome {
+    /// The identified scene: every identified value written in, and take 0's estimated initial
+    /// state when the strategy estimated one.
+    pub fn scene(&self) -> &Scene {
+        &self.scenes[0]
+    }
 }
 
 impl Session {
@@ -406,11 +411,10 @@ impl Session {
         if scenes.is_empty() {
             scenes.push(identified);
         }
-        let scene = scenes[0].clone();
         let mut warnings = self.warnings;
         warnings.extend(report.warnings());
         if result.cost.is_finite() {
-            warnings.extend(crate::stable::beyond_bound_warning(&scene));
+            warnings.extend(crate::stable::beyond_bound_warning(&scenes[0]));
         } else {
             let why = match self.problem.stable_horizon() {
                 Some(h) => format!(
@@ -439,7 +443,6 @@ impl Session {
         Ok(Outcome {
             result,
             report,
-            scene,
             scenes,
             problem: self.problem,
             warnings,

@@ -70,7 +70,7 @@ fn the_exact_solvers_honour_it() {
         .expect("least-squares takes it")
         .run(&mut [], None)
         .expect("runs");
-    let sum: f64 = out.scene.particles.iter().map(|p| p.mass.value()).sum();
+    let sum: f64 = out.scene().particles.iter().map(|p| p.mass.value()).sum();
     assert!(
         (sum - total).abs() < 1e-9 * total,
         "Σm = {sum}, M = {total}"

@@ -204,7 +204,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     // A run stopped (Ctrl-C) before any finite cost has no model to write.
     let finite = outcome.result.cost.is_finite();
     if let Some(out) = a.out.as_ref().filter(|_| finite) {
-        if let Err(e) = super::write_scene(&outcome.scene, Some(out)) {
+        if let Err(e) = super::write_scene(outcome.scene(), Some(out)) {
             failed.get_or_insert(e);
         }
         let paths = take_scene_paths(out, outcome.scenes.len());
