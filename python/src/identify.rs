@@ -794,11 +794,14 @@ fn weights_from_py(weights: Option<Bound<'_, PyAny>>) -> PyResult<Option<Vec<f64
             "weights: expected a sequence of numbers, shape (M,) or (M, 3), got {}",
             crate::scene_edit::type_name(&w)
         ))),
-        shape => Err(pyo3::exceptions::PyValueError::new_err(format!(
-            "weights: expected shape (M,) (one weight per marker) or (M, 3) (one per marker and \
-             coordinate x, y, z), got shape {}",
-            crate::trajectory::shape_text(shape)
-        ))),
+        shape => Err(crate::errors::argument_error(
+            "weights",
+            &format!(
+                "expected shape (M,) (one weight per marker) or (M, 3) (one per marker and \
+                 coordinate x, y, z), got shape {}",
+                crate::trajectory::shape_text(shape)
+            ),
+        )),
     }
 }
 

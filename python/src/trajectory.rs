@@ -46,17 +46,25 @@ fn borrow_error(e: numpy::BorrowError) -> PyErr {
     PyValueError::new_err(format!("array is being written by another thread: {e}"))
 }
 
-/// A `(T, N, 3)` array-like as a core trajectory. A wrong shape is a `ValueError` naming the
-/// expected one; a value that is not finite is a `TrajectoryError` naming frame, particle and
+/// The `ArgumentError` (a `ValueError` too) of an array `what` not shaped `(T, N, 3)`.
+fn not_positions(what: &str, shape: &[usize]) -> PyErr {
+    crate::errors::argument_error(
+        what,
+        &format!(
+            "expected an array of shape (T, N, 3) (frames, particles, xyz), got shape {}",
+            shape_text(shape)
+        ),
+    )
+}
+
+/// A `(T, N, 3)` array-like as a core trajectory. A wrong shape is an `ArgumentError` (also a
+/// `ValueError`) naming the expected one; a value that is not finite is a `TrajectoryError` naming frame, particle and
 /// coordinate.
 pub fn traj_from_py(x: &Bound<'_, PyAny>, what: &str) -> PyResult<Trajectory> {
     let a = as_f64_array(x, what)?;
     let shape = a.shape().to_vec();
     if shape.len() != 3 || shape[2] != 3 {
-        return Err(PyValueError::new_err(format!(
-            "{what}: expected an array of shape (T, N, 3) (frames, particles, xyz), got shape {}",
-            shape_text(&shape)
-        )));
+        return Err(not_positions(what, &shape));
     }
     let data = c_order_values(&a)?;
     Trajectory::from_flat(shape[0], shape[1], data).map_err(to_py)
@@ -74,10 +82,7 @@ pub fn observations_from_py(
     let a = as_f64_array(x, what)?;
     let shape = a.shape().to_vec();
     if shape.len() != 3 || shape[2] != 3 {
-        return Err(PyValueError::new_err(format!(
-            "{what}: expected an array of shape (T, N, 3) (frames, particles, xyz), got shape {}",
-            shape_text(&shape)
-        )));
+        return Err(not_positions(what, &shape));
     }
     let mut data = c_order_values(&a)?;
     // None is "every particle visible": one take of several without a mask (`[None, mask]`).
@@ -92,12 +97,15 @@ pub fn observations_from_py(
         })?;
         let m = mask.as_array();
         if m.shape() != [shape[0], shape[1]] {
-            return Err(PyValueError::new_err(format!(
-                "{mask_name}: shape {} does not match {what}'s ({}, {})",
-                shape_text(m.shape()),
-                shape[0],
-                shape[1]
-            )));
+            return Err(crate::errors::argument_error(
+                mask_name,
+                &format!(
+                    "shape {} does not match {what}'s ({}, {})",
+                    shape_text(m.shape()),
+                    shape[0],
+                    shape[1]
+                ),
+            ));
         }
         for ((t, i), &seen) in m.indexed_iter().map(|(ix, v)| ((ix[0], ix[1]), v)) {
             if !seen {

@@ -86,8 +86,11 @@ def test_visible_hides_like_nan():
     a = cordis.identify(guess, traj, visible=visible)
     b = cordis.identify(guess, nan)
     assert a.params == b.params and a.intervals == b.intervals
-    with pytest.raises(ValueError, match="visible: shape"):
+    # ArgumentErrors (CordisError and ValueError both), as every option out of its domain.
+    with pytest.raises(cordis.ArgumentError, match="visible: shape"):
         cordis.identify(guess, traj, visible=visible[:10])
+    with pytest.raises(cordis.ArgumentError, match=r"^traj: expected an array of shape \(T, N, 3\)"):
+        cordis.identify(guess, traj[:, :, :2])
 
 
 def test_a_take_without_a_mask_is_given_none_among_the_masks():
@@ -206,7 +209,7 @@ def test_weights_per_coordinate_are_an_m_by_3_array():
     a = cordis.identify(guess, traj, weights=w)
     b = cordis.identify(guess, traj, weights=list(w.ravel()))
     assert a.cost == b.cost and a.params == b.params and a.sigma == b.sigma
-    with pytest.raises(ValueError, match=r"^weights: expected shape \(M,\) \(one weight per "
+    with pytest.raises(cordis.ArgumentError, match=r"^weights: expected shape \(M,\) \(one weight per "
                        r"marker\) or \(M, 3\) .*, got shape \(27, 2\)"):
         cordis.identify(guess, traj, weights=np.ones((27, 2)))
 

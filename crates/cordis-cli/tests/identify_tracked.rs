@@ -83,9 +83,23 @@ fn gaps_in_a_csv_are_missing_observations_and_the_estimate_comes_with_intervals(
     }
     let table = String::from_utf8_lossy(&out.stderr);
     assert!(table.contains(" ± "), "{table}");
+    // The report says why auto chose the estimator, as the JSON line does.
+    assert!(
+        table.contains(&format!("  chosen by auto: {why}")),
+        "{table}"
+    );
     // The identified scene carries the estimated initial state: it replays the take.
     let scene: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("identified.json")).unwrap()).unwrap();
+    // The JSON line carries the estimate itself, the values `--out` writes.
+    let params = s["params"].as_object().unwrap();
+    assert_eq!(params.len(), 9, "{s}");
+    for (name, value) in params {
+        let [_, ty, key] = name.split('.').collect::<Vec<_>>()[..] else {
+            panic!("{name}")
+        };
+        assert_eq!(value, &scene["types"][ty][key], "{name}");
+    }
     let v = &scene["particles"][13]["vel"];
     assert!(v.is_array() && v[0].as_f64().unwrap().abs() > 1e-3, "{v}");
 }

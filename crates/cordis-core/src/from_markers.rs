@@ -6,7 +6,8 @@
 //!   difference `(x1 − x0) / dt` of its first two frames when both are observed (else 0; the
 //!   output-error estimator estimates the initial state anyway). A marker that never moves —
 //!   every observation within `still` of its median position — is `fixed` (a clamp, a
-//!   marker on the frame). Masses: the total shared equally.
+//!   marker on the frame) at the mean of its observations (at one frame's noisy position it
+//!   was an error no parameter could absorb). Masses: the total shared equally.
 //! - Links (springs): the `k` nearest neighbours of every marker (made mutual), or every pair
 //!   closer than a radius, in the first positions. Delaunay meshes are not built (yet).
 //! - Types: one per *link family* — links whose observed lengths (in the first positions)
@@ -83,11 +84,22 @@ pub fn scene_from_markers(obs: &Observations, o: &MarkerScene) -> Result<Scene> 
         ));
     }
     let first = first_observed(obs)?;
-    let pos: Vec<[f64; 3]> = first.iter().map(|(_, p)| *p).collect();
+    let mut pos: Vec<[f64; 3]> = first.iter().map(|(_, p)| *p).collect();
     let still = match o.still {
         Some(s) => crate::arg::number("--still", s, crate::arg::Low::AtLeast(0.0), 1e30, "m")?,
         None => 0.02 * extent(&pos),
     };
+    let rest_at: Vec<Option<[f64; 3]>> = (0..n).map(|i| still_position(obs, i, still)).collect();
+    let fixed: Vec<bool> = rest_at.iter().map(Option::is_some).collect();
+    // A fixed particle never moves in the simulation, so it must sit where its marker is on
+    // average, not at its first (noisy) frame: one frame's noise there was a constant error
+    // no parameter could absorb, and the soft block's fit from this scene ended above the
+    // noise in a wrong basin (σ̂ 1.21 mm against 0.99 mm; at the mean: converged at 1.00 mm).
+    for (p, at) in pos.iter_mut().zip(&rest_at) {
+        if let Some(at) = at {
+            *p = *at;
+        }
+    }
     let pairs = choose_pairs(&pos, o.links)?;
     if pairs.is_empty() {
         return Err(arg(
@@ -98,7 +110,6 @@ pub fn scene_from_markers(obs: &Observations, o: &MarkerScene) -> Result<Scene> 
     // Observed length of each pair: its distance in the first positions (the reference the
     // network starts from; later frames are deformed by the motion and by gravity).
     let lengths: Vec<f64> = pairs.iter().map(|&(a, b)| dist(&pos[a], &pos[b])).collect();
-    let fixed: Vec<bool> = (0..n).map(|i| never_moves(obs, i, still)).collect();
     let mass = o.total_mass / n as f64;
     let mut scene = Scene::new(o.dt);
     scene.gravity = o.gravity;
@@ -235,8 +246,12 @@ fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
 
-/// Every observation of marker `i` within `still` of its per-axis median.
-fn never_moves(obs: &Observations, i: usize, still: f64) -> bool {
+/// Where marker `i` rests if it never moves — every observation within `still` of its
+/// per-axis median —: the mean of its observations (the maximum-likelihood position of a
+/// fixed point under Gaussian noise, σ/√T from each frame's σ; discovery's
+/// `cordis_es::discover::fixed_position`). `None` if it moves or is
+/// seen in fewer than 2 frames.
+fn still_position(obs: &Observations, i: usize, still: f64) -> Option<[f64; 3]> {
     let n = obs.particles();
     let seen: Vec<[f64; 3]> = (0..obs.frames())
         .filter_map(|f| {
@@ -245,14 +260,20 @@ fn never_moves(obs: &Observations, i: usize, still: f64) -> bool {
         })
         .collect();
     if seen.len() < 2 {
-        return false;
+        return None;
     }
     let median = [0, 1, 2].map(|k| {
         let mut c: Vec<f64> = seen.iter().map(|p| p[k]).collect();
         c.sort_by(f64::total_cmp);
         c[c.len() / 2]
     });
-    seen.iter().all(|p| dist(p, &median) <= still)
+    if !seen.iter().all(|p| dist(p, &median) <= still) {
+        return None;
+    }
+    // The first frame plus the mean offset from it, as discovery's `fixed_position`: a
+    // noiseless marker keeps its position to the bit.
+    let (count, x0) = (seen.len() as f64, seen[0]);
+    Some([0, 1, 2].map(|k| x0[k] + seen.iter().map(|p| p[k] - x0[k]).sum::<f64>() / count))
 }
 
 /// The unordered pairs the rule links, each once, in increasing (a, b) order.
@@ -403,6 +424,40 @@ mod tests {
         )
         .unwrap();
         assert_eq!(per_link.types.len(), 6);
+    }
+
+    /// A still marker jittering by ±1 mm around its rest (the first frame 1 mm off) is fixed
+    /// at the mean of its frames, not at its first: a soft block from this scene ended in a
+    /// wrong basin above the noise (the tester's finding, 2026-12-07).
+    #[test]
+    fn a_fixed_marker_sits_at_the_mean_of_its_frames_not_its_first() {
+        let frames = 8;
+        let mut obs = square(frames);
+        let n = obs.particles();
+        let flat: Vec<f64> = obs
+            .as_flat()
+            .iter()
+            .enumerate()
+            .map(|(a, &x)| {
+                let (f, i, c) = (a / (3 * n), (a / 3) % n, a % 3);
+                let jitter = if f % 2 == 0 { 1e-3 } else { -1e-3 };
+                if i == 0 && c == 0 {
+                    x + jitter
+                } else {
+                    x
+                }
+            })
+            .collect();
+        obs = Observations::from_flat(frames, n, flat).unwrap();
+        let s =
+            scene_from_markers(&obs, &options(LinkRule::Radius(0.15), TypeRule::Family)).unwrap();
+        assert!(s.particles[0].fixed);
+        assert_eq!(obs.as_flat()[0], 1e-3, "the first frame is 1 mm off");
+        assert!(
+            s.particles[0].pos[0].abs() < 1e-15,
+            "{:?}",
+            s.particles[0].pos
+        );
     }
 
     #[test]

@@ -25,6 +25,7 @@ use crate::cost::{CostKind, LocalCost};
 use crate::evaluator::Evaluator;
 use crate::executor::{self, Fingerprint, Observer, RunConfig, RunResult, StopReason, StopRules};
 use crate::identify::{self, make_islands, make_strategy, StrategyName, StrategyOptions};
+use crate::output_error::checks::unestimable_state;
 use crate::output_error::Take;
 use crate::problem::Problem;
 use crate::report::Report;
@@ -1084,6 +1085,35 @@ fn available_memory() -> f64 {
         .map_or(16.0 * GIB, |kib| kib * 1024.0)
 }
 
+/// Take `k` is not an earlier take again, bit for bit (the same file or array given twice):
+/// its noise would count twice, and every standard error shrink by √2 with nothing to show it
+/// (a tester's finding). With `noise` added the copies are independent draws, so the caller
+/// checks only noiseless requests.
+fn check_not_repeated(req: &IdentifyRequest, k: usize) -> Result<(), CostError> {
+    let obs = &req.takes[k];
+    let same = |other: &Observations| {
+        other.frames() == obs.frames()
+            && other.particles() == obs.particles()
+            && other
+                .as_flat()
+                .iter()
+                .zip(obs.as_flat())
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+    };
+    match req.takes[..k].iter().position(same) {
+        Some(j) => Err(cordis_core::CordisError::trajectory(
+            req.take_place(k),
+            format!(
+                "is the same motion as {} (take {j}), bit for bit: a take given twice counts its \
+                 noise twice and shrinks every standard error by √2",
+                req.take_place(j)
+            ),
+        )
+        .into()),
+        None => Ok(()),
+    }
+}
+
 /// The takes with the request's noise added (seeded as `try_add_noise`, take k from `seed +
 /// k`), as the estimators read them, and the complete trajectory the costs are built on: the
 /// first take itself when it is complete (bit for bit what one complete take always gave),
@@ -1093,10 +1123,14 @@ fn prepare_takes(req: &IdentifyRequest, noise: f64) -> Result<(Trajectory, Vec<T
         return Err(CostError::invalid(req.opt("trajectory"), "no take given"));
     }
     let n = req.scene.num_particles();
+    let free: Vec<usize> = (0..n).filter(|&i| !req.scene.particles[i].fixed).collect();
     let mut takes = Vec::with_capacity(req.takes.len());
     let mut first = None;
     for (k, obs) in req.takes.iter().enumerate() {
         check_take(req, k, obs)?;
+        if noise == 0.0 {
+            check_not_repeated(req, k)?;
+        }
         let place = req.take_place(k);
         let noisy = match noise > 0.0 {
             true => identify::try_add_noise_observations(obs, noise, req.seed + k as u64)
@@ -1126,13 +1160,22 @@ fn prepare_takes(req: &IdentifyRequest, noise: f64) -> Result<(Trajectory, Vec<T
         let take = take.map_err(|e| {
             let (at, message) = match e {
                 CostError::Mismatch { place: at, message } if at == "trajectory" => {
-                    (place, message)
+                    (place.clone(), message)
                 }
                 CostError::Mismatch { place: at, message } => (format!("{place}, {at}"), message),
-                e => (place, e.to_string()),
+                e => (place.clone(), e.to_string()),
             };
             CostError::Core(cordis_core::CordisError::trajectory(at, message))
         })?;
+        // Bad input named by the file, before any run (the estimator's own check names the
+        // take's index and, reached in a run, was a run's failure: exit 1).
+        if let Some((particle, why)) = unestimable_state(&req.scene, &free, &take) {
+            let at = match particle {
+                Some(i) => format!("{place}, particle {i}"),
+                None => place,
+            };
+            return Err(cordis_core::CordisError::trajectory(at, why).into());
+        }
         if k == 0 {
             first = Some(noisy);
         }

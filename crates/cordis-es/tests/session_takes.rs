@@ -94,3 +94,70 @@ fn a_take_with_every_coordinate_missing_names_its_file() {
         "{e:?}"
     );
 }
+
+/// The same take given twice (a file twice, or its copy) is refused by name: its noise would
+/// count twice and every standard error shrink by √2 unseen (a tester's finding). With the
+/// request's `noise` added the two are independent draws, and accepted.
+#[test]
+fn a_take_given_twice_is_refused_unless_noise_makes_two_draws_of_it() {
+    let mut req = rigid_takes(&[40, 30, 40]);
+    req.take_places = vec!["a.csv".into(), "b.csv".into(), "c.csv".into()];
+    let e = refusal(req);
+    assert_eq!(
+        e.to_string(),
+        "c.csv: is the same motion as a.csv (take 0), bit for bit: a take given twice counts \
+         its noise twice and shrinks every standard error by √2"
+    );
+    assert!(
+        matches!(e, CostError::Core(CordisError::Trajectory { .. })),
+        "{e:?}"
+    );
+    let mut noisy = rigid_takes(&[40, 40]);
+    noisy.noise = 1e-3;
+    assert!(Session::new(noisy).is_ok());
+}
+
+/// A take of the fixed particles only, and a free particle no observation reaches, are bad
+/// input named by the take's file before any run (they were the estimator's "take 1: …",
+/// a run's failure with exit 1: a tester's finding).
+#[test]
+fn a_take_no_state_can_be_estimated_from_is_bad_input_named_by_its_file() {
+    let mut truth = examples::random_network(0, 6, 2);
+    let n0 = truth.num_particles();
+    let fixed: Vec<usize> = (0..n0).filter(|&i| truth.particles[i].fixed).collect();
+    let lone = truth.add_particle(cordis_core::Particle::new(1.0, [9.0, 9.0, 9.0]));
+    let ty = truth.types[truth.links[0].type_index].name.clone();
+    truth.add_link(&ty, &[fixed[0], lone]);
+    let n = truth.num_particles();
+    let traj = truth.simulate(30).unwrap();
+    let take_hiding = |hidden: &dyn Fn(usize) -> bool| {
+        let mut data = traj.as_flat().to_vec();
+        for t in 0..30 {
+            for i in (0..n).filter(|&i| hidden(i)) {
+                data[(t * n + i) * 3..(t * n + i) * 3 + 3].fill(f64::NAN);
+            }
+        }
+        Observations::from_flat(30, n, data).unwrap()
+    };
+    let complete = Observations::from_trajectory(&traj);
+    for (hidden, said) in [
+        (
+            take_hiding(&|i| !fixed.contains(&i)),
+            "b.csv: observes none of the scene's free particles".to_string(),
+        ),
+        (
+            take_hiding(&|i| i == lone),
+            format!("b.csv, particle {lone}: has no visible frame"),
+        ),
+    ] {
+        let guess = with_unknown_boxes(&truth, 25.0, 0);
+        let mut req = IdentifyRequest::with_takes(guess, vec![complete.clone(), hidden]);
+        req.take_places = vec!["a.csv".into(), "b.csv".into()];
+        let e = refusal(req);
+        assert!(e.to_string().starts_with(&said), "{e}");
+        assert!(
+            matches!(e, CostError::Core(CordisError::Trajectory { .. })),
+            "{e:?}"
+        );
+    }
+}

@@ -450,10 +450,15 @@ fn print_human(ran: &str, outcome: &Outcome) {
             .unwrap_or_default()
     );
     let spread = outcome.report.uncertainty.as_deref();
-    let not_computed = match &outcome.report.solver {
-        Some(cordis_es::report::SolverReport::OutputError(r)) => r.stderr_at_least.as_slice(),
-        _ => &[],
+    let oe = match &outcome.report.solver {
+        Some(cordis_es::report::SolverReport::OutputError(r)) => Some(r),
+        _ => None,
     };
+    // Why `auto` picked the estimator (the JSON line's `solver.chosen_because`).
+    if let Some(why) = oe.and_then(|r| r.chosen_because.as_deref()) {
+        eprintln!("  chosen by auto: {why}");
+    }
+    let not_computed = oe.map_or(&[][..], |r| r.stderr_at_least.as_slice());
     for (u, v) in problem
         .space
         .unknowns
@@ -504,6 +509,16 @@ fn summary(ran: &str, outcome: &Outcome, stable_horizon: Option<usize>) -> serde
     if let Some(e) = result.param_error_pct {
         summary["param_error_pct"] = e.into();
     }
+    // The estimate itself, so that `-q --json` without `--out` keeps it (names as the report's).
+    let problem = &outcome.problem;
+    let params: serde_json::Map<String, serde_json::Value> = problem
+        .space
+        .unknowns
+        .iter()
+        .zip(problem.space.values(&result.genome))
+        .map(|(u, v)| (u.name.clone(), super::finite_or_string(v)))
+        .collect();
+    summary["params"] = params.into();
     if let Some(h) = stable_horizon {
         summary["stable_horizon"] = h.into();
     }

@@ -23,16 +23,6 @@ pub(crate) fn check_takes(
         return Err(CostError::mismatch("trajectory", "no take given"));
     }
     let n = scene.num_particles();
-    let mut adj = vec![Vec::new(); n];
-    for l in &scene.links {
-        // Every pair of a link's particles (an angle ties its three).
-        for (n, &a) in l.particles.iter().enumerate() {
-            for &b in &l.particles[n + 1..] {
-                adj[a].push(b);
-                adj[b].push(a);
-            }
-        }
-    }
     for (k, take) in takes.iter().enumerate() {
         if take.particles() != n {
             return Err(CostError::mismatch(
@@ -46,35 +36,65 @@ pub(crate) fn check_takes(
                 format!("has {} frames, at least 3 are needed", take.frames()),
             ));
         }
-        let mut seen = vec![false; n];
-        for &i in &tangent.free {
-            seen[i] = take.tracks(i);
-        }
-        if !tangent.free.is_empty() && !seen.iter().any(|&s| s) {
-            return Err(CostError::mismatch(
-                format!("take {k}"),
-                "observes none of the scene's free particles (only fixed ones, or none): \
-                 nothing in it shows the motion — check the marker map, or the file",
-            ));
-        }
-        let mut queue: VecDeque<usize> = (0..n).filter(|&i| seen[i]).collect();
-        while let Some(i) = queue.pop_front() {
-            for &j in &adj[i] {
-                if !seen[j] && !scene.particles[j].fixed {
-                    seen[j] = true;
-                    queue.push_back(j);
-                }
-            }
-        }
-        if let Some(&i) = tangent.free.iter().find(|&&i| !seen[i]) {
-            return Err(CostError::mismatch(
-                format!("take {k}, particle {i}"),
-                "has no visible frame and no chain of links to an observed free particle: \
-                 its initial state cannot be estimated",
-            ));
+        if let Some((particle, why)) = unestimable_state(scene, &tangent.free, take) {
+            let place = match particle {
+                Some(i) => format!("take {k}, particle {i}"),
+                None => format!("take {k}"),
+            };
+            return Err(CostError::mismatch(place, why));
         }
     }
     Ok(())
+}
+
+/// Why a take (of the scene's particle count) leaves an initial state unestimable, and the
+/// particle when it is one: the take observes none of the `free` particles, or a free particle
+/// has no visible frame and no chain of links to an observed free one. The session asks it
+/// before any run, so that the message names the take's file ([`check_takes`] names its
+/// index, for callers of the estimator itself).
+pub(crate) fn unestimable_state(
+    scene: &Scene,
+    free: &[usize],
+    take: &Take,
+) -> Option<(Option<usize>, &'static str)> {
+    let n = scene.num_particles();
+    let mut adj = vec![Vec::new(); n];
+    for l in &scene.links {
+        // Every pair of a link's particles (an angle ties its three).
+        for (n, &a) in l.particles.iter().enumerate() {
+            for &b in &l.particles[n + 1..] {
+                adj[a].push(b);
+                adj[b].push(a);
+            }
+        }
+    }
+    let mut seen = vec![false; n];
+    for &i in free {
+        seen[i] = take.tracks(i);
+    }
+    if !free.is_empty() && !seen.iter().any(|&s| s) {
+        return Some((
+            None,
+            "observes none of the scene's free particles (only fixed ones, or none): \
+             nothing in it shows the motion — check the marker map, or the file",
+        ));
+    }
+    let mut queue: VecDeque<usize> = (0..n).filter(|&i| seen[i]).collect();
+    while let Some(i) = queue.pop_front() {
+        for &j in &adj[i] {
+            if !seen[j] && !scene.particles[j].fixed {
+                seen[j] = true;
+                queue.push_back(j);
+            }
+        }
+    }
+    free.iter().find(|&&i| !seen[i]).map(|&i| {
+        (
+            Some(i),
+            "has no visible frame and no chain of links to an observed free particle: its \
+             initial state cannot be estimated",
+        )
+    })
 }
 
 /// Refuses fits whose sensitivity matrices and normal equations would not fit in memory.

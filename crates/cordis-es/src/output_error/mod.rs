@@ -45,7 +45,7 @@
 //! and the directions the data do not determine, by name ([`uncertainty`]). The estimated
 //! initial state goes into the identified scene, so replaying it reproduces the observed motion.
 
-mod checks;
+pub(crate) mod checks;
 mod config;
 pub(crate) mod continuity;
 pub mod fit;
