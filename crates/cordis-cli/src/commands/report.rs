@@ -49,6 +49,13 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         )?,
         false => (read, None),
     };
+    // A file read without the `--markers` its fit had shows a fit far worse than it was.
+    let take = cordis_es::output_error::Take::from_observations(&observed, scene.num_particles());
+    if let Some(w) = take.ok().and_then(|take| {
+        cordis_es::session::fixed_far_warning(&scene, &take, 0.0, &file, "--markers")
+    }) {
+        eprintln!("warning: {w}");
+    }
     let convergence = a
         .log
         .as_ref()

@@ -717,7 +717,42 @@ impl Prepared {
                     .count()
             })
             .sum();
+        if self.loss != Loss::Squared {
+            self.m_estimate_spread(space, progress, &mut e);
+        }
         Ok(e)
+    }
+
+    /// A robust fit's standard errors, intervals and σ̂ as the M-estimate's
+    /// ([`loss::m_estimate_spread`]), not as its last IRLS normal equations': those read the
+    /// reweighted residuals, whose σ̂ understates the noise (0.83–0.90 σ on Gaussian noise,
+    /// standard errors 8–11 % small and 95 % intervals covering 91–92 %, measured by a new
+    /// user over 360 intervals).
+    fn m_estimate_spread(&self, space: &ParameterSpace, progress: &Progress, e: &mut Estimate) {
+        let window = progress.schedule.longest();
+        let Some(res) = self
+            .fitter(space)
+            .residuals(&progress.q, window, &mut Sens::default())
+        else {
+            return;
+        };
+        let r: Vec<f64> = res
+            .into_iter()
+            .flatten()
+            .filter(|r| r.is_finite())
+            .collect();
+        let dof = e.observed.saturating_sub(e.variables).max(1) as f64;
+        let Some((factor, scale)) = loss::m_estimate_spread(self.loss, &r, dof, e.sigma * e.sigma)
+        else {
+            return;
+        };
+        let root = factor.sqrt();
+        e.covariance *= factor;
+        for se in e.stderr.iter_mut().chain(e.stderr_at_least.iter_mut()) {
+            *se *= root;
+        }
+        e.intervals = summary::intervals(space.unknowns.as_slice(), &e.params, &e.stderr);
+        e.sigma = scale;
     }
 
     fn finish_fit(

@@ -143,12 +143,21 @@ pub(crate) fn spread(
     let stderr: Vec<f64> = (0..fitter.theta())
         .map(|a| covariance[(a, a)].sqrt())
         .collect();
-    let intervals = stderr
-        .iter()
-        .zip(fitter.unknowns)
-        .map(|(&se, u)| box_interval(interval95(params[u.slot], se, u.log), se, (u.min, u.max)))
-        .collect();
+    let intervals = intervals(fitter.unknowns, params, &stderr);
     (stderr, intervals)
+}
+
+/// Each unknown's 95 % interval from its standard error, within its box ([`box_interval`]).
+pub(crate) fn intervals(
+    unknowns: &[crate::space::Unknown],
+    params: &[f64],
+    stderr: &[f64],
+) -> Vec<(f64, f64)> {
+    stderr
+        .iter()
+        .zip(unknowns)
+        .map(|(&se, u)| box_interval(interval95(params[u.slot], se, u.log), se, (u.min, u.max)))
+        .collect()
 }
 
 /// The interval of an unknown with standard error `se` searched in `bounds`: `wald` cut at

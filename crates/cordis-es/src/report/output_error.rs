@@ -109,21 +109,37 @@ pub(crate) fn undetermined_lines(
     let (with_unknowns, states_only): (Vec<&Vec<String>>, Vec<&Vec<String>>) = directions
         .iter()
         .partition(|d| d.iter().any(|n| moves_unknown(n)));
-    let mut w: Vec<String> = with_unknowns
+    // Directions naming the same variables (distinct vectors, the same names above the
+    // naming threshold) share a line: a swapped marker's fit printed one line twice.
+    let mut groups: Vec<(&Vec<String>, usize)> = Vec::new();
+    for d in with_unknowns {
+        match groups.iter_mut().find(|(names, _)| *names == d) {
+            Some((_, count)) => *count += 1,
+            None => groups.push((d, 1)),
+        }
+    }
+    let mut w: Vec<String> = groups
         .iter()
         .take(DIRECTION_LINES)
-        .map(|d| format!("not determined by the data together: {}", d.join(", ")))
+        .map(|(d, count)| match count {
+            1 => format!("not determined by the data together: {}", d.join(", ")),
+            n => format!(
+                "not determined by the data together ({n} directions): {}",
+                d.join(", ")
+            ),
+        })
         .collect();
-    let rest = with_unknowns.get(DIRECTION_LINES..).unwrap_or_default();
+    let rest = groups.get(DIRECTION_LINES..).unwrap_or_default();
     if !rest.is_empty() {
-        let names = || rest.iter().flat_map(|d| d.iter());
+        let names = || rest.iter().flat_map(|(d, _)| d.iter());
         let moved = distinct(names().filter(|n| moves_unknown(n)));
         let states = distinct(names().filter(|n| !moves_unknown(n))).len();
+        let more: usize = rest.iter().map(|(_, count)| count).sum();
         w.push(format!(
             "not determined by the data: {} more direction{} like these, moving {} unknown{} \
              ({}){}",
-            rest.len(),
-            if rest.len() == 1 { "" } else { "s" },
+            more,
+            if more == 1 { "" } else { "s" },
             moved.len(),
             if moved.len() == 1 { "" } else { "s" },
             first_of(&moved, 6),
@@ -212,6 +228,27 @@ mod tests {
             "not determined by the data: 4 more directions like these, moving 4 unknowns \
              (types.t8.stiffness, types.t9.stiffness, types.t10.stiffness, types.t11.stiffness) \
              and 1 initial-state coordinate"
+        );
+    }
+
+    /// Two directions naming the same variables share one line that counts them (a swapped
+    /// marker's fit printed `not determined by the data together: types.horiz.rest_length`
+    /// twice).
+    #[test]
+    fn directions_naming_the_same_variables_share_a_line() {
+        let d = |names: &[&str]| names.iter().map(|n| n.to_string()).collect::<Vec<_>>();
+        let directions = [
+            d(&["types.h.rest_length"]),
+            d(&["types.v.damping"]),
+            d(&["types.h.rest_length"]),
+        ];
+        let lines = undetermined_lines(&directions, |n| n.starts_with("types."));
+        assert_eq!(
+            lines,
+            [
+                "not determined by the data together (2 directions): types.h.rest_length",
+                "not determined by the data together: types.v.damping",
+            ]
         );
     }
 

@@ -335,8 +335,8 @@ pub fn run_typed(
 }
 
 /// The stop rule met before generation `generation + 1`, checked in this order: generations,
-/// evaluations, time (`elapsed`, s, read only when there is a limit), target cost, interrupt,
-/// the strategy finished.
+/// evaluations, time (`elapsed`, s, read only when there is a limit), target cost, the
+/// strategy finished, interrupt.
 fn stop_reason(
     stop: &StopRules,
     problem: &Problem,
@@ -361,11 +361,14 @@ fn stop_reason(
     if stop.target_cost.is_some_and(|t| best <= t) {
         return Some(StopReason::TargetCost);
     }
-    if interrupt.is_some_and(|f| f.load(Ordering::Relaxed)) {
-        return Some(StopReason::Interrupted);
-    }
+    // A strategy that has met its own criterion is done whatever came after: Ctrl-C pressed
+    // once the fit had converged (its uncertainty computed) was reported as an interrupted
+    // run, exit 130 (a new user's finding).
     if strategy.finished() {
         return Some(StopReason::of_finished(&strategy.report()));
+    }
+    if interrupt.is_some_and(|f| f.load(Ordering::Relaxed)) {
+        return Some(StopReason::Interrupted);
     }
     None
 }
