@@ -890,7 +890,8 @@ def scene_from_markers(
     unknown in a box, ready for :func:`identify` (as ``cordis scene from-markers``).
 
     One particle per marker at its first observed position, fixed when it never moves (within
-    ``still`` m of its median; default 2 % of the markers' extent), masses ``total_mass / N``;
+    ``still`` m of its median; default 2 % of the markers' extent; then at the mean of its
+    observations), masses ``total_mass / N``;
     springs to the ``neighbours`` nearest markers (default 6) or between every pair closer
     than ``radius`` m; one type per family of equal first-frame lengths (``types="family"``)
     or per link (``"link"``); rest lengths in boxes ``width`` times wide around them, stiffness

@@ -11,7 +11,8 @@ use crate::trajectory::observations_from_py;
 
 /// A spring network on tracked markers `(T, N, 3)` (NaN where missing), every parameter
 /// unknown in a box: one particle per marker at its first observed position, fixed when it
-/// never moves (within `still` m of its median; default 2 % of the markers' extent), masses
+/// never moves (within `still` m of its median; default 2 % of the markers' extent; then at
+/// the mean of its observations), masses
 /// `total_mass / N`; springs to the `neighbours` nearest markers (default 6) or between every
 /// pair closer than `radius` m; one type per family of equal first-frame lengths
 /// (`types="family"`) or per link (`"link"`); rest lengths in boxes `width` times wide around

@@ -151,8 +151,7 @@ impl IdentifyResult {
         markers: Option<Bound<'_, PyAny>>,
         weights: Option<Bound<'_, PyAny>>,
     ) -> PyResult<()> {
-        let markers: Option<Vec<usize>> =
-            named(markers, "markers", "a sequence of particle indices")?;
+        let markers = particle_indices(markers, "markers")?;
         let weights = weights_from_py(weights)?;
         let observed =
             crate::trajectory::observations_from_py(trajectory, visible, "trajectory", "visible")?;
@@ -321,7 +320,7 @@ struct PyArgs<'py> {
     plus: bool,
     correlated: bool,
     visible: Option<Bound<'py, PyAny>>,
-    markers: Option<Vec<i64>>,
+    markers: Option<Vec<usize>>,
     weights: Option<Vec<f64>>,
     loss: &'py str,
 }
@@ -343,15 +342,7 @@ fn request(
     }
     let mut r = IdentifyRequest::with_takes(scene.clone(), takes);
     r.style = Style::Python;
-    r.markers = a
-        .markers
-        .map(|m| {
-            m.iter()
-                .enumerate()
-                .map(|(k, &p)| count(p, &format!("markers[{k}]")))
-                .collect::<PyResult<Vec<usize>>>()
-        })
-        .transpose()?;
+    r.markers = a.markers;
     r.weights = a.weights;
     r.loss = a.loss.parse().map_err(|e| bad("loss", e))?;
     r.strategy = a.strategy.parse().map_err(|e| bad("strategy", e))?;
@@ -422,12 +413,21 @@ fn takes_from_py(
 ) -> PyResult<Vec<cordis_core::Observations>> {
     let several = traj.is_instance_of::<pyo3::types::PyList>()
         || traj.is_instance_of::<pyo3::types::PyTuple>();
-    if !several {
+    let items: Vec<Bound<'_, PyAny>> = match several {
+        true => traj.try_iter()?.collect::<PyResult<_>>()?,
+        false => Vec::new(),
+    };
+    // A nested list of one take's frames (`A.tolist()`) is one take, not a list of takes: its
+    // first item is a frame `(N, 3)`, a take's would be `(T, N, 3)` (it was refused as
+    // "traj[0]: expected … got shape (12, 3)").
+    let frames = items.first().is_some_and(|first| {
+        crate::trajectory::as_f64_array(first, "traj[0]").is_ok_and(|a| a.ndim() == 2)
+    });
+    if !several || frames {
         return Ok(vec![observations_from_py(
             traj, visible, "traj", "visible",
         )?]);
     }
-    let items: Vec<Bound<'_, PyAny>> = traj.try_iter()?.collect::<PyResult<_>>()?;
     let masks: Option<Vec<Bound<'_, PyAny>>> = match visible.filter(|v| !v.is_none()) {
         Some(v) => Some(
             v.try_iter()
@@ -608,7 +608,7 @@ pub fn identify(
     weights: Option<Bound<'_, PyAny>>,
     loss: &str,
 ) -> PyResult<IdentifyResult> {
-    let markers: Option<Vec<i64>> = named(markers, "markers", "a sequence of particle indices")?;
+    let markers = particle_indices(markers, "markers")?;
     let weights = weights_from_py(weights)?;
     let args = PyArgs {
         strategy,
@@ -759,25 +759,38 @@ pub(crate) fn warn_all(py: Python<'_>, lines: &[String]) -> PyResult<()> {
     Ok(())
 }
 
-/// `value` extracted as `T`, a failure naming the argument and what it takes (pyo3's own
-/// message for these, "Can't extract `str` to `Vec`", named neither).
-fn named<T>(value: Option<Bound<'_, PyAny>>, name: &str, takes: &str) -> PyResult<Option<T>>
-where
-    T: for<'a, 'py> FromPyObject<'a, 'py>,
-    for<'a, 'py> <T as FromPyObject<'a, 'py>>::Error: Into<PyErr>,
-{
-    value
-        .filter(|v| !v.is_none())
-        .map(|v| {
-            v.extract::<T>().map_err(|e| {
-                let e: PyErr = e.into();
-                pyo3::exceptions::PyTypeError::new_err(format!(
-                    "{name}: expected {takes}, got {} ({e})",
-                    crate::scene_edit::type_name(&v)
+/// A sequence of particle indices, each a non-negative integer: an item that is not an
+/// integer (`10.5`, NaN, a string) is a `TypeError` naming its index (the whole sequence's
+/// conversion named none), a negative one an `ArgumentError`.
+fn particle_indices(value: Option<Bound<'_, PyAny>>, name: &str) -> PyResult<Option<Vec<usize>>> {
+    let Some(v) = value.filter(|v| !v.is_none()) else {
+        return Ok(None);
+    };
+    let not_a_sequence = || {
+        PyTypeError::new_err(format!(
+            "{name}: expected a sequence of particle indices, got {}",
+            crate::scene_edit::type_name(&v)
+        ))
+    };
+    if v.is_instance_of::<pyo3::types::PyString>() {
+        return Err(not_a_sequence());
+    }
+    let items = v.try_iter().map_err(|_| not_a_sequence())?;
+    items
+        .enumerate()
+        .map(|(k, item)| {
+            let item = item?;
+            let index = item.extract::<i64>().map_err(|_| {
+                PyTypeError::new_err(format!(
+                    "{name}[{k}]: expected a particle index (an integer), got {} {}",
+                    crate::scene_edit::type_name(&item),
+                    item.repr().map(|r| r.to_string()).unwrap_or_default()
                 ))
-            })
+            })?;
+            count(index, &format!("{name}[{k}]"))
         })
-        .transpose()
+        .collect::<PyResult<Vec<usize>>>()
+        .map(Some)
 }
 
 /// `weights` as the session takes them, flat: `(M,)` one per marker, `(M, 3)` one per marker

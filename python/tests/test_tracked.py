@@ -86,6 +86,9 @@ def test_visible_hides_like_nan():
     a = cordis.identify(guess, traj, visible=visible)
     b = cordis.identify(guess, nan)
     assert a.params == b.params and a.intervals == b.intervals
+    # A nested list of the frames is the same take (it was read as a list of takes).
+    c = cordis.identify(guess, nan.tolist())
+    assert c.params == b.params
     # ArgumentErrors (CordisError and ValueError both), as every option out of its domain.
     with pytest.raises(cordis.ArgumentError, match="visible: shape"):
         cordis.identify(guess, traj, visible=visible[:10])
@@ -231,6 +234,8 @@ def test_bad_markers_and_weights_are_refused_by_name(kw, says):
 
 @pytest.mark.parametrize("kw, says", [
     ({"markers": "1,2"}, r"^markers: expected a sequence of particle indices, got str"),
+    ({"markers": [0, 10.5]}, r"^markers\[1\]: expected a particle index \(an integer\), got float 10.5"),
+    ({"markers": [float("nan")]}, r"^markers\[0\]: expected a particle index \(an integer\), got float nan"),
     ({"weights": "heavy"}, r"^weights: expected an array of numbers"),
     ({"weights": 1.0}, r"^weights: expected a sequence of numbers, shape \(M,\) or \(M, 3\), got float"),
 ])

@@ -1103,33 +1103,39 @@ fn available_memory() -> f64 {
         .map_or(16.0 * GIB, |kib| kib * 1024.0)
 }
 
-/// Take `k` is not an earlier take again, bit for bit (the same file or array given twice):
-/// its noise would count twice, and every standard error shrink by √2 with nothing to show it
-/// (a tester's finding). With `noise` added the copies are independent draws, so the caller
-/// checks only noiseless requests.
+/// Take `k` is not an earlier take again, bit for bit, whole or cropped (the same file or
+/// array given twice, or one the start of the other): its noise would count twice, and every
+/// standard error shrink by √2 with nothing to show it (a tester's finding). Also with the
+/// request's `noise` added: the copies then get different draws, but whatever noise the data
+/// had already would still count twice.
 fn check_not_repeated(req: &IdentifyRequest, k: usize) -> Result<(), CostError> {
     let obs = &req.takes[k];
-    let same = |other: &Observations| {
-        other.frames() == obs.frames()
-            && other.particles() == obs.particles()
-            && other
-                .as_flat()
+    let repeats = |other: &Observations| {
+        let frames = other.frames().min(obs.frames());
+        let len = frames * obs.particles() * 3;
+        other.particles() == obs.particles()
+            && other.as_flat()[..len]
                 .iter()
-                .zip(obs.as_flat())
+                .zip(&obs.as_flat()[..len])
                 .all(|(a, b)| a.to_bits() == b.to_bits())
     };
-    match req.takes[..k].iter().position(same) {
-        Some(j) => Err(cordis_core::CordisError::trajectory(
-            req.take_place(k),
-            format!(
-                "is the same motion as {} (take {j}), bit for bit: a take given twice counts its \
-                 noise twice and shrinks every standard error by √2",
-                req.take_place(j)
-            ),
-        )
-        .into()),
-        None => Ok(()),
-    }
+    let Some(j) = req.takes[..k].iter().position(repeats) else {
+        return Ok(());
+    };
+    let how = match req.takes[j].frames().cmp(&obs.frames()) {
+        std::cmp::Ordering::Equal => "the same motion as",
+        std::cmp::Ordering::Greater => "the start of",
+        std::cmp::Ordering::Less => "a longer copy of",
+    };
+    Err(cordis_core::CordisError::trajectory(
+        req.take_place(k),
+        format!(
+            "is {how} {} (take {j}), bit for bit: a take given twice counts its noise twice \
+             and shrinks every standard error by √2",
+            req.take_place(j)
+        ),
+    )
+    .into())
 }
 
 /// The takes with the request's noise added (seeded as `try_add_noise`, take k from `seed +
@@ -1146,9 +1152,7 @@ fn prepare_takes(req: &IdentifyRequest, noise: f64) -> Result<(Trajectory, Vec<T
     let mut first = None;
     for (k, obs) in req.takes.iter().enumerate() {
         check_take(req, k, obs)?;
-        if noise == 0.0 {
-            check_not_repeated(req, k)?;
-        }
+        check_not_repeated(req, k)?;
         let place = req.take_place(k);
         let noisy = match noise > 0.0 {
             true => identify::try_add_noise_observations(obs, noise, req.seed + k as u64)

@@ -95,18 +95,18 @@ fn a_take_with_every_coordinate_missing_names_its_file() {
     );
 }
 
-/// The same take given twice (a file twice, or its copy) is refused by name: its noise would
-/// count twice and every standard error shrink by √2 unseen (a tester's finding). With the
-/// request's `noise` added the two are independent draws, and accepted.
+/// The same take given twice (a file twice, its copy, or a crop of it) is refused by name:
+/// its noise would count twice and every standard error shrink by √2 unseen (a tester's
+/// finding), with the request's `noise` added too (the data's own noise still counts twice).
 #[test]
-fn a_take_given_twice_is_refused_unless_noise_makes_two_draws_of_it() {
+fn a_take_given_twice_or_cropped_is_refused() {
     let mut req = rigid_takes(&[40, 30, 40]);
     req.take_places = vec!["a.csv".into(), "b.csv".into(), "c.csv".into()];
     let e = refusal(req);
     assert_eq!(
         e.to_string(),
-        "c.csv: is the same motion as a.csv (take 0), bit for bit: a take given twice counts \
-         its noise twice and shrinks every standard error by √2"
+        "b.csv: is the start of a.csv (take 0), bit for bit: a take given twice counts its \
+         noise twice and shrinks every standard error by √2"
     );
     assert!(
         matches!(e, CostError::Core(CordisError::Trajectory { .. })),
@@ -114,7 +114,20 @@ fn a_take_given_twice_is_refused_unless_noise_makes_two_draws_of_it() {
     );
     let mut noisy = rigid_takes(&[40, 40]);
     noisy.noise = 1e-3;
-    assert!(Session::new(noisy).is_ok());
+    assert!(refusal(noisy)
+        .to_string()
+        .starts_with("--trajectory[1]: is the same motion as --trajectory[0] (take 0)"));
+    // Another motion of the same object is a take of its own.
+    let truth = examples::rigid();
+    let first = truth.simulate(40).unwrap();
+    let mut pushed = truth.clone();
+    pushed.particles[0].vel[0] += 0.1;
+    let takes = vec![
+        Observations::from_trajectory(&first),
+        Observations::from_trajectory(&pushed.simulate(40).unwrap()),
+    ];
+    let guess = with_unknown_boxes(&truth, 10.0, 3);
+    assert!(Session::new(IdentifyRequest::with_takes(guess, takes)).is_ok());
 }
 
 /// A take of the fixed particles only, and a free particle no observation reaches, are bad

@@ -246,6 +246,22 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         };
         return Err(super::Interrupted(kept).into());
     }
+    // Ctrl-C after the run had ended by its own rule (during the uncertainty, say): the
+    // result is whole and labelled as it ended, and the exit is still 130, so that a shell
+    // loop over files stops as Ctrl-C asks.
+    if super::INTERRUPTED.load(std::sync::atomic::Ordering::Relaxed) {
+        let ended = outcome.result.stopped_by.as_str();
+        let kept = match a.out.as_ref().filter(|_| finite) {
+            Some(out) => format!(
+                "the run had already ended ({ended}); its result was written to {}",
+                out.display()
+            ),
+            None => {
+                format!("the run had already ended ({ended}); its result is the one reported above")
+            }
+        };
+        return Err(super::Interrupted(kept).into());
+    }
     Ok(())
 }
 

@@ -112,32 +112,48 @@ pub fn robust_scale(residuals: impl Iterator<Item = f64>) -> f64 {
 /// The variance of an M-estimate on residuals `r` against its IRLS normal equations' own:
 /// the factor that turns `σ̂²_ω H_ω⁻¹` (what the fit's last normal equations give, with
 /// `σ̂²_ω = Σ ω r² / dof` and `H_ω = Jᵀ Ω J`) into Huber's covariance of the M-estimate (Huber,
-/// *Robust Statistics*, 1981, §7.6: `s² [Σ ψ² / dof] / [Σ ψ' / n]² (JᵀJ)⁻¹`, with
-/// `JᵀJ ≈ H_ω / mean ω`), and the noise level the residuals give, the robust scale `s`
-/// (consistent for σ on Gaussian noise, where `σ̂_ω` reads 0.83–0.90 σ). `dof` is the
-/// observations less the fit's variables. `None` when the residuals give no scale.
+/// *Robust Statistics*, 1981, §7.6, his first form:
+/// `K² s² [Σ ψ² / (n − p)] / [Σ ψ' / n]² (JᵀJ)⁻¹`, `K = 1 + (p/n) var ψ' / (mean ψ')²`, with
+/// `JᵀJ ≈ H_ω / mean ω`, `mean_weight` the mean of the multipliers `ω` the normal equations
+/// were built on), and the noise level the residuals give, the robust scale `s` (consistent
+/// for σ on Gaussian noise, where `σ̂_ω` reads 0.83–0.90 σ). `variables` is the fit's count
+/// (p). Residuals exactly 0 (a planar take's z, a fixed marker without noise) carry no noise
+/// and are left out: a third of them would pull `s` to 0.47 σ. `None` when the residuals
+/// give no scale.
 pub fn m_estimate_spread(
     loss: Loss,
     residuals: &[f64],
-    dof: f64,
+    mean_weight: f64,
+    variables: usize,
     sigma2_weighted: f64,
 ) -> Option<(f64, f64)> {
-    let s = robust_scale(residuals.iter().copied());
+    let r: Vec<f64> = residuals
+        .iter()
+        .copied()
+        .filter(|r| r.is_finite() && *r != 0.0)
+        .collect();
+    let s = robust_scale(r.iter().copied());
     if !(s > 0.0 && s.is_finite() && sigma2_weighted > 0.0) {
         return None;
     }
-    let (mut n, mut psi2, mut slope, mut omega) = (0.0, 0.0, 0.0, 0.0);
-    for u in residuals.iter().filter(|r| r.is_finite()).map(|r| r / s) {
+    let n = r.len() as f64;
+    let p = variables as f64;
+    let (mut psi2, mut slope, mut slope2) = (0.0, 0.0, 0.0);
+    for u in r.iter().map(|r| r / s) {
         let w = loss.weight(u);
-        n += 1.0;
         psi2 += (w * u) * (w * u);
-        slope += loss.slope(u);
-        omega += w;
+        let d = loss.slope(u);
+        slope += d;
+        slope2 += d * d;
     }
-    if slope.is_nan() || slope <= 0.0 {
+    let mean_slope = slope / n;
+    if mean_slope.is_nan() || mean_slope <= 0.0 {
         return None;
     }
-    let variance = s * s * (psi2 / dof) / (slope / n).powi(2) * (omega / n);
+    let var_slope = (slope2 / n - mean_slope * mean_slope).max(0.0);
+    let k = 1.0 + p / n * var_slope / (mean_slope * mean_slope);
+    let dof = (n - p).max(1.0);
+    let variance = k * k * s * s * (psi2 / dof) / (mean_slope * mean_slope) * mean_weight;
     Some((variance / sigma2_weighted, s))
 }
 
@@ -200,13 +216,24 @@ mod tests {
                 .sum::<f64>()
                 / n;
             let omega: f64 = r.iter().map(|&r| loss.weight(r / sigma)).sum::<f64>() / n;
-            let (factor, s) = m_estimate_spread(loss, &r, n, weighted).unwrap();
+            let (factor, s) = m_estimate_spread(loss, &r, omega, 0, weighted).unwrap();
             assert_relative_eq!(s, sigma, max_relative = 2e-3);
             // The M-estimate's variance σ² · factor · σ̂²_ω / mean ω against least squares' σ².
             let relative = factor * weighted / omega / (sigma * sigma);
             assert_relative_eq!(relative, 1.0 / 0.95, max_relative = 5e-3);
+            // What the IRLS equations alone said: 0.86 (Huber), 0.80 (Cauchy) of least squares'.
+            let irls = weighted / omega / (sigma * sigma);
+            assert!((0.75..0.9).contains(&irls), "{loss}: {irls}");
+            // Exact zeros (a planar take's z) change neither the scale nor the factor.
+            let planar: Vec<f64> = r.iter().flat_map(|&x| [x, 0.0]).collect();
+            let (with_zeros, s0) = m_estimate_spread(loss, &planar, omega, 0, weighted).unwrap();
+            assert_relative_eq!(s0, s, max_relative = 1e-12);
+            assert_relative_eq!(with_zeros, factor, max_relative = 1e-12);
+            // Huber's K: p fitted variables of n widen it by (1 + (p/n) var ψ' / (mean ψ')²)².
+            let (small, _) = m_estimate_spread(loss, &r, omega, 2_000, weighted).unwrap();
+            assert!(small > factor, "{loss}: {small} against {factor}");
         }
-        let (factor, _) = m_estimate_spread(Loss::Squared, &r, n, sigma * sigma).unwrap();
+        let (factor, _) = m_estimate_spread(Loss::Squared, &r, 1.0, 0, sigma * sigma).unwrap();
         assert_relative_eq!(factor, 1.0, max_relative = 5e-3);
     }
 

@@ -741,9 +741,26 @@ impl Prepared {
             .flatten()
             .filter(|r| r.is_finite())
             .collect();
-        let dof = e.observed.saturating_sub(e.variables).max(1) as f64;
-        let Some((factor, scale)) = loss::m_estimate_spread(self.loss, &r, dof, e.sigma * e.sigma)
-        else {
+        // The multipliers the last normal equations were built on, over the observed
+        // coordinates (H_ω's ω).
+        let (mut sum, mut count) = (0.0, 0usize);
+        for (m, take) in progress.robust.iter().zip(&self.takes) {
+            let observed = m
+                .iter()
+                .enumerate()
+                .filter(|&(k, _)| take.weight_at(k) > 0.0);
+            for (_, m) in observed {
+                sum += m * m;
+                count += 1;
+            }
+        }
+        let mean_weight = match count {
+            0 => 1.0,
+            _ => sum / count as f64,
+        };
+        let spread =
+            loss::m_estimate_spread(self.loss, &r, mean_weight, e.variables, e.sigma * e.sigma);
+        let Some((factor, scale)) = spread else {
             return;
         };
         let root = factor.sqrt();

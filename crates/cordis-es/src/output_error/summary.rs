@@ -21,7 +21,8 @@ pub struct Estimate {
     pub states: Vec<Vec<f64>>,
     /// Weighted sum of squared position residuals, m².
     pub cost: f64,
-    /// Estimated noise of a unit-weight coordinate, m: `√(C / (m - P))`.
+    /// Estimated noise of a unit-weight coordinate, m: `√(C / (m - P))`; with a robust loss the
+    /// residuals' robust scale ([`super::loss::m_estimate_spread`]).
     pub sigma: f64,
     /// Noise level read from the data before the fit (third differences), m, per take, of a
     /// weight-1 coordinate (σ's unit).
