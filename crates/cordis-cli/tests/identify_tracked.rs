@@ -379,6 +379,12 @@ fn markers_map_a_file_in_its_own_order_without_the_fixed_particles() {
     assert_eq!(s["solver"]["observed"], 18 * 200 * 3);
     let why = s["solver"]["chosen_because"].as_str().unwrap_or_default();
     assert!(why.contains("noisy") && !why.contains("missing"), "{why}");
+    // Spaces after the commas are read as the same map (` 0` was "invalid digit").
+    let spaced = map.replace(',', ", ");
+    let mut with_spaces = args;
+    with_spaces[5] = &spaced;
+    let sp = summary(&cordis(d, &with_spaces));
+    assert_eq!(sp["cost"], s["cost"], "{sp}");
 
     // Down-weighting two markers (three weights each) changes the estimate, not its quality.
     let mut weights = vec!["1"; 3 * order.len()];
@@ -406,7 +412,14 @@ fn bad_markers_and_weights_are_refused_by_name() {
     let mut twice = all.clone();
     twice[5] = "4".into();
     let (twice, all) = (twice.join(","), all.join(","));
-    let cases: [(&[&str], &[&str]); 8] = [
+    let cases: [(&[&str], &[&str]); 9] = [
+        (
+            &["--markers", "0,1,-1"],
+            &[
+                "--markers",
+                "expected a particle index (an integer from 0), got `-1`",
+            ],
+        ),
         (
             &["--loss", "l1"],
             &["--loss", "not one of squared, huber, cauchy"],

@@ -31,7 +31,7 @@ pub struct Args {
     /// Which scene particle each of the file's markers is, comma-separated (`--markers
     /// 4,0,7`: the file's particle 0 is the scene's particle 4, …), the same for every take.
     /// Particles no marker names are hidden; fixed particles need not be tracked.
-    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    #[arg(long, value_delimiter = ',', num_args = 1.., value_parser = super::particle_index)]
     markers: Option<Vec<usize>>,
     /// Each marker's weight, 1/σ relative to the others, comma-separated: one per marker, or
     /// three per marker (x, y, z). Positive and finite; read by output-error only.

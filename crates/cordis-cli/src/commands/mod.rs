@@ -228,6 +228,14 @@ pub fn print_stdout(text: &str) -> Result<()> {
     }
 }
 
+/// One `--markers` entry: a particle index, spaces around it allowed (`--markers "11, 0, 4"`
+/// was refused as "invalid digit" for ` 0`).
+pub(crate) fn particle_index(s: &str) -> std::result::Result<usize, String> {
+    s.trim()
+        .parse()
+        .map_err(|_| format!("expected a particle index (an integer from 0), got `{s}`"))
+}
+
 /// A number for a JSON summary line: JSON has no infinity nor NaN, so a non-finite one (a
 /// diverged cost, a Ctrl-C before any finite cost) is the string `"inf"` / `"NaN"`, as the
 /// solvers' reports write it, never `null`.

@@ -24,7 +24,7 @@ pub struct Args {
     /// Which scene particle each of the file's markers is, comma-separated, as given to
     /// `identify --markers` (without it, the file's particle i is the scene's particle i).
     /// Particles no marker names are shown unobserved.
-    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    #[arg(long, value_delimiter = ',', num_args = 1.., value_parser = super::particle_index)]
     markers: Option<Vec<usize>>,
     /// Each marker's weight, 1/σ relative, as given to `identify --weights` (one per marker,
     /// or three: x, y, z): the fit is also reported weighted.
