@@ -118,6 +118,28 @@ pub fn observations_from_py(
         .map_err(|e| PyValueError::new_err(format!("{what}: {e}")))
 }
 
+/// The reader's messages with its options as `read_trajectory` spells them: the core names
+/// the CLI's (`--columns`, `--units`, `--delimiter`), which a Python user does not have.
+fn python_spelling(e: cordis_core::CordisError) -> cordis_core::CordisError {
+    use cordis_core::CordisError as E;
+    let spell = |text: &str| {
+        ["columns", "units", "delimiter"]
+            .iter()
+            .fold(text.to_string(), |t, o| {
+                t.replace(&format!("--{o}:"), &format!("{o}:"))
+                    .replace(&format!("--{o}"), &format!("{o}="))
+            })
+    };
+    match e {
+        E::Argument { place, message } => {
+            E::argument(place.trim_start_matches("--").to_string(), spell(&message))
+        }
+        E::Trajectory { place, message } => E::trajectory(place, spell(&message)),
+        E::Format { place, message } => E::format(place, spell(&message)),
+        other => other,
+    }
+}
+
 /// A core trajectory as a C-contiguous float64 array `(T, N, 3)`.
 pub fn traj_to_py(py: Python<'_>, traj: Trajectory) -> PyResult<Bound<'_, PyArray3<f64>>> {
     let shape = (traj.frames(), traj.particles(), 3);
@@ -191,7 +213,7 @@ pub fn read_trajectory<'py>(
     };
     let imported = py
         .detach(|| cordis_core::io::read_markers(&path, &options))
-        .map_err(to_py)?;
+        .map_err(|e| to_py(python_spelling(e)))?;
     let obs = imported.observations;
     let shape = (obs.frames(), obs.particles(), 3);
     let array = Array3::from_shape_vec(shape, obs.as_flat().to_vec())

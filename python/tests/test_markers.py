@@ -79,7 +79,7 @@ def test_a_trc_reads_with_its_rate_units_and_gaps(tmp_path):
     with pytest.raises(cordis.TrajectoryError, match=r"wrong header count: NumFrames is 7"):
         cordis.read_trajectory(path)
     _write_trc(path, pos, rate=120.0, units="mm")
-    with pytest.raises(cordis.TrajectoryError, match=r"mixed units: --units cm but the header says Units mm"):
+    with pytest.raises(cordis.TrajectoryError, match=r"mixed units: units= cm but the header says Units mm"):
         cordis.read_trajectory(path, units="cm")
 
 
@@ -130,8 +130,13 @@ def test_tables_in_other_layouts_read_to_the_same_array(tmp_path):
 def test_bad_input_names_the_place(tmp_path):
     path = tmp_path / "m.csv"
     path.write_text("Frame,Marker,X,Y,Z\n0,A,1,2,3\n")
-    with pytest.raises(cordis.TrajectoryError, match=r"m\.csv:1: --columns names particle=Label, but the header has no such column"):
+    # The options as read_trajectory spells them, not the CLI's `--columns`.
+    with pytest.raises(cordis.TrajectoryError, match=r"m\.csv:1: columns= names particle=Label, but the header has no such column"):
         cordis.read_trajectory(path, columns="particle=Label")
+    path.write_text("Frame,Marker,X,Y,Z,Extra\n0,A,1,2,3,4\n")
+    with pytest.raises(cordis.TrajectoryError, match=r"map the columns with columns= \(the others"):
+        cordis.read_trajectory(path)
+    path.write_text("Frame,Marker,X,Y,Z\n0,A,1,2,3\n")
     with pytest.raises(cordis.ArgumentError, match=r"units: `inch` is not a length unit"):
         cordis.read_trajectory(path, units="inch")
     _write_trc(tmp_path / "x.trc", _positions(2, 1), rate=100.0)
