@@ -97,17 +97,15 @@ fn to_py(
     tested: Option<LinkTestReport>,
 ) -> PyResult<DiscoverResult> {
     crate::identify::warn_all(py, &d.warnings())?;
-    // The summary holds the identification's warnings: raised from it, computed once.
-    let summary = id.as_ref().map(Identified::to_json);
-    if let Some(v) = &summary {
-        let w: Vec<String> = v["warnings"]
-            .as_array()
-            .into_iter()
-            .flatten()
-            .filter_map(|w| w.as_str().map(str::to_string))
-            .collect();
-        crate::identify::warn_all(py, &w)?;
-    }
+    // The identification's warnings, computed once: raised, and kept in its summary.
+    let summary = match &id {
+        Some(id) => {
+            let warnings = id.warnings();
+            crate::identify::warn_all(py, &warnings)?;
+            Some(id.to_json(&warnings))
+        }
+        None => None,
+    };
     let json =
         |v: serde_json::Value| -> PyResult<Py<PyAny>> { Ok(crate::json::to_py(py, &v)?.unbind()) };
     Ok(DiscoverResult {

@@ -248,16 +248,11 @@ fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
 
 /// Where marker `i` rests if it never moves — every observation within `still` of its
 /// per-axis median —: the mean of its observations (the maximum-likelihood position of a
-/// fixed point under Gaussian noise, σ/√T from each frame's σ; discovery's
-/// `cordis_es::discover::fixed_position`). `None` if it moves or is
+/// fixed point under Gaussian noise: [`rest_position`]). `None` if it moves or is
 /// seen in fewer than 2 frames.
 fn still_position(obs: &Observations, i: usize, still: f64) -> Option<[f64; 3]> {
-    let n = obs.particles();
     let seen: Vec<[f64; 3]> = (0..obs.frames())
-        .filter_map(|f| {
-            let v = &obs.as_flat()[(f * n + i) * 3..(f * n + i) * 3 + 3];
-            v.iter().all(|x| x.is_finite()).then(|| [v[0], v[1], v[2]])
-        })
+        .filter_map(|f| observed(obs, f, i))
         .collect();
     if seen.len() < 2 {
         return None;
@@ -270,10 +265,17 @@ fn still_position(obs: &Observations, i: usize, still: f64) -> Option<[f64; 3]> 
     if !seen.iter().all(|p| dist(p, &median) <= still) {
         return None;
     }
-    // The first frame plus the mean offset from it, as discovery's `fixed_position`: a
-    // noiseless marker keeps its position to the bit.
-    let (count, x0) = (seen.len() as f64, seen[0]);
-    Some([0, 1, 2].map(|k| x0[k] + seen.iter().map(|p| p[k] - x0[k]).sum::<f64>() / count))
+    rest_position(&seen)
+}
+
+/// The position of a point that does not move, from observations with independent noise of
+/// one σ: their mean, the maximum-likelihood estimate (error σ/√count against σ for any one),
+/// summed as the first plus the mean offset from it, so that a noiseless point keeps its
+/// position to the bit. `None` without observations. Discovery's fixed particles too.
+pub fn rest_position(points: &[[f64; 3]]) -> Option<[f64; 3]> {
+    let x0 = *points.first()?;
+    let count = points.len() as f64;
+    Some([0, 1, 2].map(|k| x0[k] + points.iter().map(|p| p[k] - x0[k]).sum::<f64>() / count))
 }
 
 /// The unordered pairs the rule links, each once, in increasing (a, b) order.

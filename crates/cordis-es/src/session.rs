@@ -25,7 +25,7 @@ use crate::cost::{CostKind, LocalCost};
 use crate::evaluator::Evaluator;
 use crate::executor::{self, Fingerprint, Observer, RunConfig, RunResult, StopReason, StopRules};
 use crate::identify::{self, make_islands, make_strategy, StrategyName, StrategyOptions};
-use crate::output_error::checks::unestimable_state;
+use crate::output_error::checks::{linked, unestimable_state};
 use crate::output_error::Take;
 use crate::problem::Problem;
 use crate::report::Report;
@@ -1148,6 +1148,7 @@ fn prepare_takes(req: &IdentifyRequest, noise: f64) -> Result<(Trajectory, Vec<T
     }
     let n = req.scene.num_particles();
     let free: Vec<usize> = (0..n).filter(|&i| !req.scene.particles[i].fixed).collect();
+    let adjacency = linked(&req.scene);
     let mut takes = Vec::with_capacity(req.takes.len());
     let mut first = None;
     for (k, obs) in req.takes.iter().enumerate() {
@@ -1191,7 +1192,7 @@ fn prepare_takes(req: &IdentifyRequest, noise: f64) -> Result<(Trajectory, Vec<T
         })?;
         // Bad input named by the file, before any run (the estimator's own check names the
         // take's index and, reached in a run, was a run's failure: exit 1).
-        if let Some((particle, why)) = unestimable_state(&req.scene, &free, &take) {
+        if let Some((particle, why)) = unestimable_state(&req.scene, &adjacency, &free, &take) {
             let at = match particle {
                 Some(i) => format!("{place}, particle {i}"),
                 None => place,

@@ -173,9 +173,8 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     };
     let secs = t.elapsed().as_secs_f64();
     cordis_core::io::write_atomic(id_path, id.scene.to_json_string().as_bytes())?;
-    let mut v = id.to_json();
-    // Printed from the summary's list: computing them again would check the bound again.
-    let warnings = v["warnings"].clone();
+    let warnings = id.warnings();
+    let mut v = id.to_json(&warnings);
     v["out"] = id_path.display().to_string().into();
     v["seconds"] = secs.into();
     summary["identify"] = v;
@@ -191,12 +190,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
     }
     // Warnings print even with --quiet or --json, as identify's: the answer is not to be
     // trusted as it is.
-    for w in warnings
-        .as_array()
-        .into_iter()
-        .flatten()
-        .filter_map(|w| w.as_str())
-    {
+    for w in &warnings {
         eprintln!("warning: {w}");
     }
     Ok(())

@@ -110,10 +110,11 @@ pub struct Identified {
 
 impl Identified {
     /// The summary's `identify` object (CLI JSON line, Python `res.identification`): every
-    /// field, with its [`Identified::warnings`].
-    pub fn to_json(&self) -> serde_json::Value {
+    /// field, with `warnings` (its [`Identified::warnings`], computed once by the caller, who
+    /// also prints or raises them).
+    pub fn to_json(&self, warnings: &[String]) -> serde_json::Value {
         let mut v = serde_json::to_value(self).unwrap_or_default();
-        v["warnings"] = self.warnings().into();
+        v["warnings"] = warnings.into();
         v
     }
 

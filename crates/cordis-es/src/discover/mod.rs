@@ -257,11 +257,12 @@ impl Discovery {
 /// it with independent noise of one σ: the mean over the frames, the maximum-likelihood
 /// estimate (error σ/√frames, against σ for any single frame). The smoothing
 /// ([`smooth::smooth`]) puts fixed particles there too, but only when it runs (noise > 0 and
-/// at least 12 frames): the scene reads this whatever the path. Summed as frame 0 plus the
-/// mean offset from it, so a noiseless particle keeps its position to the bit.
+/// at least 12 frames): the scene reads this whatever the path
+/// ([`cordis_core::from_markers::rest_position`]: a noiseless particle keeps its position to
+/// the bit).
 pub fn fixed_position(traj: &Trajectory, i: usize) -> Vec3 {
-    let (frames, x0) = (traj.frames(), traj.pos(0, i));
-    x0 + (0..frames).map(|t| traj.pos(t, i) - x0).sum::<Vec3>() / frames.max(1) as f64
+    let points: Vec<[f64; 3]> = (0..traj.frames()).map(|t| traj.pos(t, i).into()).collect();
+    cordis_core::from_markers::rest_position(&points).map_or_else(|| traj.pos(0, i), Vec3::from)
 }
 
 fn bad(place: &str, msg: impl Into<String>) -> CostError {

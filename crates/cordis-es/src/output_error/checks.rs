@@ -23,6 +23,7 @@ pub(crate) fn check_takes(
         return Err(CostError::mismatch("trajectory", "no take given"));
     }
     let n = scene.num_particles();
+    let adjacency = linked(scene);
     for (k, take) in takes.iter().enumerate() {
         if take.particles() != n {
             return Err(CostError::mismatch(
@@ -36,7 +37,7 @@ pub(crate) fn check_takes(
                 format!("has {} frames, at least 3 are needed", take.frames()),
             ));
         }
-        if let Some((particle, why)) = unestimable_state(scene, &tangent.free, take) {
+        if let Some((particle, why)) = unestimable_state(scene, &adjacency, &tangent.free, take) {
             let place = match particle {
                 Some(i) => format!("take {k}, particle {i}"),
                 None => format!("take {k}"),
@@ -54,20 +55,11 @@ pub(crate) fn check_takes(
 /// index, for callers of the estimator itself).
 pub(crate) fn unestimable_state(
     scene: &Scene,
+    adj: &[Vec<usize>],
     free: &[usize],
     take: &Take,
 ) -> Option<(Option<usize>, &'static str)> {
     let n = scene.num_particles();
-    let mut adj = vec![Vec::new(); n];
-    for l in &scene.links {
-        // Every pair of a link's particles (an angle ties its three).
-        for (n, &a) in l.particles.iter().enumerate() {
-            for &b in &l.particles[n + 1..] {
-                adj[a].push(b);
-                adj[b].push(a);
-            }
-        }
-    }
     let mut seen = vec![false; n];
     for &i in free {
         seen[i] = take.tracks(i);
@@ -95,6 +87,21 @@ pub(crate) fn unestimable_state(
              initial state cannot be estimated",
         )
     })
+}
+
+/// Each particle's link neighbours ([`unestimable_state`]'s chains), built once for every take.
+pub(crate) fn linked(scene: &Scene) -> Vec<Vec<usize>> {
+    let mut adj = vec![Vec::new(); scene.num_particles()];
+    for l in &scene.links {
+        // Every pair of a link's particles (an angle ties its three).
+        for (n, &a) in l.particles.iter().enumerate() {
+            for &b in &l.particles[n + 1..] {
+                adj[a].push(b);
+                adj[b].push(a);
+            }
+        }
+    }
+    adj
 }
 
 /// Refuses fits whose sensitivity matrices and normal equations would not fit in memory.

@@ -707,20 +707,29 @@ impl Prepared {
     ) -> Result<Estimate, CostError> {
         let mut e = self.finish_fit(scene, space, progress)?;
         e.loss = self.loss;
-        e.downweighted = progress
-            .robust
-            .iter()
-            .zip(&self.takes)
-            .map(|(m, t)| {
-                (0..m.len())
-                    .filter(|&k| t.weight_at(k) > 0.0 && m[k] * m[k] < 0.5)
-                    .count()
-            })
-            .sum();
+        e.downweighted = self
+            .observed_weights(progress)
+            .filter(|&omega| omega < 0.5)
+            .count();
         if self.loss != Loss::Squared {
             self.m_estimate_spread(space, progress, &mut e);
         }
         Ok(e)
+    }
+
+    /// The IRLS weights `ω` (the squared multipliers) of the observed coordinates of every
+    /// take, at `progress`.
+    fn observed_weights<'a>(&'a self, progress: &'a Progress) -> impl Iterator<Item = f64> + 'a {
+        progress
+            .robust
+            .iter()
+            .zip(&self.takes)
+            .flat_map(|(m, take)| {
+                m.iter()
+                    .enumerate()
+                    .filter(move |&(k, _)| take.weight_at(k) > 0.0)
+                    .map(|(_, m)| m * m)
+            })
     }
 
     /// A robust fit's standard errors, intervals and σ̂ as the M-estimate's
@@ -741,19 +750,10 @@ impl Prepared {
             .flatten()
             .filter(|r| r.is_finite())
             .collect();
-        // The multipliers the last normal equations were built on, over the observed
-        // coordinates (H_ω's ω).
-        let (mut sum, mut count) = (0.0, 0usize);
-        for (m, take) in progress.robust.iter().zip(&self.takes) {
-            let observed = m
-                .iter()
-                .enumerate()
-                .filter(|&(k, _)| take.weight_at(k) > 0.0);
-            for (_, m) in observed {
-                sum += m * m;
-                count += 1;
-            }
-        }
+        // The weights the last normal equations were built on (H_ω's ω).
+        let (sum, count) = self
+            .observed_weights(progress)
+            .fold((0.0, 0usize), |(s, c), omega| (s + omega, c + 1));
         let mean_weight = match count {
             0 => 1.0,
             _ => sum / count as f64,
