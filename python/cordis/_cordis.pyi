@@ -740,6 +740,7 @@ def identify(
     markers: Optional[Sequence[int]] = None,
     weights: Optional[_ArrayLike] = None,
     loss: str = "squared",
+    intervals: str = "wald",
 ) -> IdentifyResult:
     """Identifies the unknowns of ``scene`` from the observed positions ``traj`` (GIL released).
 
@@ -751,7 +752,11 @@ def identify(
     particle j tracks (the rest hidden; fixed particles need not be tracked); ``weights``:
     each marker's weight, 1/σ relative: shape ``(M,)`` one per marker, or ``(M, 3)`` (or a
     flat ``3M``) one per marker and coordinate x, y, z (read by ``output-error`` only); ``loss``: ``"squared"``, or ``"huber"``/``"cauchy"``,
-    robust against tracking outliers and swapped markers (output-error). Only ``output-error``
+    robust against tracking outliers and swapped markers (output-error); ``intervals``:
+    ``"wald"`` (from the standard errors, checked along each unknown's profile direction and
+    widened where the cost is flatter there than its quadratic model) or ``"profile"`` (the
+    profile likelihood's where it is flatter: every other variable refitted at each edge,
+    several times the fit's time; output-error). Only ``output-error``
     reads gaps and takes, and ``auto`` picks it for them and for noisy data; its result has
     ``stderr``, ``intervals``, ``covariance`` and ``sigma``, and its ``scene`` carries the
     estimated initial state (``res.scene.simulate(T)`` replays the take).

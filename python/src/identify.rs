@@ -323,6 +323,7 @@ struct PyArgs<'py> {
     markers: Option<Vec<usize>>,
     weights: Option<Vec<f64>>,
     loss: &'py str,
+    intervals: &'py str,
 }
 
 /// The arguments as a session request: integer conversions and Python's types here, every
@@ -345,6 +346,7 @@ fn request(
     r.markers = a.markers;
     r.weights = a.weights;
     r.loss = a.loss.parse().map_err(|e| bad("loss", e))?;
+    r.intervals = a.intervals.parse().map_err(|e| bad("intervals", e))?;
     r.strategy = a.strategy.parse().map_err(|e| bad("strategy", e))?;
     r.generations = match a.generations {
         Some(g) => Generations::Limit(count(g, "generations")?),
@@ -525,7 +527,11 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
 ///   data's particle j tracks (the rest hidden; fixed particles need not be tracked);
 ///   `weights`: each marker's weight, 1/σ relative (`(M,)` one per marker, or `(M, 3)` one
 ///   per marker and coordinate x, y, z; read by `output-error` only); `loss`: `"squared"`, or `"huber"` /
-///   `"cauchy"`, robust against tracking outliers and swapped markers (output-error). Only
+///   `"cauchy"`, robust against tracking outliers and swapped markers (output-error);
+///   `intervals`: `"wald"` (from the standard errors, checked along each unknown's profile
+///   direction and widened where the cost is flatter there than its quadratic model) or
+///   `"profile"` (the profile likelihood's where it is flatter: every other variable refitted
+///   at each edge, several times the fit's time; output-error). Only
 ///   `output-error` reads gaps and takes; `auto` picks it for them and for noisy data, and its
 ///   result has `stderr`, `intervals`, `covariance` and `sigma` (None for other strategies);
 ///   its `scene` carries the estimated initial state, so `res.scene.simulate(T)` replays
@@ -556,7 +562,8 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
     stable_horizon = None, stable_spread = cordis_es::stable::DEFAULT_SPREAD,
     executor = None, islands = None, migrate_every = 10, migrants = 2, total_mass = None,
     lock = None, param_gene = None, descent_start = None, descent_every = None,
-    crossover = None, local_cost = None, restarts = None, plus = false, correlated = false, visible = None, markers = None, weights = None, loss = "squared"
+    crossover = None, local_cost = None, restarts = None, plus = false, correlated = false, visible = None, markers = None, weights = None, loss = "squared",
+    intervals = "wald"
 ))]
 #[pyo3(
     text_signature = "(scene, traj, strategy='auto', generations=1000, population=None, \
@@ -565,7 +572,7 @@ fn lock_arg(l: &Bound<'_, PyAny>) -> PyResult<Lock> {
     stable_horizon=None, stable_spread=2.0, \
     executor=None, islands=None, migrate_every=10, migrants=2, total_mass=None, lock=None, \
     param_gene=None, descent_start=None, descent_every=None, crossover=None, local_cost=None, restarts=None, plus=False, \
-    correlated=False, visible=None, markers=None, weights=None, loss='squared')"
+    correlated=False, visible=None, markers=None, weights=None, loss='squared', intervals='wald')"
 )]
 #[allow(clippy::too_many_arguments)]
 pub fn identify(
@@ -607,6 +614,7 @@ pub fn identify(
     markers: Option<Bound<'_, PyAny>>,
     weights: Option<Bound<'_, PyAny>>,
     loss: &str,
+    intervals: &str,
 ) -> PyResult<IdentifyResult> {
     let markers = particle_indices(markers, "markers")?;
     let weights = weights_from_py(weights)?;
@@ -643,6 +651,7 @@ pub fn identify(
         markers,
         weights,
         loss,
+        intervals,
     };
     let req = request(&scene.core(), traj, truth, args)?;
     let remote_asked = executor

@@ -6,6 +6,7 @@ import os
 import shutil
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -265,3 +266,51 @@ def test_a_robust_loss_downweights_a_marker_swap_and_the_cli_agrees(tmp_path):
     assert json.loads(out.stdout.strip().splitlines()[-1])["cost"] == res.cost
     with pytest.raises(ValueError, match="loss: `l1` is not one of squared, huber, cauchy"):
         cordis.identify(guess, traj, loss="l1")
+
+
+def swing(stiffness):
+    """One 1 kg particle swinging round an anchor (rest length 0.8 m, clear of its point)."""
+    return cordis.Scene.from_dict({
+        "dt": 0.01,
+        "particles": [{"mass": 1.0, "pos": [1.0, 0.0, 0.0], "vel": [0.0, 0.4, 0.1]}],
+        "types": {"a": {"kind": "anchor", "stiffness": stiffness, "rest_length": 0.8}},
+        "links": [{"type": "a", "particles": [0], "point": [0, 0, 0]}],
+    })
+
+
+def test_profile_intervals_reach_as_far_as_the_likelihood_on_thin_data(tmp_path):
+    # 30 frames of a 2 s swing at 10 cm noise: the cost is far flatter below the estimate than
+    # its quadratic model, and seed 4's Wald interval [16, 100] N/m misses the true 10 N/m.
+    truth, guess = swing(10.0), swing({"min": 1.0, "max": 100.0})
+    traj = truth.simulate(frames=30)
+    name = "types.a.stiffness"
+    for seed in range(8):
+        noisy = traj + np.random.default_rng(seed).normal(0.0, 0.1, traj.shape)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            wald = cordis.identify(guess, noisy, strategy="output-error")
+            prof = cordis.identify(guess, noisy, strategy="output-error", intervals="profile")
+        assert (wald.report["intervals"], prof.report["intervals"]) == ("wald", "profile")
+        assert prof.params == wald.params and prof.stderr == wald.stderr
+        (lo, hi), (wlo, whi) = prof.intervals[name], wald.intervals[name]
+        assert lo <= wlo and hi >= whi and lo <= 10.0 <= hi, (seed, prof.intervals)
+        if seed == 4:
+            assert wlo > 10.0, wald.intervals
+            [w] = prof.report["widened_intervals"]
+            assert w["name"] == name and w["rise"][0] < 0.7 and lo < wlo
+            np.save(tmp_path / "swing.npy", noisy)
+            (tmp_path / "guess.json").write_text(guess.to_json())
+            exe = shutil.which("cordis", path=os.path.dirname(sys.executable))
+            out = subprocess.run(
+                [exe, "identify", str(tmp_path / "guess.json"), "-t", str(tmp_path / "swing.npy"),
+                 "--strategy", "output-error", "--intervals", "profile", "-q"],
+                capture_output=True, text=True, timeout=120,
+            )
+            assert out.returncode == 0, out.stderr
+            line = json.loads(out.stdout.strip().splitlines()[-1])
+            [u] = line["solver"]["uncertainty"]
+            assert tuple(u["interval"]) == prof.intervals[name]
+    with pytest.raises(cordis.ArgumentError, match="^intervals: `likelihood` is not one of wald, profile"):
+        cordis.identify(guess, traj, intervals="likelihood")
+    with pytest.raises(cordis.ArgumentError, match="read by output-error only"):
+        cordis.identify(guess, traj, strategy="cmaes", intervals="profile", generations=1)

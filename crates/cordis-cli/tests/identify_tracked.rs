@@ -412,7 +412,7 @@ fn bad_markers_and_weights_are_refused_by_name() {
     let mut twice = all.clone();
     twice[5] = "4".into();
     let (twice, all) = (twice.join(","), all.join(","));
-    let cases: [(&[&str], &[&str]); 9] = [
+    let cases: [(&[&str], &[&str]); 11] = [
         (
             &["--markers", "0,1,-1"],
             &[
@@ -427,6 +427,14 @@ fn bad_markers_and_weights_are_refused_by_name() {
         (
             &["--loss", "huber", "--strategy", "least-squares"],
             &["--loss", "read by output-error only"],
+        ),
+        (
+            &["--intervals", "likelihood"],
+            &["--intervals", "not one of wald, profile"],
+        ),
+        (
+            &["--intervals", "profile", "--strategy", "least-squares"],
+            &["--intervals", "read by output-error only"],
         ),
         (
             &["--markers", &twice],

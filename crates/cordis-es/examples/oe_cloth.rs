@@ -126,6 +126,15 @@ fn main() {
             .map(|(u, z)| format!("{:.2}", 100.0 * (u.from_internal(*z) / tv[u.slot] - 1.0)))
             .collect();
         println!("  error % {}", errs.join(" "));
+        // The intervals the line check widened, with the truth: inside or not.
+        for w in &e.widened {
+            let u = &space.unknowns[w.unknown];
+            println!(
+                "  widened {}: Wald [{:.4e}, {:.4e}] -> [{:.4e}, {:.4e}] (rises {:.2}/{:.2}), truth {:.4e}",
+                u.name, w.wald.0, w.wald.1, e.intervals[w.unknown].0, e.intervals[w.unknown].1,
+                w.rise[0], w.rise[1], tv[u.slot]
+            );
+        }
         let rel_se: Vec<String> = space
             .unknowns
             .iter()

@@ -36,6 +36,8 @@ pub struct StrategyOptions {
     pub crossover: Crossover,
     /// The output-error fit's loss on each residual.
     pub loss: output_error::Loss,
+    /// The output-error fit's intervals (Wald, or the profile likelihood's).
+    pub intervals: output_error::Intervals,
     /// `self-adaptive`: (μ+λ) selection instead of (μ,λ).
     pub plus: bool,
     /// `self-adaptive`: correlated mutations (rotation angles, Schwefel).
@@ -54,6 +56,7 @@ impl Default for StrategyOptions {
             descent_every: t.descent_every,
             crossover: t.crossover,
             loss: output_error::Loss::Squared,
+            intervals: output_error::Intervals::Wald,
             plus: false,
             correlated: false,
             restarts: Restarts::Ipop,
@@ -154,6 +157,7 @@ pub fn make_strategy(
         StrategyName::OutputError => {
             let config = output_error::Config {
                 loss: options.loss,
+                intervals: options.intervals,
                 ..output_error::Config::default()
             };
             let oe = OutputError::new(config).chosen_because(auto_reason);

@@ -101,6 +101,9 @@ pub struct IdentifyRequest {
     /// The output-error fit's loss on each residual: squared, or robust (`huber`, `cauchy`)
     /// against tracking outliers and swapped markers.
     pub loss: crate::output_error::Loss,
+    /// The output-error fit's 95 % intervals: Wald (checked along a line) or the profile
+    /// likelihood's.
+    pub intervals: crate::output_error::Intervals,
     /// Each marker's weight, 1/σ relative to the others (one per marker, or three per marker:
     /// x, y, z), read by `output-error` only (`None`: all 1).
     pub weights: Option<Vec<f64>>,
@@ -186,6 +189,7 @@ impl IdentifyRequest {
             markers: None,
             weights: None,
             loss: crate::output_error::Loss::Squared,
+            intervals: crate::output_error::Intervals::Wald,
             strategy: StrategyName::Auto,
             population: None,
             param_gene: None,
@@ -305,6 +309,7 @@ impl Session {
             crossover: req.crossover.unwrap_or(defaults.crossover),
             gene: gene.clone(),
             loss: req.loss,
+            intervals: req.intervals,
             plus: req.plus,
             correlated: req.correlated,
             restarts: req.restarts.unwrap_or_default(),
@@ -839,6 +844,16 @@ fn check(req: &IdentifyRequest, ran: &str, problem: &Problem) -> Result<(), Cost
             .replace("--strategy", &req.opt("strategy")),
         ));
     }
+    if req.intervals != crate::output_error::Intervals::Wald && ran != "output-error" {
+        return Err(CostError::invalid(
+            req.opt("intervals"),
+            format!(
+                "`{}` is read by output-error only, not `{ran}` (use --strategy output-error or auto)",
+                req.intervals
+            )
+            .replace("--strategy", &req.opt("strategy")),
+        ));
+    }
     // Only the exact solvers put Σm = M into their solve; every other strategy would run as if
     // the total were not given (issue 19 item 7): refused by name rather than ignored.
     let honours_total = matches!(ran, "least-squares" | "hybrid");
@@ -1260,6 +1275,10 @@ fn fingerprint(
     f.insert("cost".into(), req.cost.to_string());
     if req.loss != crate::output_error::Loss::Squared {
         f.insert("loss".into(), req.loss.to_string());
+    }
+    // Written only when not the default, so older checkpoints still match.
+    if req.intervals != crate::output_error::Intervals::Wald {
+        f.insert("intervals".into(), req.intervals.to_string());
     }
     f.insert("noise".into(), format!("{noise:e}"));
     f.insert("population".into(), options.population.to_string());

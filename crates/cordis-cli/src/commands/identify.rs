@@ -42,6 +42,12 @@ pub struct Args {
     /// auto then picks output-error).
     #[arg(long, default_value = "squared")]
     loss: String,
+    /// The 95 % intervals (output-error): wald (from the standard errors, checked along each
+    /// unknown's profile direction and widened where the cost there is flatter than its
+    /// quadratic model) | profile (the profile likelihood's where it is flatter: every other
+    /// variable refitted at each interval edge; several times the fit's time).
+    #[arg(long, default_value = "wald")]
+    intervals: String,
     /// Strategy: auto | thesis | t2m | least-squares | hybrid | cmaes | self-adaptive |
     /// annealing | parisian | levenberg-marquardt | output-error. thesis = the ES of thesis
     /// §3.2 and Annexe 1 as written; t2m = the same ES with freer operators. auto = output-error
@@ -400,6 +406,10 @@ fn request(a: &Args) -> Result<IdentifyRequest> {
     r.markers = a.markers.clone();
     r.weights = a.weights.clone();
     r.loss = a.loss.parse().map_err(|e| anyhow::anyhow!("--loss: {e}"))?;
+    r.intervals = a
+        .intervals
+        .parse()
+        .map_err(|e| anyhow::anyhow!("--intervals: {e}"))?;
     r.strategy = a.strategy;
     r.population = a.population;
     r.param_gene = a.param_gene.clone();

@@ -2,6 +2,7 @@
 
 use crate::error::CostError;
 
+use super::line_profile::Intervals;
 use super::loss::Loss;
 
 /// Options of the output-error fit.
@@ -21,6 +22,9 @@ pub struct Config {
     pub start_states: Option<Vec<Vec<f64>>>,
     /// The loss on each residual ([`loss`]: squared, or robust against outliers).
     pub loss: Loss,
+    /// Which intervals are reported ([`Intervals`]: Wald checked along a line, or the
+    /// profile likelihood's where it differs).
+    pub intervals: Intervals,
     /// Standard deviation of the position noise per unit-weight coordinate, m, when known:
     /// the windows' clean bound ([`super::windows`]) and the start's smoothing use it instead
     /// of the level read from each take's third differences. `None`: read from the data.
@@ -44,6 +48,7 @@ impl Default for Config {
             start: None,
             start_states: None,
             loss: Loss::Squared,
+            intervals: Intervals::Wald,
             noise_level: None,
             dense_max_columns: super::matrix_free::DENSE_MAX_COLUMNS,
         }

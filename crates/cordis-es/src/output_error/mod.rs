@@ -50,6 +50,7 @@ mod config;
 pub(crate) mod continuity;
 pub mod fit;
 mod impute;
+pub mod line_profile;
 pub mod loss;
 pub mod matrix_free;
 pub mod observations;
@@ -64,6 +65,7 @@ mod windows;
 use cordis_core::Scene;
 
 pub use config::Config;
+pub use line_profile::Intervals;
 pub use loss::Loss;
 pub use observations::Take;
 pub use run::{Prepared, Progress, Step};

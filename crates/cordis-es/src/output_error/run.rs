@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 use super::checks::{check_memory, check_takes};
 use super::config::{check_config, Config};
 use super::fit::{self, Counts, Fitter, LmSettings, StageEnd};
+use super::line_profile::Measure;
 use super::loss::{self, Loss};
 use super::matrix_free::{self, CgCounts};
 use super::observations::Take;
@@ -56,6 +57,7 @@ pub struct Prepared {
     set: LmSettings,
     first_window: usize,
     loss: Loss,
+    intervals: super::Intervals,
 }
 
 /// Where a fit stands between two stages.
@@ -227,6 +229,7 @@ impl Prepared {
             },
             first_window: config.first_window,
             loss: config.loss,
+            intervals: config.intervals,
         })
     }
 
@@ -707,6 +710,11 @@ impl Prepared {
     ) -> Result<Estimate, CostError> {
         let mut e = self.finish_fit(scene, space, progress)?;
         e.loss = self.loss;
+        e.interval_kind = match self.interval_check() {
+            Some(Measure::Profile { .. }) => "profile",
+            Some(Measure::Line) => "wald",
+            None => "m-estimate",
+        };
         e.downweighted = self
             .observed_weights(progress)
             .filter(|&omega| omega < 0.5)
@@ -809,6 +817,7 @@ impl Prepared {
                 self.noise_level.clone(),
                 p.start_note(),
                 &p.last_steps,
+                self.loss == Loss::Squared,
             );
         }
         let mut counts = p.counts;
@@ -826,7 +835,23 @@ impl Prepared {
             end,
             windows,
             p.start_note(),
+            self.interval_check(),
         ))
+    }
+
+    /// How the dense path checks its intervals ([`super::line_profile`]): not with a robust
+    /// loss (its intervals are the M-estimate's sandwich, its cost not a likelihood).
+    fn interval_check(&self) -> Option<Measure> {
+        if self.large {
+            return (self.loss == Loss::Squared).then_some(Measure::Line);
+        }
+        match (self.loss, self.intervals) {
+            (Loss::Squared, super::Intervals::Profile) => Some(Measure::Profile {
+                face_steps: self.set.face_steps,
+            }),
+            (Loss::Squared, _) => Some(Measure::Line),
+            _ => None,
+        }
     }
 
     /// Whether `progress` (read from a checkpoint) belongs to this fit.

@@ -6,6 +6,7 @@ use cordis_core::Scene;
 use nalgebra::DMatrix;
 
 use super::fit::{self, Counts, Fitter, StageEnd};
+use super::line_profile::{self, Widened};
 use super::loss::Loss;
 use super::observations::Take;
 use super::uncertainty;
@@ -40,8 +41,15 @@ pub struct Estimate {
     pub stderr_at_least: Vec<f64>,
     /// 95 % interval per unknown ([`interval95`]: `value ± 1.96 stderr`, on `ln value` for
     /// the log-searched ones, cut at the box; an undetermined unknown's box `(min, max)`:
-    /// [`box_interval`]).
+    /// [`box_interval`]), widened where the cost along it rises slower than its quadratic
+    /// model ([`line_profile`]).
     pub intervals: Vec<(f64, f64)>,
+    /// The intervals [`line_profile`] widened, with their Wald intervals and cost rises.
+    pub widened: Vec<Widened>,
+    /// Which intervals these are: `wald` (checked along each unknown's profile direction),
+    /// `profile` (widened to the profile likelihood's where it is flatter than its quadratic
+    /// model) or `m-estimate` (a robust loss's Wald intervals of the M-estimate's spread).
+    pub interval_kind: &'static str,
     /// Covariance of the unknowns (physical units), row-major dim × dim.
     pub covariance: DMatrix<f64>,
     pub correlation: DMatrix<f64>,
@@ -66,7 +74,8 @@ pub struct Estimate {
     pub downweighted: usize,
 }
 
-/// The [`Estimate`] at `q` from the fit's normal equations `ne` there.
+/// The [`Estimate`] at `q` from the fit's normal equations `ne` there over `window` frames;
+/// `check`: how the intervals are checked along the cost ([`line_profile`]; squared loss).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn summarise(
     fitter: &Fitter<'_>,
@@ -74,10 +83,11 @@ pub(crate) fn summarise(
     q: Vec<f64>,
     ne: fit::Normal,
     noise_level: Vec<f64>,
-    counts: Counts,
+    mut counts: Counts,
     end: StageEnd,
     windows: Vec<usize>,
     start: String,
+    check: Option<line_profile::Measure>,
 ) -> Estimate {
     let observed: usize = fitter.takes.iter().map(Take::observed).sum();
     let variables = fitter.len();
@@ -89,7 +99,17 @@ pub(crate) fn summarise(
     let correlation = uncertainty::correlation(&covariance);
     let params = fitter.params(&q);
     let dim = fitter.theta();
-    let (stderr, intervals) = spread(fitter, &params, &covariance);
+    let (stderr, mut intervals) = spread(fitter, &params, &covariance);
+    let widened = match check {
+        Some(measure) => {
+            let window = windows.iter().copied().max().unwrap_or(0);
+            let column = |a: usize| Some(cov_q.column(a).iter().copied().collect());
+            let profiled = line_profile::widen(fitter, &q, sigma2, window, measure, column);
+            counts.evaluations += profiled.rollouts;
+            profiled.apply(fitter.unknowns, &mut intervals)
+        }
+        None => Vec::new(),
+    };
     let names = variable_names(fitter, scene);
     let undetermined = dirs
         .iter()
@@ -108,6 +128,8 @@ pub(crate) fn summarise(
         stderr_at_least: vec![f64::NAN; stderr.len()],
         stderr,
         intervals,
+        widened,
+        interval_kind: "wald",
         covariance,
         correlation,
         undetermined,

@@ -18,7 +18,7 @@ mod output_error;
 
 pub use exact::{ExactReport, ProvotRows};
 pub(crate) use output_error::undetermined_lines;
-pub use output_error::{OutputErrorReport, StderrBound};
+pub use output_error::{OutputErrorReport, StderrBound, WidenedInterval};
 
 /// What `levenberg-marquardt` reports.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

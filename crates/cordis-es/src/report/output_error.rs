@@ -69,6 +69,30 @@ pub struct OutputErrorReport {
     /// moved); empty when every one was. They are absent from `Report::uncertainty`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub stderr_at_least: Vec<StderrBound>,
+    /// Which intervals `uncertainty` holds: `wald` (checked along each unknown's profile
+    /// direction), `profile` (the profile likelihood's where it is flatter than the quadratic
+    /// model) or `m-estimate` (a robust loss's).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub intervals: String,
+    /// The intervals widened past their Wald interval because the cost along them rises
+    /// slower than the Gauss–Newton model's (the likelihood is not quadratic at the scale of
+    /// the interval: [`crate::output_error::line_profile`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub widened_intervals: Vec<WidenedInterval>,
+}
+
+/// An interval reported wider than its Wald interval: the cost along the unknown's profile
+/// direction stays within the 95 % level past the Wald edge.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WidenedInterval {
+    pub name: String,
+    /// `value ± 1.96 std_error` (on `ln value` for a log-searched unknown), cut at the box.
+    #[serde(with = "lossless::pair")]
+    pub wald: (f64, f64),
+    /// The cost's rise at the Wald interval's lower and upper edges over the rise its
+    /// quadratic model predicts (1 where the model holds; NaN where the box cuts that side).
+    #[serde(with = "lossless::pair")]
+    pub rise: (f64, f64),
 }
 
 /// A lower bound on a standard error that was not computed: the unsettled CG solve's variance

@@ -14,6 +14,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::CostError;
+use crate::output_error::line_profile::LEVEL;
 use crate::output_error::{self, Config, Estimate, Prepared, Progress, Step};
 use crate::problem::Problem;
 use crate::report::{undetermined_lines, InitialState, ParamUncertainty, Report, SolverReport};
@@ -173,7 +174,7 @@ pub fn supported(problem: &Problem) -> Result<(), String> {
     output_error::tangent::Tangent::supports(&problem.scene).map_err(|e| e.to_string())
 }
 
-pub use crate::report::{OutputErrorReport, StderrBound};
+pub use crate::report::{OutputErrorReport, StderrBound, WidenedInterval};
 
 impl OutputErrorReport {
     fn new(problem: &Problem, e: &Estimate) -> Self {
@@ -245,6 +246,16 @@ impl OutputErrorReport {
                     at_least: if *lb > 0.0 { *lb } else { 0.0 },
                 })
                 .collect(),
+            intervals: e.interval_kind.into(),
+            widened_intervals: e
+                .widened
+                .iter()
+                .map(|w| WidenedInterval {
+                    name: names[w.unknown].to_string(),
+                    wald: w.wald,
+                    rise: (w.rise[0], w.rise[1]),
+                })
+                .collect(),
         }
     }
 
@@ -295,9 +306,71 @@ impl OutputErrorReport {
                 self.at_bound.join(", ")
             ));
         }
+        if self.finished() {
+            w.extend(self.interval_warnings());
+        }
         w.extend(undetermined_lines(&self.undetermined_directions, |n| {
             self.undetermined.iter().any(|u| u.as_str() == n)
         }));
+        w
+    }
+}
+
+/// A cost this many σ̂² below the estimate's at an interval's edge says the estimate is not
+/// the optimum: beyond the edge search's own tolerance (its refits stop within a tenth of σ̂²,
+/// [`crate::output_error::line_profile`]).
+const BELOW_OPTIMUM: f64 = 0.2;
+
+impl OutputErrorReport {
+    /// The widened intervals' lines: one for the unknowns whose cost at an interval's edge
+    /// fell below the estimate's (the fit had not reached its optimum: the intervals around a
+    /// point that is not one mean little), one for those where it rose slower than the
+    /// quadratic model.
+    fn interval_warnings(&self) -> Vec<String> {
+        let lowest = |r: (f64, f64)| {
+            [r.0, r.1]
+                .into_iter()
+                .filter(|x| !x.is_nan())
+                .fold(f64::INFINITY, f64::min)
+        };
+        let (below, flat): (Vec<&WidenedInterval>, Vec<&WidenedInterval>) = self
+            .widened_intervals
+            .iter()
+            .partition(|w| lowest(w.rise) * LEVEL < -BELOW_OPTIMUM);
+        let mut w = Vec::new();
+        if !below.is_empty() {
+            let named: Vec<String> = below
+                .iter()
+                .map(|x| format!("{} ({:.1} σ̂²)", x.name, -lowest(x.rise) * LEVEL))
+                .collect();
+            w.push(format!(
+                "output-error: the estimate is not the cost's minimum: with {} held at an \
+                 edge of its interval and the rest refitted, the cost falls below the \
+                 estimate's by {}; the intervals (widened to the box where the cost never \
+                 rises) describe the fit's end point, not an optimum",
+                if below.len() == 1 {
+                    "this unknown"
+                } else {
+                    "each of these"
+                },
+                named.join(", ")
+            ));
+        }
+        if !flat.is_empty() {
+            let named: Vec<String> = flat
+                .iter()
+                .map(|x| format!("{} (rise {:.2}× the model's)", x.name, lowest(x.rise)))
+                .collect();
+            w.push(format!(
+                "output-error: the cost is far from quadratic at the scale of {} interval{}: \
+                 widened past the standard error's (Wald) interval to where the cost reaches \
+                 its 95 % level, the data determine {} less than the standard error says: {}",
+                flat.len(),
+                if flat.len() == 1 { "" } else { "s" },
+                if flat.len() == 1 { "it" } else { "them" },
+                named.join(", ")
+            ));
+        }
         w
     }
 }
@@ -495,6 +568,42 @@ impl Strategy for OutputError {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Widened intervals are warned in two kinds: those where the cost at an edge fell below
+    /// the estimate's (the fit is not at its optimum) and those where it rose slower than the
+    /// quadratic model, each named with its lowest rise; none once nothing was widened.
+    #[test]
+    fn widened_intervals_are_warned_by_what_the_cost_did_at_their_edges() {
+        let widened = |name: &str, rise: (f64, f64)| WidenedInterval {
+            name: name.into(),
+            wald: (1.0, 2.0),
+            rise,
+        };
+        let mut report = OutputErrorReport {
+            end: "converged".into(),
+            uncertainty_computed: true,
+            widened_intervals: vec![
+                widened("types.a.stiffness", (0.25, 3.0)),
+                widened("types.b.damping", (f64::NAN, -2.0)),
+            ],
+            ..OutputErrorReport::default()
+        };
+        let w = report.warnings();
+        assert_eq!(w.len(), 2, "{w:?}");
+        assert!(
+            w[0].contains("not the cost's minimum") && w[0].contains("types.b.damping (7.7 σ̂²)"),
+            "{}",
+            w[0]
+        );
+        assert!(
+            w[1].contains("far from quadratic at the scale of 1 interval")
+                && w[1].ends_with("types.a.stiffness (rise 0.25× the model's)"),
+            "{}",
+            w[1]
+        );
+        report.widened_intervals.clear();
+        assert!(report.warnings().is_empty());
+    }
 
     /// A failed fit's state (cost +inf) is saved and loaded again: a checkpoint of it resumes.
     #[test]

@@ -22,7 +22,7 @@ use cordis_core::examples::tracked_network_with_angles;
 use cordis_core::{Bounds, LinkKind, Param, Scene, Vec3};
 use cordis_es::cost::CostKind;
 use cordis_es::identify::{add_noise, with_unknown_boxes};
-use cordis_es::output_error::{cramer_rao, estimate, expected_error_pct, Config, Take};
+use cordis_es::output_error::{cramer_rao, estimate, expected_error_pct, Config, Intervals, Take};
 use cordis_es::problem::Problem;
 use cordis_es::run::cpu_time::process_cpu_seconds;
 use cordis_es::space::{ParameterSpace, Role};
@@ -55,6 +55,9 @@ pub struct Args {
     /// The estimator's first window, frames (its default otherwise).
     #[arg(long, value_parser = clap::value_parser!(u64).range(3..=100_000))]
     first_window: Option<u64>,
+    /// The estimator's 95 % intervals: wald | profile (as `identify --intervals`).
+    #[arg(long, default_value = "wald", value_parser = parse_intervals)]
+    intervals: Intervals,
     /// One line per draw on stderr.
     #[arg(long)]
     verbose: bool,
@@ -64,6 +67,11 @@ pub struct Args {
     /// converged). Not an estimator: the truth is not known in practice.
     #[arg(long)]
     from_truth: bool,
+}
+
+fn parse_intervals(s: &str) -> std::result::Result<Intervals, String> {
+    s.parse()
+        .map_err(|e: cordis_es::error::CostError| e.to_string())
 }
 
 /// `N` or `LO-HI`, 4 ≤ LO ≤ HI ≤ 200.
@@ -131,6 +139,10 @@ struct Cell {
     failed: usize,
     /// Per kind (stiffness, rest length, rest cosine, damping): (inside, total).
     coverage: [(usize, usize); 4],
+    /// The same with the Wald intervals (before the line-profile widening).
+    wald_coverage: [(usize, usize); 4],
+    /// Intervals the line profile widened.
+    widened: usize,
 }
 
 fn kind_index(r: Role) -> usize {
@@ -166,6 +178,7 @@ fn one_draw(a: &Args, seed: u64, rel: f64, pattern: &str, cell: &mut Cell) {
     let defaults = Config::default();
     let config = Config {
         first_window: a.first_window.map_or(defaults.first_window, |w| w as usize),
+        intervals: a.intervals,
         start: a.from_truth.then(|| space.genome_of(&tv)),
         start_states: a
             .from_truth
@@ -188,11 +201,19 @@ fn one_draw(a: &Args, seed: u64, rel: f64, pattern: &str, cell: &mut Cell) {
     if a.verbose {
         eprintln!(
             "  draw {seed} ({masses} masses, {secs:.2} s, {cpu:.2} CPU s): error {:.3e} %, {} after {} \
-             iterations, σ̂ {:.3e} m (σ {sigma:.3e}), windows {:?}, start: {}",
+             iterations, σ̂ {:.3e} m (σ {sigma:.3e}), intervals widened: [{}], windows {:?}, start: {}",
             space.error_pct(&e.genome, &tv),
             e.end,
             e.iterations,
             e.sigma,
+            e.widened
+                .iter()
+                .map(|w| format!(
+                    "{} {:.2}/{:.2}",
+                    space.unknowns[w.unknown].name, w.rise[0], w.rise[1]
+                ))
+                .collect::<Vec<_>>()
+                .join(", "),
             e.windows,
             e.start
         );
@@ -202,11 +223,20 @@ fn one_draw(a: &Args, seed: u64, rel: f64, pattern: &str, cell: &mut Cell) {
         if let Ok(sd) = cramer_rao(&truth, &space, std::slice::from_ref(&take), sigma) {
             cell.bound.push(expected_error_pct(&sd, &values));
         }
-        for (u, (lo, hi)) in space.unknowns.iter().zip(&e.intervals) {
+        for (a, (u, &interval)) in space.unknowns.iter().zip(&e.intervals).enumerate() {
             let k = kind_index(u.role);
+            let wald = e
+                .widened
+                .iter()
+                .find(|w| w.unknown == a)
+                .map_or(interval, |w| w.wald);
+            let holds = |(lo, hi): (f64, f64)| usize::from((lo..=hi).contains(&tv[u.slot]));
             cell.coverage[k].1 += 1;
-            cell.coverage[k].0 += usize::from((*lo..=*hi).contains(&tv[u.slot]));
+            cell.coverage[k].0 += holds(interval);
+            cell.wald_coverage[k].1 += 1;
+            cell.wald_coverage[k].0 += holds(wald);
         }
+        cell.widened += e.widened.len();
     }
     if pattern != "hidden" {
         let fallback: Vec<Vec3> = guess.particles.iter().map(|p| Vec3::from(p.pos)).collect();
@@ -296,7 +326,10 @@ fn report(a: &Args, rel: f64, pattern: &str, cell: &Cell) {
         "coverage95": {
             "stiffness": cov[0], "rest_length": cov[1], "rest_cos": cov[2], "damping": cov[3]
         },
+        "intervals": a.intervals.as_str(),
         "coverage_counts": cell.coverage,
+        "wald_coverage_counts": cell.wald_coverage,
+        "widened_intervals": cell.widened,
         "first_draw": a.first_draw,
         "errors_pct": cell.error,
         "crbs_pct": cell.bound,

@@ -10,6 +10,7 @@ use super::preconditioner::Pre;
 use super::settings::{DENSE_MAX_COLUMNS, STDERR_CG_TOL, STDERR_DELAY, STDERR_FORM_TOL};
 use super::stage::approx_diag;
 use crate::linalg::deflation::Deflation;
+use crate::output_error::line_profile;
 use crate::output_error::uncertainty;
 
 /// How a standard-error solve `H x = e_k` is judged converged ([`theta_inverse`]).
@@ -50,7 +51,9 @@ pub(crate) const STDERR_STOP: StderrStop = StderrStop {
 ///
 /// Also returned, per column whose solve did not converge (NaN elsewhere): its last variance
 /// `e_kᵀx_j`, a lower bound on `e_kᵀH⁻¹e_k` (PCG from zero raises it monotonically), so a
-/// standard error not computed can still be reported as at least that large.
+/// standard error not computed can still be reported as at least that large; and each
+/// converged solve's whole column `H⁻¹e_k` (every fit variable: the profile direction of
+/// [`crate::output_error::line_profile`]).
 ///
 /// The solves are deflated ([`crate::linalg::deflation`]) by `recycled`, the last window's
 /// last accepted steps: they line up with the poorly determined directions (the cloth's
@@ -67,12 +70,13 @@ pub(crate) fn theta_inverse(
     recycled: &[Vec<f64>],
     cgc: &mut CgCounts,
     work: &mut Work,
-) -> (DMatrix<f64>, Vec<f64>) {
+) -> (DMatrix<f64>, Vec<f64>, Vec<Option<Vec<f64>>>) {
     let nt = mf.fit.theta();
     let mut out = DMatrix::from_element(nt, nt, f64::NAN);
     let mut at_least = vec![f64::NAN; nt];
+    let mut columns = vec![None; nt];
     if nt == 0 {
-        return (out, at_least);
+        return (out, at_least, columns);
     }
     let scale = approx_diag(mf, cols);
     let held = vec![false; mf.fit.len()];
@@ -100,6 +104,7 @@ pub(crate) fn theta_inverse(
             for a in 0..nt {
                 out[(a, c)] = solves.x[a * nt + c];
             }
+            columns[c] = Some((0..solves.len).map(|a| solves.x[a * nt + c]).collect());
         } else {
             cgc.unconverged += 1;
             // The current iterate's variance: the last one before a failure, or the
@@ -107,7 +112,7 @@ pub(crate) fn theta_inverse(
             at_least[c] = solves.x[c * nt + c];
         }
     }
-    (out, at_least)
+    (out, at_least, columns)
 }
 
 /// The solves `H x_k = e_k` of [`theta_inverse`] as one block of PCG iterations: row-major
@@ -350,7 +355,7 @@ pub(crate) fn cramer_rao_sd(
     let cols = mf.theta_columns(&mut work);
     let undetermined = theta_undetermined(&cols);
     let skip = carried(fitter.theta(), &undetermined);
-    let (inv, _) = theta_inverse(
+    let (inv, _, _) = theta_inverse(
         &mf,
         &cols,
         &skip,
@@ -386,6 +391,7 @@ pub(crate) fn finish(
     noise_level: Vec<f64>,
     start: String,
     last_steps: &[Vec<f64>],
+    profile: bool,
 ) -> Result<crate::output_error::Estimate, crate::error::CostError> {
     let mut mf = Mf::new(fitter);
     let mut work = Work::default();
@@ -410,7 +416,7 @@ pub(crate) fn finish(
     let cols = mf.theta_columns(&mut work);
     let undetermined = theta_undetermined(&cols);
     let skip = carried(dim, &undetermined);
-    let (inv, at_least) = theta_inverse(
+    let (inv, at_least, columns) = theta_inverse(
         &mf,
         &cols,
         &skip,
@@ -429,7 +435,21 @@ pub(crate) fn finish(
     mark_undetermined(&mut covariance, &undetermined);
     let correlation = crate::output_error::uncertainty::correlation(&covariance);
     let params = fitter.params(&q);
-    let (stderr, intervals) = crate::output_error::summary::spread(fitter, &params, &covariance);
+    let (stderr, mut intervals) =
+        crate::output_error::summary::spread(fitter, &params, &covariance);
+    let widened = match profile {
+        true => {
+            let column = |a: usize| {
+                let x = columns[a].as_ref()?;
+                Some(x.iter().map(|v| sigma2 * v).collect())
+            };
+            let measure = line_profile::Measure::Line;
+            let profiled = line_profile::widen(fitter, &q, sigma2, longest, measure, column);
+            counts.evaluations += profiled.rollouts;
+            profiled.apply(fitter.unknowns, &mut intervals)
+        }
+        false => Vec::new(),
+    };
     let states = crate::output_error::summary::take_states(fitter, &q);
     // Solves that did not settle, the undetermined unknowns' apart (those are reported as such).
     let missing = (0..dim).filter(|&a| covariance[(a, a)].is_nan()).count();
@@ -459,6 +479,8 @@ pub(crate) fn finish(
         stderr,
         stderr_at_least,
         intervals,
+        widened,
+        interval_kind: "wald",
         covariance,
         correlation,
         undetermined: undetermined

@@ -541,6 +541,7 @@ fn matrix_free_fit(fit: &Fitter<'_>, q0: &[f64]) -> (crate::output_error::Estima
         noise_level,
         "test".into(),
         &steps,
+        true,
     )
     .unwrap();
     (e, steps)
@@ -593,7 +594,7 @@ fn matrix_free_fit_reaches_the_dense_fits_estimate() {
     assert!(!steps.is_empty(), "the last stage kept no step");
     let cols = mf.theta_columns(&mut work);
     for recycled in [&[][..], &steps[..]] {
-        let (inv, _) = theta_inverse(
+        let (inv, _, _) = theta_inverse(
             &mf,
             &cols,
             &vec![false; nt],
@@ -616,7 +617,7 @@ fn matrix_free_fit_reaches_the_dense_fits_estimate() {
         }
         // The default stop (the variances settled): variances within 1 % (standard errors
         // within 0.5 %), covariances within 0.1 of their scale (correlations within 0.1).
-        let (inv, _) = theta_inverse(
+        let (inv, _, _) = theta_inverse(
             &mf,
             &cols,
             &vec![false; nt],
@@ -639,7 +640,7 @@ fn matrix_free_fit_reaches_the_dense_fits_estimate() {
             form: 0.0,
             max_iterations: 2,
         };
-        let (inv, at_least) = theta_inverse(
+        let (inv, at_least, _) = theta_inverse(
             &mf,
             &cols,
             &vec![false; nt],
