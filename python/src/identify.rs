@@ -139,6 +139,9 @@ impl IdentifyResult {
     /// `visible` False where missing), with this run's intervals and convergence. `markers`
     /// and `weights` as given to `identify` (default: this run's own): marker m is the
     /// scene's particle `markers[m]`; the weights add the weighted position RMS to the fit.
+    /// Fixed particles observed far from where the scene holds them (data mapped otherwise
+    /// than the run's markers, or in other units) are warned of (`UserWarning`), as
+    /// `cordis report` does.
     #[pyo3(signature = (path, trajectory, visible = None, title = None, markers = None, weights = None))]
     #[allow(clippy::too_many_arguments)]
     fn write_report(
@@ -161,28 +164,46 @@ impl IdentifyResult {
         // markers on the wrong particles (an RMS error of 0.12 m for a 1 mm fit).
         let markers = markers.or_else(|| self.markers.clone());
         let weights = weights.or_else(|| self.weights.clone());
-        py.detach(|| {
-            let (observed, weights) = match markers.is_some() || weights.is_some() {
-                true => cordis_cli::report::in_scene_order(
+        let far = py
+            .detach(|| {
+                let (observed, weights) = match markers.is_some() || weights.is_some() {
+                    true => cordis_cli::report::in_scene_order(
+                        &observed,
+                        scene.num_particles(),
+                        markers.as_deref(),
+                        weights.as_deref(),
+                        ["markers", "weights", "trajectory"],
+                    )?,
+                    false => (observed, None),
+                };
+                let page = cordis_cli::report::report_html(&cordis_cli::report::ReportInput {
+                    scene: &scene,
+                    observed: &observed,
+                    convergence: Some(&self.convergence),
+                    summary: Some(&self.summary),
+                    weights: weights.as_deref(),
+                    title: &title,
+                })?;
+                cordis_core::io::write_atomic(&path, page.as_bytes())?;
+                // What `cordis report` warns of: fixed particles observed far from the scene
+                // (data mapped with other markers than the run's show a fit far worse than it
+                // was).
+                let take = cordis_es::output_error::Take::from_observations(
                     &observed,
                     scene.num_particles(),
-                    markers.as_deref(),
-                    weights.as_deref(),
-                    ["markers", "weights", "trajectory"],
-                )?,
-                false => (observed, None),
-            };
-            let page = cordis_cli::report::report_html(&cordis_cli::report::ReportInput {
-                scene: &scene,
-                observed: &observed,
-                convergence: Some(&self.convergence),
-                summary: Some(&self.summary),
-                weights: weights.as_deref(),
-                title: &title,
-            })?;
-            cordis_core::io::write_atomic(&path, page.as_bytes())
-        })
-        .map_err(crate::errors::to_py)
+                );
+                Ok(take.ok().and_then(|take| {
+                    cordis_es::session::fixed_far_warning(
+                        &scene,
+                        &take,
+                        0.0,
+                        "trajectory",
+                        "markers=",
+                    )
+                }))
+            })
+            .map_err(crate::errors::to_py)?;
+        warn_all(py, &far.into_iter().collect::<Vec<_>>())
     }
 
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {

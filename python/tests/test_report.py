@@ -1,6 +1,8 @@
 """`IdentifyResult.write_report`: the identification report page from Python (issue 18,
 Deliver 4), the same page as `cordis report` (its browser test is tests/viewer/screenshot.sh)."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -77,3 +79,19 @@ def test_the_report_takes_the_runs_own_markers_by_default(tmp_path):
     res.write_report(tmp_path / "told.html", observed, markers=order)
     assert (tmp_path / "own.html").read_text() == (tmp_path / "told.html").read_text()
     assert "7 never observed" in (tmp_path / "own.html").read_text()
+
+
+def test_fixed_particles_observed_far_from_the_scene_are_warned(tmp_path):
+    # The soft block's markers reversed: the clamped top layer's places hold the bottom
+    # layer's motion, 20 cm away. The page would show a fit far worse than it was, silently
+    # (`cordis report` warned; Python did not).
+    from test_tracked import load
+    guess, _, traj = load()
+    res = cordis.identify(guess, traj)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        res.write_report(tmp_path / "right.html", traj)
+    with pytest.warns(UserWarning, match=r"^trajectory: 9 fixed particles are observed far from "
+                      r"where the scene holds them .* check markers="):
+        res.write_report(tmp_path / "reversed.html", traj[:, ::-1])
+    assert (tmp_path / "reversed.html").exists()

@@ -76,6 +76,15 @@ pub fn make_strategy(
             Some(format!("a robust loss ({}) is asked for", options.loss)),
             None,
         ),
+        StrategyName::Auto
+            if options.intervals != output_error::Intervals::Wald
+                && strategies::output_error::supported(problem).is_ok() =>
+        {
+            (
+                Some(format!("{} intervals are asked for", options.intervals)),
+                None,
+            )
+        }
         StrategyName::Auto => auto_probe(problem),
         _ => (None, None),
     };

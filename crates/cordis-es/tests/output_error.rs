@@ -556,7 +556,9 @@ fn a_fit_stopped_midway_and_resumed_from_its_saved_progress_ends_bit_for_bit_whe
         }
     }
     assert_eq!(stops, 2, "both stops fell inside a window");
-    let resumed = prepared.finish(&guess, &space, &progress).unwrap();
+    let resumed = prepared
+        .finish(&guess, &space, &progress, &|| false)
+        .unwrap();
     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     assert_eq!(bits(&resumed.genome), bits(&whole.genome));
     assert_eq!(bits(&resumed.states[0]), bits(&whole.states[0]));

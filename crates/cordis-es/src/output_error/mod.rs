@@ -50,7 +50,7 @@ mod config;
 pub(crate) mod continuity;
 pub mod fit;
 mod impute;
-pub mod line_profile;
+pub(crate) mod line_profile;
 pub mod loss;
 pub mod matrix_free;
 pub mod observations;
@@ -65,7 +65,7 @@ mod windows;
 use cordis_core::Scene;
 
 pub use config::Config;
-pub use line_profile::Intervals;
+pub use line_profile::{Intervals, Widened};
 pub use loss::Loss;
 pub use observations::Take;
 pub use run::{Prepared, Progress, Step};
@@ -110,7 +110,7 @@ pub fn estimate_until(
             Step::More => {}
         }
     }
-    prepared.finish(scene, space, &progress).map(Some)
+    prepared.finish(scene, space, &progress, halt).map(Some)
 }
 
 /// Drives `stage(q, w)` (the dense [`fit::lm_stage`] or the matrix-free one) over the growing

@@ -701,20 +701,25 @@ impl Prepared {
     }
 
     /// The estimate at the end of a fit whose last [`Prepared::stage`] was [`Step::Done`]:
-    /// σ̂, standard errors, intervals, correlations and undetermined directions.
+    /// σ̂, standard errors, intervals, correlations and undetermined directions. `halt()`
+    /// (Ctrl-C, a time limit) cuts the intervals' profile refits short
+    /// (docs/identification.md, "Intervals on thin data").
     pub fn finish(
         &self,
         scene: &Scene,
         space: &ParameterSpace,
         progress: &Progress,
+        halt: &dyn Fn() -> bool,
     ) -> Result<Estimate, CostError> {
-        let mut e = self.finish_fit(scene, space, progress)?;
+        let mut e = self.finish_fit(scene, space, progress, halt)?;
         e.loss = self.loss;
-        e.interval_kind = match self.interval_check() {
-            Some(Measure::Profile { .. }) => "profile",
-            Some(Measure::Line) => "wald",
-            None => "m-estimate",
-        };
+        if self.loss != Loss::Squared {
+            e.interval_kind = "m-estimate".into();
+        } else if self.large && self.intervals == super::Intervals::Profile {
+            e.interval_kind = "wald (profile asked: a refit costs a fit on the matrix-free path, \
+                               so its intervals are checked along the line only)"
+                .into();
+        }
         e.downweighted = self
             .observed_weights(progress)
             .filter(|&omega| omega < 0.5)
@@ -785,6 +790,7 @@ impl Prepared {
         scene: &Scene,
         space: &ParameterSpace,
         progress: &Progress,
+        halt: &dyn Fn() -> bool,
     ) -> Result<Estimate, CostError> {
         let end = progress.last_end.ok_or_else(|| {
             CostError::mismatch("output-error", "the fit has not reached the whole take")
@@ -793,7 +799,7 @@ impl Prepared {
         let fitter = self.fitter_on(space, &takes);
         let p = progress;
         let windows = p.schedule.windows.clone();
-        let mut e = self.summarise(&fitter, scene, p, end, windows)?;
+        let mut e = self.summarise(&fitter, scene, p, end, windows, halt)?;
         e.above_noise = p.schedule.above_noise();
         Ok(e)
     }
@@ -805,7 +811,9 @@ impl Prepared {
         p: &Progress,
         end: StageEnd,
         windows: Vec<usize>,
+        halt: &dyn Fn() -> bool,
     ) -> Result<Estimate, CostError> {
+        debug_assert_eq!(windows.last(), Some(&p.schedule.longest()));
         if self.large {
             return matrix_free::finish(
                 fitter,
@@ -818,6 +826,7 @@ impl Prepared {
                 p.start_note(),
                 &p.last_steps,
                 self.loss == Loss::Squared,
+                halt,
             );
         }
         let mut counts = p.counts;
@@ -836,6 +845,7 @@ impl Prepared {
             windows,
             p.start_note(),
             self.interval_check(),
+            halt,
         ))
     }
 

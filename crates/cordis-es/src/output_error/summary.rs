@@ -49,7 +49,7 @@ pub struct Estimate {
     /// Which intervals these are: `wald` (checked along each unknown's profile direction),
     /// `profile` (widened to the profile likelihood's where it is flatter than its quadratic
     /// model) or `m-estimate` (a robust loss's Wald intervals of the M-estimate's spread).
-    pub interval_kind: &'static str,
+    pub interval_kind: String,
     /// Covariance of the unknowns (physical units), row-major dim × dim.
     pub covariance: DMatrix<f64>,
     pub correlation: DMatrix<f64>,
@@ -88,6 +88,7 @@ pub(crate) fn summarise(
     windows: Vec<usize>,
     start: String,
     check: Option<line_profile::Measure>,
+    halt: &dyn Fn() -> bool,
 ) -> Estimate {
     let observed: usize = fitter.takes.iter().map(Take::observed).sum();
     let variables = fitter.len();
@@ -100,12 +101,20 @@ pub(crate) fn summarise(
     let params = fitter.params(&q);
     let dim = fitter.theta();
     let (stderr, mut intervals) = spread(fitter, &params, &covariance);
+    let mut interval_kind = String::from("wald");
     let widened = match check {
         Some(measure) => {
             let window = windows.iter().copied().max().unwrap_or(0);
             let column = |a: usize| Some(cov_q.column(a).iter().copied().collect());
-            let profiled = line_profile::widen(fitter, &q, sigma2, window, measure, column);
+            let profiled = line_profile::widen(fitter, &q, sigma2, window, measure, column, halt);
             counts.evaluations += profiled.rollouts;
+            interval_kind = match (measure, profiled.stopped) {
+                (line_profile::Measure::Profile { .. }, false) => "profile".into(),
+                (line_profile::Measure::Profile { .. }, true) => {
+                    "profile (stopped: the rest checked along the line)".into()
+                }
+                (line_profile::Measure::Line, _) => "wald".into(),
+            };
             profiled.apply(fitter.unknowns, &mut intervals)
         }
         None => Vec::new(),
@@ -129,7 +138,7 @@ pub(crate) fn summarise(
         stderr,
         intervals,
         widened,
-        interval_kind: "wald",
+        interval_kind,
         covariance,
         correlation,
         undetermined,

@@ -246,7 +246,7 @@ impl OutputErrorReport {
                     at_least: if *lb > 0.0 { *lb } else { 0.0 },
                 })
                 .collect(),
-            intervals: e.interval_kind.into(),
+            intervals: e.interval_kind.clone(),
             widened_intervals: e
                 .widened
                 .iter()
@@ -343,11 +343,14 @@ impl OutputErrorReport {
                 .iter()
                 .map(|x| format!("{} ({:.1} σ̂²)", x.name, -lowest(x.rise) * LEVEL))
                 .collect();
+            let rest = match self.intervals.starts_with("profile") {
+                true => "the rest refitted",
+                false => "the rest moved along the Gauss–Newton model's line",
+            };
             w.push(format!(
                 "output-error: the estimate is not the cost's minimum: with {} held at an \
-                 edge of its interval and the rest refitted, the cost falls below the \
-                 estimate's by {}; the intervals (widened to the box where the cost never \
-                 rises) describe the fit's end point, not an optimum",
+                 edge of its interval and {rest}, the cost falls below the estimate's by {}; \
+                 the intervals are widened about the fit's end point, which is no optimum",
                 if below.len() == 1 {
                     "this unknown"
                 } else {
@@ -363,10 +366,15 @@ impl OutputErrorReport {
                 .collect();
             w.push(format!(
                 "output-error: the cost is far from quadratic at the scale of {} interval{}: \
-                 widened past the standard error's (Wald) interval to where the cost reaches \
-                 its 95 % level, the data determine {} less than the standard error says: {}",
+                 widened past the standard error's (Wald) interval to where the cost ({}) \
+                 reaches its 95 % level, the data determine {} less than the standard error \
+                 says: {}",
                 flat.len(),
                 if flat.len() == 1 { "" } else { "s" },
+                match self.intervals.starts_with("profile") {
+                    true => "the rest refitted",
+                    false => "along the Gauss–Newton model's line",
+                },
                 if flat.len() == 1 { "it" } else { "them" },
                 named.join(", ")
             ));
@@ -452,7 +460,7 @@ impl Strategy for OutputError {
         problem.set_evals(problem.evals() + (progress.counts().1 - rollouts) as u64);
         match step {
             Ok(Step::Done) => {
-                match problem.timed(|| prepared.finish(&problem.scene, space, &progress)) {
+                match problem.timed(|| prepared.finish(&problem.scene, space, &progress, halt)) {
                     Ok(e) => {
                         let unread = prepared.noise_unread();
                         self.finished_with(problem, e, progress.counts().1, unread)

@@ -391,7 +391,8 @@ pub(crate) fn finish(
     noise_level: Vec<f64>,
     start: String,
     last_steps: &[Vec<f64>],
-    profile: bool,
+    line_check: bool,
+    halt: &dyn Fn() -> bool,
 ) -> Result<crate::output_error::Estimate, crate::error::CostError> {
     let mut mf = Mf::new(fitter);
     let mut work = Work::default();
@@ -437,14 +438,14 @@ pub(crate) fn finish(
     let params = fitter.params(&q);
     let (stderr, mut intervals) =
         crate::output_error::summary::spread(fitter, &params, &covariance);
-    let widened = match profile {
+    let widened = match line_check {
         true => {
             let column = |a: usize| {
                 let x = columns[a].as_ref()?;
                 Some(x.iter().map(|v| sigma2 * v).collect())
             };
             let measure = line_profile::Measure::Line;
-            let profiled = line_profile::widen(fitter, &q, sigma2, longest, measure, column);
+            let profiled = line_profile::widen(fitter, &q, sigma2, longest, measure, column, halt);
             counts.evaluations += profiled.rollouts;
             profiled.apply(fitter.unknowns, &mut intervals)
         }
@@ -480,7 +481,7 @@ pub(crate) fn finish(
         stderr_at_least,
         intervals,
         widened,
-        interval_kind: "wald",
+        interval_kind: "wald".into(),
         covariance,
         correlation,
         undetermined: undetermined

@@ -542,6 +542,7 @@ fn matrix_free_fit(fit: &Fitter<'_>, q0: &[f64]) -> (crate::output_error::Estima
         "test".into(),
         &steps,
         true,
+        &|| false,
     )
     .unwrap();
     (e, steps)
