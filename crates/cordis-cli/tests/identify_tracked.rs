@@ -414,10 +414,10 @@ fn bad_markers_and_weights_are_refused_by_name() {
     let (twice, all) = (twice.join(","), all.join(","));
     let cases: [(&[&str], &[&str]); 11] = [
         (
-            &["--markers", "0,1,-1"],
+            &["--markers", "0, 1,-1"],
             &[
                 "--markers",
-                "expected a particle index (an integer from 0), got `-1`",
+                "entry 2: expected a particle index (an integer from 0), got `-1`",
             ],
         ),
         (

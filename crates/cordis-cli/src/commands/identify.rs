@@ -31,8 +31,8 @@ pub struct Args {
     /// Which scene particle each of the file's markers is, comma-separated (`--markers
     /// 4,0,7`: the file's particle 0 is the scene's particle 4, …), the same for every take.
     /// Particles no marker names are hidden; fixed particles need not be tracked.
-    #[arg(long, value_delimiter = ',', num_args = 1.., value_parser = super::particle_index)]
-    markers: Option<Vec<usize>>,
+    #[arg(long, allow_hyphen_values = true, value_parser = super::particle_indices)]
+    markers: Option<super::ParticleIndices>,
     /// Each marker's weight, 1/σ relative to the others, comma-separated: one per marker, or
     /// three per marker (x, y, z). Positive and finite; read by output-error only.
     #[arg(long, value_delimiter = ',', num_args = 1.., allow_negative_numbers = true)]
@@ -403,7 +403,7 @@ fn request(a: &Args) -> Result<IdentifyRequest> {
         .iter()
         .map(|t| t.display().to_string())
         .collect();
-    r.markers = a.markers.clone();
+    r.markers = a.markers.as_ref().map(|m| m.0.clone());
     r.weights = a.weights.clone();
     r.loss = a.loss.parse().map_err(|e| anyhow::anyhow!("--loss: {e}"))?;
     r.intervals = a

@@ -230,10 +230,24 @@ pub fn print_stdout(text: &str) -> Result<()> {
 
 /// One `--markers` entry: a particle index, spaces around it allowed (`--markers "11, 0, 4"`
 /// was refused as "invalid digit" for ` 0`).
-pub(crate) fn particle_index(s: &str) -> std::result::Result<usize, String> {
+fn particle_index(s: &str) -> std::result::Result<usize, String> {
     s.trim()
         .parse()
         .map_err(|_| format!("expected a particle index (an integer from 0), got `{s}`"))
+}
+
+/// A comma-separated list of particle indices (`--markers 4,0,7`, spaces after the commas
+/// allowed), read as one value so that a bad entry is named by its index (clap read the
+/// entries one by one and named the value only).
+#[derive(Clone, Debug)]
+pub(crate) struct ParticleIndices(pub Vec<usize>);
+
+pub(crate) fn particle_indices(s: &str) -> std::result::Result<ParticleIndices, String> {
+    s.split(',')
+        .enumerate()
+        .map(|(k, entry)| particle_index(entry).map_err(|m| format!("entry {k}: {m}")))
+        .collect::<std::result::Result<_, _>>()
+        .map(ParticleIndices)
 }
 
 /// A number for a JSON summary line: JSON has no infinity nor NaN, so a non-finite one (a

@@ -24,8 +24,8 @@ pub struct Args {
     /// Which scene particle each of the file's markers is, comma-separated, as given to
     /// `identify --markers` (without it, the file's particle i is the scene's particle i).
     /// Particles no marker names are shown unobserved.
-    #[arg(long, value_delimiter = ',', num_args = 1.., value_parser = super::particle_index)]
-    markers: Option<Vec<usize>>,
+    #[arg(long, allow_hyphen_values = true, value_parser = super::particle_indices)]
+    markers: Option<super::ParticleIndices>,
     /// Each marker's weight, 1/σ relative, as given to `identify --weights` (one per marker,
     /// or three: x, y, z): the fit is also reported weighted.
     #[arg(long, value_delimiter = ',', num_args = 1.., allow_negative_numbers = true)]
@@ -43,7 +43,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         true => in_scene_order(
             &read,
             scene.num_particles(),
-            a.markers.as_deref(),
+            a.markers.as_ref().map(|m| m.0.as_slice()),
             a.weights.as_deref(),
             ["--markers", "--weights", &file],
         )?,
