@@ -21,7 +21,7 @@ mod svg;
 use std::fmt::Write as _;
 
 use cordis_core::{CordisError, LinkKind, Observations, Result, Scene, Simulator, Trajectory};
-use cordis_es::report::{ParamUncertainty, StderrBound};
+use cordis_es::report::{ParamUncertainty, StderrBound, WidenedInterval};
 
 use crate::render::{escape_html, render_html, render_html_labelled};
 use svg::{bar_chart, line_chart, Chart, Series};
@@ -563,6 +563,28 @@ fn parameter_section(out: &mut String, input: &ReportInput) {
         .and_then(|s| s["solver"]["stderr_at_least"].as_array())
         .map(|a| a.iter().collect())
         .unwrap_or_default();
+    let widened: Vec<&serde_json::Value> = input
+        .summary
+        .and_then(|s| s["solver"]["widened_intervals"].as_array())
+        .map(|a| a.iter().collect())
+        .unwrap_or_default();
+    // An interval widened past its Wald interval (the cost flatter there than its quadratic
+    // model): said beside it, with the Wald interval it replaced.
+    let widened_note = |name: &str| -> String {
+        let wald = widened
+            .iter()
+            .find(|w| w["name"] == name)
+            .and_then(|w| serde_json::from_value::<WidenedInterval>((*w).clone()).ok());
+        match wald {
+            Some(w) => format!(
+                " <span class=\"muted\">widened from the Wald interval [{}, {}]: the cost \
+                 is flatter there than its quadratic model</span>",
+                num(w.wald.0),
+                num(w.wald.1)
+            ),
+            None => String::new(),
+        }
+    };
     let interval = |name: &str| -> String {
         let Some(u) = uncertainty.iter().find(|u| u["name"] == name) else {
             // A standard error the solver could not compute, with its lower bound.
@@ -584,9 +606,10 @@ fn parameter_section(out: &mut String, input: &ReportInput) {
         let (lo, hi) = (num(u.interval.0), num(u.interval.1));
         match u.std_error.is_finite() {
             true => format!(
-                "± {} <span class=\"muted\">[{lo}, {hi}] ({:.0} %)</span>",
+                "± {} <span class=\"muted\">[{lo}, {hi}] ({:.0} %)</span>{}",
                 num(u.std_error),
-                u.level * 100.0
+                u.level * 100.0,
+                widened_note(name)
             ),
             // Its interval is the box it was searched in: the data do not narrow it.
             false => format!("not determined <span class=\"muted\">[{lo}, {hi}] (its box)</span>"),
@@ -852,7 +875,11 @@ mod tests {
         let observed = Observations::from_trajectory(&scene.simulate(60).unwrap());
         let summary = serde_json::json!({"strategy": "output-error", "cost": 1e-3,
             "solver": {"sigma": 1e-3, "uncertainty": [{"name": "types.h_top.stiffness",
-            "std_error": 2.5, "interval": [945.1, 954.9], "level": 0.95}],
+            "std_error": 2.5, "interval": [945.1, 954.9], "level": 0.95},
+            {"name": "types.v_end.stiffness", "std_error": 1.5, "interval": [700.0, 999.5],
+            "level": 0.95}],
+            "widened_intervals": [{"name": "types.v_end.stiffness", "wald": [900.0, 999.5],
+            "rise": [0.25, "NaN"]}],
             "stderr_at_least": [{"name": "types.h_middle.stiffness", "at_least": 3.04159},
             {"name": "types.h_bottom.stiffness", "at_least": 0.0}]}});
         let log =
@@ -877,7 +904,15 @@ mod tests {
             assert!(page.contains(&format!("<section id=\"{id}\">")), "{id}");
         }
         assert!(page.contains("<title>rigid &lt;fit&gt;</title>"));
-        assert!(page.contains("± 2.5 <span class=\"muted\">[945.1, 954.9] (95 %)</span>"));
+        assert!(page.contains("± 2.5 <span class=\"muted\">[945.1, 954.9] (95 %)</span></td>"));
+        // A widened interval says so, with the Wald interval it replaced.
+        assert!(
+            page.contains(
+                "[700, 999.5] (95 %)</span> <span class=\"muted\">widened from the Wald \
+                 interval [900, 999.5]: the cost is flatter there than its quadratic model"
+            ),
+            "{page}"
+        );
         // Standard errors not computed are said so, with their lower bound rounded down.
         assert!(
             page.contains("<td>not computed (at least 3.04e0)</td>"),
