@@ -314,3 +314,16 @@ def test_profile_intervals_reach_as_far_as_the_likelihood_on_thin_data(tmp_path)
         cordis.identify(guess, traj, intervals="likelihood")
     with pytest.raises(cordis.ArgumentError, match="read by output-error only"):
         cordis.identify(guess, traj, strategy="cmaes", intervals="profile", generations=1)
+
+
+def test_the_thin_coverage_bench_runs_and_profile_covers_at_least_as_often():
+    # benches/thin_coverage.py (BENCHMARKS.md, "Coverage on thin data"), on a few draws.
+    bench = Path(__file__).resolve().parents[2] / "benches" / "thin_coverage.py"
+    out = subprocess.run([sys.executable, str(bench), "--draws", "20", "--frames", "30"],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    [line] = [json.loads(x) for x in out.stdout.splitlines()]
+    assert line["frames"] == 30 and line["draws"] == 20
+    cov = line["coverage"]
+    assert cov["profile"] >= cov["wald"] and cov["profile"] >= 0.9, cov
+    assert line["widened"] > 0
