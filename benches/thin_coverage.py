@@ -23,6 +23,8 @@ import cordis
 
 
 def swing(stiffness):
+    """One 1 kg particle swinging round an anchor (rest length 0.8 m, clear of its point);
+    `stiffness` a value (N/m) or a box `{"min", "max"}`."""
     return cordis.Scene.from_dict({
         "dt": 0.01,
         "particles": [{"mass": 1.0, "pos": [1.0, 0.0, 0.0], "vel": [0.0, 0.4, 0.1]}],

@@ -185,22 +185,12 @@ impl IdentifyResult {
                     title: &title,
                 })?;
                 cordis_core::io::write_atomic(&path, page.as_bytes())?;
-                // What `cordis report` warns of: fixed particles observed far from the scene
-                // (data mapped with other markers than the run's show a fit far worse than it
-                // was).
-                let take = cordis_es::output_error::Take::from_observations(
+                Ok(cordis_cli::report::fixed_far_warning(
+                    &scene,
                     &observed,
-                    scene.num_particles(),
-                );
-                Ok(take.ok().and_then(|take| {
-                    cordis_es::session::fixed_far_warning(
-                        &scene,
-                        &take,
-                        0.0,
-                        "trajectory",
-                        "markers=",
-                    )
-                }))
+                    "trajectory",
+                    "markers=",
+                ))
             })
             .map_err(crate::errors::to_py)?;
         warn_all(py, &far.into_iter().collect::<Vec<_>>())

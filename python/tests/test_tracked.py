@@ -1,5 +1,6 @@
 """Tracked motion through cordis.identify: NaN masks, `visible`, hidden particles, several
 takes, the uncertainty on the result, and the CLI's estimate on the same data."""
+import importlib.util
 import json
 import math
 import os
@@ -268,14 +269,16 @@ def test_a_robust_loss_downweights_a_marker_swap_and_the_cli_agrees(tmp_path):
         cordis.identify(guess, traj, loss="l1")
 
 
+THIN_BENCH = Path(__file__).resolve().parents[2] / "benches" / "thin_coverage.py"
+
+
 def swing(stiffness):
-    """One 1 kg particle swinging round an anchor (rest length 0.8 m, clear of its point)."""
-    return cordis.Scene.from_dict({
-        "dt": 0.01,
-        "particles": [{"mass": 1.0, "pos": [1.0, 0.0, 0.0], "vel": [0.0, 0.4, 0.1]}],
-        "types": {"a": {"kind": "anchor", "stiffness": stiffness, "rest_length": 0.8}},
-        "links": [{"type": "a", "particles": [0], "point": [0, 0, 0]}],
-    })
+    """The thin-data bench's scene (benches/thin_coverage.py): one 1 kg particle swinging round
+    an anchor (rest length 0.8 m, clear of its point)."""
+    spec = importlib.util.spec_from_file_location("thin_coverage", THIN_BENCH)
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    return bench.swing(stiffness)
 
 
 def test_profile_intervals_reach_as_far_as_the_likelihood_on_thin_data(tmp_path):
@@ -318,8 +321,7 @@ def test_profile_intervals_reach_as_far_as_the_likelihood_on_thin_data(tmp_path)
 
 def test_the_thin_coverage_bench_runs_and_profile_covers_at_least_as_often():
     # benches/thin_coverage.py (BENCHMARKS.md, "Coverage on thin data"), on a few draws.
-    bench = Path(__file__).resolve().parents[2] / "benches" / "thin_coverage.py"
-    out = subprocess.run([sys.executable, str(bench), "--draws", "20", "--frames", "30"],
+    out = subprocess.run([sys.executable, str(THIN_BENCH), "--draws", "20", "--frames", "30"],
                          capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     [line] = [json.loads(x) for x in out.stdout.splitlines()]

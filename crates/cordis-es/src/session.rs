@@ -834,22 +834,23 @@ fn stop_rules(req: &IdentifyRequest, gene: Option<&GeneParams>) -> StopRules {
 /// scale nothing fixes (masses and forces then trade off: every answer is a box centre).
 fn check(req: &IdentifyRequest, ran: &str, problem: &Problem) -> Result<(), CostError> {
     let place = format!("{} ({ran})", req.scene_place);
-    if req.loss != crate::output_error::Loss::Squared && ran != "output-error" {
+    // Options only output-error reads, set to something else than their default.
+    let output_error_only = [
+        ("loss", req.loss.to_string(), req.loss != Default::default()),
+        (
+            "intervals",
+            req.intervals.to_string(),
+            req.intervals != Default::default(),
+        ),
+    ];
+    if let Some((option, value, _)) = output_error_only
+        .iter()
+        .find(|(_, _, set)| *set && ran != "output-error")
+    {
         return Err(CostError::invalid(
-            req.opt("loss"),
+            req.opt(option),
             format!(
-                "`{}` is read by output-error only, not `{ran}` (use --strategy output-error or auto)",
-                req.loss
-            )
-            .replace("--strategy", &req.opt("strategy")),
-        ));
-    }
-    if req.intervals != crate::output_error::Intervals::Wald && ran != "output-error" {
-        return Err(CostError::invalid(
-            req.opt("intervals"),
-            format!(
-                "`{}` is read by output-error only, not `{ran}` (use --strategy output-error or auto)",
-                req.intervals
+                "`{value}` is read by output-error only, not `{ran}` (use --strategy output-error or auto)"
             )
             .replace("--strategy", &req.opt("strategy")),
         ));

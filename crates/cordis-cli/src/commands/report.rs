@@ -8,7 +8,9 @@ use cordis_core::io::{read_observations_with, read_text, write_atomic};
 use cordis_core::CordisError;
 
 use super::Output;
-use crate::report::{in_scene_order, json_kind, parse_convergence, report_html, ReportInput};
+use crate::report::{
+    fixed_far_warning, in_scene_order, json_kind, parse_convergence, report_html, ReportInput,
+};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -49,11 +51,7 @@ pub fn run(a: Args, output: Output) -> Result<()> {
         )?,
         false => (read, None),
     };
-    // A file read without the `--markers` its fit had shows a fit far worse than it was.
-    let take = cordis_es::output_error::Take::from_observations(&observed, scene.num_particles());
-    if let Some(w) = take.ok().and_then(|take| {
-        cordis_es::session::fixed_far_warning(&scene, &take, 0.0, &file, "--markers")
-    }) {
+    if let Some(w) = fixed_far_warning(&scene, &observed, &file, "--markers") {
         eprintln!("warning: {w}");
     }
     let convergence = a

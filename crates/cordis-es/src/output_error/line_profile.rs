@@ -51,11 +51,12 @@
 use super::fit::{self, Counts, Fitter, LmSettings};
 use super::tangent::Sens;
 
-/// `χ²₁` at 0.95: the cost rise (in σ̂²) at a 95 % interval's edge, `1.96²`.
-pub(crate) const LEVEL: f64 = 3.841_458_820_694_124;
-/// The Wald interval's half-width in standard errors, `√LEVEL`: also the signed root
-/// `√(ΔC/σ̂²)` an interval's edge is searched at.
-const WALD: f64 = 1.959_963_984_540_054;
+/// A 95 % Wald interval's half-width in standard errors (the reported intervals',
+/// [`super::summary::interval95`], so the check measures at their edges): also the signed root
+/// `√(ΔC/σ̂²)` an edge is searched at.
+pub(crate) const WALD: f64 = 1.96;
+/// The cost rise (in σ̂²) at a 95 % interval's edge, `1.96²` (`χ²₁(0.95)` = 3.8415).
+pub(crate) const LEVEL: f64 = WALD * WALD;
 /// The rise at a Wald edge below which that side is widened: there the Wald edge reaches no
 /// further than the cost's 90 % level (`0.7 · 3.84 σ̂² = 2.69 σ̂² = χ²₁(0.90) σ̂²`), so the
 /// interval would cover less than the 90 % the coverage bracket starts at. Above it
@@ -158,6 +159,15 @@ pub(crate) struct Profiled {
     pub stopped: bool,
 }
 
+/// The estimate the intervals are checked at: the fit's variables `q`, their cost over
+/// `window` frames and the noise `sigma2` (σ̂², m²).
+pub(crate) struct Optimum<'a> {
+    pub q: &'a [f64],
+    pub cost: f64,
+    pub sigma2: f64,
+    pub window: usize,
+}
+
 /// Whether σ̂ is at the rounding of the positions, where a cost difference is rounding noise:
 /// a rise is read to 1 % only when `σ̂² ≥ 100 · 2 m r σ̂` (`2 Σ|e| r ≈ 2 m σ̂ r` the cost's
 /// rounding at per-coordinate rounding `r`, [`Fitter::rounding_floor`]) — noiseless data
@@ -168,9 +178,36 @@ fn at_rounding(fitter: &Fitter<'_>, window: usize, sigma2: f64) -> bool {
     sigma2.sqrt() < 200.0 * m * r
 }
 
+/// The intervals' check of both paths: with `check` (`None`: a robust loss, its intervals the
+/// M-estimate's, unchecked), [`widen`] at `at`, its rollouts counted in `counts` and its
+/// widenings applied to `intervals` (physical, one per unknown). Returns the widened ones and
+/// which intervals these are (`Estimate::interval_kind`).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn check_intervals(
+    fitter: &Fitter<'_>,
+    at: &Optimum<'_>,
+    check: Option<Measure>,
+    direction: impl Fn(usize) -> Option<Vec<f64>>,
+    halt: &dyn Fn() -> bool,
+    intervals: &mut [(f64, f64)],
+    counts: &mut Counts,
+) -> (Vec<Widened>, String) {
+    let Some(measure) = check else {
+        return (Vec::new(), "m-estimate".into());
+    };
+    let profiled = widen(fitter, at, measure, direction, halt);
+    counts.evaluations += profiled.rollouts;
+    let kind = match (measure, profiled.stopped) {
+        (Measure::Profile { .. }, false) => "profile",
+        (Measure::Profile { .. }, true) => "profile (stopped: the rest checked along the line)",
+        (Measure::Line, _) => "wald",
+    };
+    (profiled.apply(fitter.unknowns, intervals), kind.into())
+}
+
 impl Profiled {
     /// Replaces the widened sides of `intervals` (physical, one per unknown) and names them.
-    pub fn apply(
+    fn apply(
         &self,
         unknowns: &[crate::space::Unknown],
         intervals: &mut [(f64, f64)],
@@ -202,15 +239,11 @@ impl Profiled {
 /// The cost along one side of one unknown's interval, `t` standard errors from the estimate.
 struct Side<'a, 'f> {
     fitter: &'a Fitter<'f>,
-    q: &'a [f64],
+    at: &'a Optimum<'a>,
     /// The profile direction, one standard error long, signed by the side.
     step: Vec<f64>,
     unknown: usize,
     measure: Measure,
-    /// `C(q̂)` and `σ̂²`.
-    base: f64,
-    sigma2: f64,
-    window: usize,
     counts: Counts,
     /// The last profile fit's `t` and optimum: the next one starts from it.
     last: Option<(f64, Vec<f64>)>,
@@ -228,6 +261,7 @@ impl Side<'_, '_> {
                 .map(|(q, d)| q + (t - t0) * d)
                 .collect(),
             None => self
+                .at
                 .q
                 .iter()
                 .zip(&self.step)
@@ -235,12 +269,12 @@ impl Side<'_, '_> {
                 .collect(),
         };
         // The held coordinate exactly on the line, whatever the warm start carried.
-        point[self.unknown] = self.q[self.unknown] + t * self.step[self.unknown];
+        point[self.unknown] = self.at.q[self.unknown] + t * self.step[self.unknown];
         self.fitter.project(&mut point);
         let cost = match self.measure {
             Measure::Line => {
                 self.counts.evaluations += 1;
-                self.fitter.cost(&point, self.window, &mut self.buf)
+                self.fitter.cost(&point, self.at.window, &mut self.buf)
             }
             Measure::Profile { face_steps } => {
                 let cost = self.profile(&mut point, face_steps);
@@ -252,7 +286,7 @@ impl Side<'_, '_> {
             }
         };
         match cost.is_finite() {
-            true => (cost - self.base) / self.sigma2,
+            true => (cost - self.at.cost) / self.at.sigma2,
             false => f64::INFINITY,
         }
     }
@@ -273,7 +307,7 @@ impl Side<'_, '_> {
         // To a tenth of σ̂² of the cost: the rise is read to that.
         let settings = LmSettings {
             max_iterations: 30,
-            ftol: 0.1 * self.sigma2 / self.base,
+            ftol: 0.1 * self.at.sigma2 / self.at.cost,
             xtol: 1e-12,
             gtol: 0.0,
             face_steps,
@@ -283,7 +317,7 @@ impl Side<'_, '_> {
         let end = fit::lm_stage(
             &fitter,
             point,
-            self.window,
+            self.at.window,
             settings,
             &mut self.counts,
             &mut self.buf,
@@ -293,7 +327,7 @@ impl Side<'_, '_> {
             fit::StageEnd::Diverged => f64::INFINITY,
             _ => {
                 self.counts.evaluations += 1;
-                fitter.cost(point, self.window, &mut self.buf)
+                fitter.cost(point, self.at.window, &mut self.buf)
             }
         }
     }
@@ -349,16 +383,14 @@ fn reach(mut rise: impl FnMut(f64) -> f64, root: f64, limit: f64) -> f64 {
     inside.0
 }
 
-/// Checks and widens each unknown's interval at the estimate `q` (over `window` frames, noise
-/// `sigma2`): `direction(a)` is the full column `Cov(q̂) e_a` of the fit's variables (`None`
-/// where the standard error is not finite: undetermined or not computed). Once `halt()`
-/// (Ctrl-C, a time limit) the profile refits stop at their best point so far and the
-/// unknowns not yet checked are checked along the line ([`Profiled::stopped`]).
-pub(crate) fn widen(
+/// Checks and widens each unknown's interval at the estimate `at`: `direction(a)` is the
+/// full column `Cov(q̂) e_a` of the fit's variables (`None` where the standard error is not
+/// finite: undetermined or not computed). Once `halt()` (Ctrl-C, a time limit) the profile
+/// refits stop at their best point so far and the unknowns not yet checked are checked along
+/// the line ([`Profiled::stopped`]).
+fn widen(
     fitter: &Fitter<'_>,
-    q: &[f64],
-    sigma2: f64,
-    window: usize,
+    at: &Optimum<'_>,
     mut measure: Measure,
     direction: impl Fn(usize) -> Option<Vec<f64>>,
     halt: &dyn Fn() -> bool,
@@ -368,9 +400,8 @@ pub(crate) fn widen(
         rollouts: 0,
         stopped: false,
     };
-    let base = fitter.cost(q, window, &mut Sens::default());
-    out.rollouts += 1;
-    if !(base.is_finite() && sigma2 > 0.0) || at_rounding(fitter, window, sigma2) {
+    let (q, sigma2) = (at.q, at.sigma2);
+    if !(at.cost.is_finite() && sigma2 > 0.0) || at_rounding(fitter, at.window, sigma2) {
         return out;
     }
     for (a, u) in fitter.unknowns.iter().enumerate() {
@@ -400,13 +431,10 @@ pub(crate) fn widen(
             }
             let mut side = Side {
                 fitter,
-                q,
+                at,
                 step: column.iter().map(|c| sign * c / se).collect(),
                 unknown: a,
                 measure,
-                base,
-                sigma2,
-                window,
                 counts: Counts::default(),
                 last: None,
                 buf: Sens::default(),

@@ -713,9 +713,7 @@ impl Prepared {
     ) -> Result<Estimate, CostError> {
         let mut e = self.finish_fit(scene, space, progress, halt)?;
         e.loss = self.loss;
-        if self.loss != Loss::Squared {
-            e.interval_kind = "m-estimate".into();
-        } else if self.large && self.intervals == super::Intervals::Profile {
+        if self.large && self.loss == Loss::Squared && self.intervals == super::Intervals::Profile {
             e.interval_kind = "wald (profile asked: a refit costs a fit on the matrix-free path, \
                                so its intervals are checked along the line only)"
                 .into();
@@ -825,7 +823,7 @@ impl Prepared {
                 self.noise_level.clone(),
                 p.start_note(),
                 &p.last_steps,
-                self.loss == Loss::Squared,
+                self.interval_check(),
                 halt,
             );
         }
@@ -849,8 +847,9 @@ impl Prepared {
         ))
     }
 
-    /// How the dense path checks its intervals ([`super::line_profile`]): not with a robust
-    /// loss (its intervals are the M-estimate's sandwich, its cost not a likelihood).
+    /// How the intervals are checked ([`super::line_profile`]): not with a robust loss (its
+    /// intervals are the M-estimate's sandwich, its cost not a likelihood); along the line
+    /// only on the matrix-free path (a profile refit there costs a fit).
     fn interval_check(&self) -> Option<Measure> {
         if self.large {
             return (self.loss == Loss::Squared).then_some(Measure::Line);

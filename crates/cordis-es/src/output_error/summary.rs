@@ -101,24 +101,22 @@ pub(crate) fn summarise(
     let params = fitter.params(&q);
     let dim = fitter.theta();
     let (stderr, mut intervals) = spread(fitter, &params, &covariance);
-    let mut interval_kind = String::from("wald");
-    let widened = match check {
-        Some(measure) => {
-            let window = windows.iter().copied().max().unwrap_or(0);
-            let column = |a: usize| Some(cov_q.column(a).iter().copied().collect());
-            let profiled = line_profile::widen(fitter, &q, sigma2, window, measure, column, halt);
-            counts.evaluations += profiled.rollouts;
-            interval_kind = match (measure, profiled.stopped) {
-                (line_profile::Measure::Profile { .. }, false) => "profile".into(),
-                (line_profile::Measure::Profile { .. }, true) => {
-                    "profile (stopped: the rest checked along the line)".into()
-                }
-                (line_profile::Measure::Line, _) => "wald".into(),
-            };
-            profiled.apply(fitter.unknowns, &mut intervals)
-        }
-        None => Vec::new(),
+    let at = line_profile::Optimum {
+        q: &q,
+        cost: ne.cost,
+        sigma2,
+        window: windows.iter().copied().max().unwrap_or(0),
     };
+    let column = |a: usize| Some(cov_q.column(a).iter().copied().collect());
+    let (widened, interval_kind) = line_profile::check_intervals(
+        fitter,
+        &at,
+        check,
+        column,
+        halt,
+        &mut intervals,
+        &mut counts,
+    );
     let names = variable_names(fitter, scene);
     let undetermined = dirs
         .iter()
@@ -220,7 +218,7 @@ pub(crate) fn box_interval(wald: (f64, f64), se: f64, bounds: (f64, f64)) -> (f6
 /// The fit's own coordinates are these, so the interval is the Gauss–Newton model's where it
 /// was built. Always positive, never past zero.
 pub(crate) fn interval95(v: f64, se: f64, log: bool) -> (f64, f64) {
-    const Z95: f64 = 1.96;
+    use line_profile::WALD as Z95;
     match log && v > 0.0 {
         true => {
             let factor = (Z95 * se / v).exp();

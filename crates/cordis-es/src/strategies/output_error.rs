@@ -337,16 +337,17 @@ impl OutputErrorReport {
             .widened_intervals
             .iter()
             .partition(|w| lowest(w.rise) * LEVEL < -BELOW_OPTIMUM);
+        // How the cost at an edge was measured.
+        let rest = match self.intervals.starts_with("profile") {
+            true => "the rest refitted",
+            false => "the rest moved along the Gauss–Newton model's line",
+        };
         let mut w = Vec::new();
         if !below.is_empty() {
             let named: Vec<String> = below
                 .iter()
                 .map(|x| format!("{} ({:.1} σ̂²)", x.name, -lowest(x.rise) * LEVEL))
                 .collect();
-            let rest = match self.intervals.starts_with("profile") {
-                true => "the rest refitted",
-                false => "the rest moved along the Gauss–Newton model's line",
-            };
             w.push(format!(
                 "output-error: the estimate is not the cost's minimum: with {} held at an \
                  edge of its interval and {rest}, the cost falls below the estimate's by {}; \
@@ -366,15 +367,11 @@ impl OutputErrorReport {
                 .collect();
             w.push(format!(
                 "output-error: the cost is far from quadratic at the scale of {} interval{}: \
-                 widened past the standard error's (Wald) interval to where the cost ({}) \
+                 widened past the standard error's (Wald) interval to where the cost ({rest}) \
                  reaches its 95 % level, the data determine {} less than the standard error \
                  says: {}",
                 flat.len(),
                 if flat.len() == 1 { "" } else { "s" },
-                match self.intervals.starts_with("profile") {
-                    true => "the rest refitted",
-                    false => "along the Gauss–Newton model's line",
-                },
                 if flat.len() == 1 { "it" } else { "them" },
                 named.join(", ")
             ));

@@ -391,7 +391,7 @@ pub(crate) fn finish(
     noise_level: Vec<f64>,
     start: String,
     last_steps: &[Vec<f64>],
-    line_check: bool,
+    check: Option<line_profile::Measure>,
     halt: &dyn Fn() -> bool,
 ) -> Result<crate::output_error::Estimate, crate::error::CostError> {
     let mut mf = Mf::new(fitter);
@@ -438,19 +438,22 @@ pub(crate) fn finish(
     let params = fitter.params(&q);
     let (stderr, mut intervals) =
         crate::output_error::summary::spread(fitter, &params, &covariance);
-    let widened = match line_check {
-        true => {
-            let column = |a: usize| {
-                let x = columns[a].as_ref()?;
-                Some(x.iter().map(|v| sigma2 * v).collect())
-            };
-            let measure = line_profile::Measure::Line;
-            let profiled = line_profile::widen(fitter, &q, sigma2, longest, measure, column, halt);
-            counts.evaluations += profiled.rollouts;
-            profiled.apply(fitter.unknowns, &mut intervals)
-        }
-        false => Vec::new(),
+    let at = line_profile::Optimum {
+        q: &q,
+        cost,
+        sigma2,
+        window: longest,
     };
+    let column = |a: usize| Some(columns[a].as_ref()?.iter().map(|v| sigma2 * v).collect());
+    let (widened, interval_kind) = line_profile::check_intervals(
+        fitter,
+        &at,
+        check,
+        column,
+        halt,
+        &mut intervals,
+        &mut counts,
+    );
     let states = crate::output_error::summary::take_states(fitter, &q);
     // Solves that did not settle, the undetermined unknowns' apart (those are reported as such).
     let missing = (0..dim).filter(|&a| covariance[(a, a)].is_nan()).count();
@@ -481,7 +484,7 @@ pub(crate) fn finish(
         stderr_at_least,
         intervals,
         widened,
-        interval_kind: "wald".into(),
+        interval_kind,
         covariance,
         correlation,
         undetermined: undetermined

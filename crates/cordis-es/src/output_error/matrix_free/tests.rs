@@ -541,7 +541,7 @@ fn matrix_free_fit(fit: &Fitter<'_>, q0: &[f64]) -> (crate::output_error::Estima
         noise_level,
         "test".into(),
         &steps,
-        true,
+        Some(super::super::line_profile::Measure::Line),
         &|| false,
     )
     .unwrap();
